@@ -1,0 +1,63 @@
+"""mjflex: visco-elastic flexure elements for MuJoCo.
+
+Two rigid bodies joined by a compliant part (notch hinge, leaf spring, bushing, disc) are
+modelled by a full 6x6 stiffness ``K`` and damping ``B`` acting on their relative
+displacement, written exactly as a finite twist or as a unit dual quaternion (E. D. Fasse,
+*Some applications of screw theory to lumped-parameter modeling of visco-elastically coupled
+rigid bodies*).
+
+Layers
+------
+``mjflex.core``
+    Screw theory in numpy (numba-compiled kernels); never imports mujoco.
+
+Conventions (used everywhere in the package)
+--------------------------------------------
+* SI units: m, kg, s, rad, N, N m, J, W.
+* 6-vectors are angular first: twists ``[omega; v]`` / ``[tau; t]``, wrenches
+  ``[moment; force]``, as in the paper and in MuJoCo's ``cvel`` / ``cfrc``. 6x6 stiffness
+  and damping matrices use the same order: ``K = [[K_o, K_c], [K_c^T, K_t]]``.
+  Planar 3-vectors are ``[theta; x; y]`` and planar wrenches ``[moment; fx; fy]``.
+* Quaternions are w-first ``(w, x, y, z)``, as in MuJoCo; dual quaternions are
+  ``(w, x, y, z, w', x', y', z')`` (real part, then dual part).
+* Arrays are batch-first and broadcast: ``(..., 3)``, ``(..., 6)``, ``(..., 3, 3)``,
+  ``(..., 6, 6)``. Every function takes any number of leading axes.
+* Frames are named in monogram style: ``R_WB`` is the orientation of frame B in frame W
+  (columns are B's axes in W coordinates), ``p_WB`` the position of B's origin in W
+  coordinates, ``X_AB = (R_AB, p_AB)`` the pose of B in A, so ``x_A = R_AB x_B + p_AB``.
+  ``W`` is the world frame; lower-case ``a``, ``b`` are the two frames of an element.
+"""
+
+from .core import (
+    adjoint_from_transform,
+    centre_of_stiffness,
+    dissipation_power,
+    dual_quaternion_from_transform,
+    planar_dissipation_power,
+    planar_potential,
+    planar_wrench_on_b,
+    potential,
+    stiffness_in_frame,
+    transform_from_dual_quaternion,
+    transform_from_twist,
+    twist_from_transform,
+    wrench_on_b,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "adjoint_from_transform",
+    "centre_of_stiffness",
+    "dissipation_power",
+    "dual_quaternion_from_transform",
+    "planar_dissipation_power",
+    "planar_potential",
+    "planar_wrench_on_b",
+    "potential",
+    "stiffness_in_frame",
+    "transform_from_dual_quaternion",
+    "transform_from_twist",
+    "twist_from_transform",
+    "wrench_on_b",
+]

@@ -1,0 +1,675 @@
+"""Compiled scalar kernels of the screw-theory core (numba ``nopython``; no mujoco).
+
+This module is the single implementation of the math; the public functions in
+:mod:`mjflex.core.transforms` and :mod:`mjflex.core.elements` validate and broadcast their
+arguments and then call the ``*_batch`` loops below, and the MuJoCo passive-force provider
+calls the per-element kernels directly. Everything works on one element at a time with
+3-vectors held in tuples, so nothing is allocated per element.
+
+Conventions (see the package docstring): 6-vectors angular first; quaternions w-first;
+``R`` row-major ``(3, 3)`` with ``R @ x_B = x_A`` for ``R_AB``.
+
+Notation of the derivations below (standard SE(3) Lie-group calculus, written so that it
+matches the paper's dual-number formulas):
+
+* ``xi = [tau; t]`` is the finite twist of ``T_ab`` (``T_ab = exp(xi^)``),
+  ``alpha = |tau|``.
+* ``P(tau) = I - tau^/2 + c(alpha) (tau^)^2`` is the inverse left Jacobian of SO(3)
+  (eq. 44), ``c(a) = (1 - (a/2) cot(a/2)) / a^2``, and
+  ``D(tau, t) = dP(tau)[t] = -t^/2 + c (tau^ t^ + t^ tau^) + g (tau . t) (tau^)^2``,
+  ``g = c'(a)/a``, its directional derivative: ``P + eps D`` is eq. 44 evaluated in dual
+  arithmetic. The 6x6 inverse Jacobians of SE(3) are
+  ``Jl^-1 = [[P, 0], [D, P]]`` and ``Jr^-1 = Jl^-1(-xi) = [[P^T, 0], [D^T, P^T]]``, and the
+  paper's ``Gamma_ab = Jr^-T = [[P, D], [0, P]]`` (eq. 46).
+* A body-frame virtual displacement ``delta`` of B (``T_b' = T_b exp(delta^)``) changes the
+  twist by ``Jr^-1 delta``; the twist rate is ``Jr^-1 V_b - Jl^-1 V_a`` with body-frame
+  velocities ``V`` (eq. 58); the elastic wrench of B on the element, in b coordinates
+  about b's origin, is ``Gamma K xi`` (eq. 49) and the element pushes B with its negative.
+* Dual-quaternion method: ``q = (sigma, xi_v) + eps (s', x')``,
+  ``Lambda = [[sigma I - xi_v^, s' I - x'^], [0, sigma I - xi_v^]]`` (eq. 85),
+  ``d[xi_v; x'] = Lambda^T delta / 2`` (eq. 84), the wrench is ``2 Lambda K [xi_v; x']``
+  (eq. 87) and the rate uses ``Lambda_ba`` (eq. 85 with ``+xi_v^``, ``+x'^``, eq. 97).
+"""
+
+import math
+
+from numba import njit
+
+from ._series import EXP_S3_COEFFS, JL_INV_COEFFS, JL_INV_RATE_COEFFS, SERIES_THRESHOLD
+
+TWIST = 0
+DUALQUAT = 1
+
+_C = JL_INV_COEFFS
+_G = JL_INV_RATE_COEFFS
+_S3 = EXP_S3_COEFFS
+_TH = SERIES_THRESHOLD
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+# --------------------------------------------------------------------------- 3-vectors
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _cross(a, b):
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _lin(ca, a, cb, b):
+    """``ca * a + cb * b``."""
+    return (ca * a[0] + cb * b[0], ca * a[1] + cb * b[1], ca * a[2] + cb * b[2])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _lin3(ca, a, cb, b, cc, c):
+    """``ca * a + cb * b + cc * c``."""
+    return (
+        ca * a[0] + cb * b[0] + cc * c[0],
+        ca * a[1] + cb * b[1] + cc * c[1],
+        ca * a[2] + cb * b[2] + cc * c[2],
+    )
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _vec(a):
+    return (a[0], a[1], a[2])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _mat_vec(R, v):
+    """``R @ v`` for a row-major 9-tuple ``R``."""
+    return (
+        R[0] * v[0] + R[1] * v[1] + R[2] * v[2],
+        R[3] * v[0] + R[4] * v[1] + R[5] * v[2],
+        R[6] * v[0] + R[7] * v[1] + R[8] * v[2],
+    )
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _mat_t_vec(R, v):
+    """``R.T @ v`` for a row-major 9-tuple ``R``."""
+    return (
+        R[0] * v[0] + R[3] * v[1] + R[6] * v[2],
+        R[1] * v[0] + R[4] * v[1] + R[7] * v[2],
+        R[2] * v[0] + R[5] * v[1] + R[8] * v[2],
+    )
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def load9(R, i):
+    """Row-major 9-tuple of the (3, 3) matrix ``R[i]`` of an (n, 3, 3) array."""
+    return (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2], R[i, 1, 0], R[i, 1, 1], R[i, 1, 2], R[i, 2, 0], R[i, 2, 1], R[i, 2, 2])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def load3(p, i):
+    """3-tuple ``p[i]`` of an (n, 3) array."""
+    return (p[i, 0], p[i, 1], p[i, 2])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def load36(M, k):
+    """Row-major 36-tuple of the (6, 6) matrix ``M[k]`` of an (n, 6, 6) array."""
+    m = M[k]
+    return (
+        m[0, 0], m[0, 1], m[0, 2], m[0, 3], m[0, 4], m[0, 5],
+        m[1, 0], m[1, 1], m[1, 2], m[1, 3], m[1, 4], m[1, 5],
+        m[2, 0], m[2, 1], m[2, 2], m[2, 3], m[2, 4], m[2, 5],
+        m[3, 0], m[3, 1], m[3, 2], m[3, 3], m[3, 4], m[3, 5],
+        m[4, 0], m[4, 1], m[4, 2], m[4, 3], m[4, 4], m[4, 5],
+        m[5, 0], m[5, 1], m[5, 2], m[5, 3], m[5, 4], m[5, 5],
+    )  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _row6(M, i, a, b):
+    j = 6 * i
+    return M[j] * a[0] + M[j + 1] * a[1] + M[j + 2] * a[2] + M[j + 3] * b[0] + M[j + 4] * b[1] + M[j + 5] * b[2]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _mat6_vec(M, a, b):
+    """``M @ [a; b]`` for a row-major 36-tuple ``M``, returned as two 3-tuples."""
+    top = (_row6(M, 0, a, b), _row6(M, 1, a, b), _row6(M, 2, a, b))
+    return top, (_row6(M, 3, a, b), _row6(M, 4, a, b), _row6(M, 5, a, b))
+
+
+# --------------------------------------------------------------------------- scalar functions
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _horner(coeffs, x):
+    acc = 0.0
+    for k in range(coeffs.shape[0] - 1, -1, -1):
+        acc = acc * x + coeffs[k]
+    return acc
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def jl_inv_coefs(a, cos_h, sin_h):
+    """``(c(a), g(a))`` given ``cos(a/2)``, ``sin(a/2)``, for ``0 <= a < 2 pi``.
+
+    ``c(a) = (1 - (a/2) cot(a/2)) / a**2`` and ``g(a) = c'(a) / a``; series below the
+    threshold (both evaluated in one Horner loop), closed forms above.
+    """
+    if a < _TH:
+        x = a * a
+        c = 0.0
+        g = 0.0
+        for k in range(_C.shape[0] - 1, -1, -1):
+            c = c * x + _C[k]
+            g = g * x + _G[k]
+        return c, g
+    h = 0.5 * a
+    cot = cos_h / sin_h
+    one_m = 1.0 - h * cot
+    dc_dh = (-cot + h / (sin_h * sin_h)) / (4.0 * h * h) - one_m / (2.0 * h * h * h)
+    return one_m / (a * a), dc_dh / (4.0 * h)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def jl_inv_coef(a):
+    """``c(a) = (1 - (a/2) cot(a/2)) / a**2``, for ``0 <= a < 2 pi``."""
+    return jl_inv_coefs(a, math.cos(0.5 * a), math.sin(0.5 * a))[0]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def jl_inv_rate_coef(a):
+    """``g(a) = c'(a) / a``, for ``0 <= a < 2 pi``."""
+    return jl_inv_coefs(a, math.cos(0.5 * a), math.sin(0.5 * a))[1]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def exp_coefs(a):
+    """``(sin(a/2) / a, (1 - cos a) / a**2, (a - sin a) / a**3)`` without cancellation."""
+    if a == 0.0:
+        return 0.5, 0.5, _S3[0]
+    sh = math.sin(0.5 * a) / a
+    if a < _TH:
+        c3 = _horner(_S3, a * a)
+    else:
+        c3 = (a - math.sin(a)) / (a * a * a)
+    return sh, 2.0 * sh * sh, c3
+
+
+# --------------------------------------------------------------------------- rotations
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def quat_from_rot9(r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """Unit quaternion ``(w, x, y, z)``, ``w >= 0``, of a rotation matrix (Shepperd).
+
+    Each branch divides by the largest of ``4 w^2, 4 x^2, 4 y^2, 4 z^2``, so the result
+    keeps the relative precision of the off-diagonal entries (small rotations stay exact to
+    round-off). At exactly a half turn (``w = 0``) the sign makes the component of largest
+    magnitude positive.
+    """
+    tr = r00 + r11 + r22
+    if tr >= r00 and tr >= r11 and tr >= r22:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        i = 1.0 / s
+        w, x, y, z = 0.25 * s, (r21 - r12) * i, (r02 - r20) * i, (r10 - r01) * i
+    elif r00 >= r11 and r00 >= r22:
+        s = 2.0 * math.sqrt(1.0 + r00 - r11 - r22)
+        i = 1.0 / s
+        w, x, y, z = (r21 - r12) * i, 0.25 * s, (r01 + r10) * i, (r02 + r20) * i
+    elif r11 >= r22:
+        s = 2.0 * math.sqrt(1.0 + r11 - r00 - r22)
+        i = 1.0 / s
+        w, x, y, z = (r02 - r20) * i, (r01 + r10) * i, 0.25 * s, (r12 + r21) * i
+    else:
+        s = 2.0 * math.sqrt(1.0 + r22 - r00 - r11)
+        i = 1.0 / s
+        w, x, y, z = (r10 - r01) * i, (r02 + r20) * i, (r12 + r21) * i, 0.25 * s
+    n = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
+    if w < 0.0:
+        n = -n
+    return w * n, x * n, y * n, z * n
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _col_dot(A, i, B, j):
+    """Column i of A dotted with column j of B (row-major 9-tuples)."""
+    return A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def relative_quat(R_WA, R_WB):
+    """Quaternion of ``R_ab = R_WA^T R_WB`` (w >= 0)."""
+    return quat_from_rot9(
+        _col_dot(R_WA, 0, R_WB, 0), _col_dot(R_WA, 0, R_WB, 1), _col_dot(R_WA, 0, R_WB, 2),
+        _col_dot(R_WA, 1, R_WB, 0), _col_dot(R_WA, 1, R_WB, 1), _col_dot(R_WA, 1, R_WB, 2),
+        _col_dot(R_WA, 2, R_WB, 0), _col_dot(R_WA, 2, R_WB, 1), _col_dot(R_WA, 2, R_WB, 2),
+    )  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def relative_position(R_WA, p_WA, p_WB):
+    """``p_ab = R_WA^T (p_WB - p_WA)``: origin of b in a coordinates (tuples)."""
+    return _mat_t_vec(R_WA, (p_WB[0] - p_WA[0], p_WB[1] - p_WA[1], p_WB[2] - p_WA[2]))
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def rotvec_from_quat(w, x, y, z):
+    """Rotation vector (principal log, angle in [0, pi]) of a unit quaternion with ``w >= 0``.
+
+    Returns ``(tau, alpha, sin(alpha/2))``.
+    """
+    n = math.sqrt(x * x + y * y + z * z)
+    if n == 0.0:
+        return (0.0, 0.0, 0.0), 0.0, 0.0
+    alpha = 2.0 * math.atan2(n, w)
+    s = alpha / n
+    return (s * x, s * y, s * z), alpha, n
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def write_rot_from_quat(w, x, y, z, R):
+    """Rotation matrix of a unit quaternion into the (3, 3) array ``R``."""
+    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    R[0, 1] = 2.0 * (x * y - w * z)
+    R[0, 2] = 2.0 * (x * z + w * y)
+    R[1, 0] = 2.0 * (x * y + w * z)
+    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    R[1, 2] = 2.0 * (y * z - w * x)
+    R[2, 0] = 2.0 * (x * z - w * y)
+    R[2, 1] = 2.0 * (y * z + w * x)
+    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+
+
+# --------------------------------------------------------------------------- twist method
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _p_apply(sign, tau, c, y):
+    """``P y`` (sign=+1) or ``P^T y`` (sign=-1)."""
+    ty = _cross(tau, y)
+    return _lin3(1.0, y, -0.5 * sign, ty, c, _cross(tau, ty))
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _d_apply(sign, tau, t, c, g, y):
+    """``D y`` (sign=+1) or ``D^T y`` (sign=-1)."""
+    ty = _cross(t, y)
+    tauy = _cross(tau, y)
+    a = _lin(-0.5 * sign, ty, c, _cross(tau, ty))
+    return _lin3(1.0, a, c, _cross(t, tauy), g * _dot(tau, t), _cross(tau, tauy))
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def twist_from_quat_pos(w, x, y, z, p):
+    """Finite twist ``(tau, t)`` of the displacement ``(q, p)``, and ``(c, g)`` at its angle."""
+    tau, alpha, sin_h = rotvec_from_quat(w, x, y, z)
+    c, g = jl_inv_coefs(alpha, w, sin_h)
+    return tau, _p_apply(1.0, tau, c, p), (c, g)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _twist_rate(tau, t, c, g, wa, va, wb, vb):
+    """``Jr^-1 V_b - Jl^-1 V_a`` for body-frame velocities (eq. 58).
+
+    With ``P^T y = y + tau x y / 2 + c tau x (tau x y)`` and ``D^T y`` likewise, the
+    differences ``P^T y_b - P y_a`` only need the sum and difference of ``y_a`` and ``y_b``.
+    """
+    dw, sw = _lin(1.0, wb, -1.0, wa), _lin(1.0, wb, 1.0, wa)
+    dv, sv = _lin(1.0, vb, -1.0, va), _lin(1.0, vb, 1.0, va)
+    tdw = _cross(tau, dw)
+    r1 = _lin3(1.0, dw, 0.5, _cross(tau, sw), c, _cross(tau, tdw))
+    tdv = _cross(tau, dv)
+    pv = _lin3(1.0, dv, 0.5, _cross(tau, sv), c, _cross(tau, tdv))
+    dd = _lin3(0.5, _cross(t, sw), c, _lin(1.0, _cross(tau, _cross(t, dw)), 1.0, _cross(t, tdw)),
+               g * _dot(tau, t), _cross(tau, tdw))  # fmt: skip
+    return r1, _lin(1.0, dd, 1.0, pv)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _twist_gamma(tau, t, c, g, y1, y2):
+    """``Gamma [y1; y2] = [P y1 + D y2; P y2]`` (eq. 46)."""
+    m = _lin(1.0, _p_apply(1.0, tau, c, y1), 1.0, _d_apply(1.0, tau, t, c, g, y2))
+    return m, _p_apply(1.0, tau, c, y2)
+
+
+# --------------------------------------------------------------------------- dual quaternions
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def dual_part(w, xv, p):
+    """Dual part ``(s', x')`` of the unit dual quaternion of ``(q_r, p)`` (eqs 37-38)."""
+    s_d = -0.5 * _dot(xv, p)
+    x_d = _lin(0.5 * w, p, -0.5, _cross(xv, p))
+    return s_d, x_d
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _lambda_t_apply(sign, w, xv, s_d, x_d, a, b):
+    """``Lambda_ab^T [a; b]`` (sign=+1) or ``Lambda_ba^T [a; b]`` (sign=-1), eqs 85/97."""
+    r1 = _lin(w, a, sign, _cross(xv, a))
+    r2 = _lin3(s_d, a, sign, _cross(x_d, a), 1.0, _lin(w, b, sign, _cross(xv, b)))
+    return r1, r2
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _lambda_apply(w, xv, s_d, x_d, y1, y2):
+    """``Lambda_ab [y1; y2]`` (eq. 85)."""
+    m = _lin3(w, y1, -1.0, _cross(xv, y1), 1.0, _lin(s_d, y2, -1.0, _cross(x_d, y2)))
+    return m, _lin(w, y2, -1.0, _cross(xv, y2))
+
+
+# --------------------------------------------------------------------------- element kernels
+# All arguments are tuples (rotations row-major 9-tuples, K and B row-major 36-tuples): the
+# kernels touch no arrays, so no reference counting happens per element.
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _coords(method, R_WA, p_WA, R_WB, p_WB):
+    """Displacement coordinates of the element and what the wrench map needs.
+
+    Returns ``(e1, e2, aux)`` where ``[e1; e2]`` is ``xi`` (twist) or ``[xi_v; x']``
+    (dual quaternion) and ``aux`` is ``(c, g)`` (twist) or ``(sigma, s')`` (dual quaternion).
+    """
+    w, x, y, z = relative_quat(R_WA, R_WB)
+    p = relative_position(R_WA, p_WA, p_WB)
+    if method == TWIST:
+        return twist_from_quat_pos(w, x, y, z, p)
+    xv = (x, y, z)
+    s_d, x_d = dual_part(w, xv, p)
+    return xv, x_d, (w, s_d)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_potential(method, R_WA, p_WA, R_WB, p_WB, K):
+    """Elastic energy of one element [J] (eq. 39 or eq. 80)."""
+    e1, e2, _ = _coords(method, R_WA, p_WA, R_WB, p_WB)
+    y1, y2 = _mat6_vec(K, e1, e2)
+    scale = 0.5 if method == TWIST else 2.0
+    return scale * (_dot(e1, y1) + _dot(e2, y2))
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB):
+    """Rate of the displacement coordinates from world-frame velocities."""
+    wa = _mat_t_vec(R_WA, w_WA)
+    va = _mat_t_vec(R_WA, v_WA)
+    wb = _mat_t_vec(R_WB, w_WB)
+    vb = _mat_t_vec(R_WB, v_WB)
+    if method == TWIST:
+        return _twist_rate(e1, e2, aux[0], aux[1], wa, va, wb, vb)
+    w, s_d = aux
+    b1, b2 = _lambda_t_apply(1.0, w, e1, s_d, e2, wb, vb)
+    a1, a2 = _lambda_t_apply(-1.0, w, e1, s_d, e2, wa, va)
+    return _lin(0.5, b1, -0.5, a1), _lin(0.5, b2, -0.5, a2)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
+    """Wrench of one element on body B and its dissipated power.
+
+    Returns ``(m, f, power)``: moment about ``p_WB`` and force on B in world axes, and
+    ``rate^T B rate`` (times 4 for the dual-quaternion method) [W], 0 unless ``viscous``.
+    """
+    e1, e2, aux = _coords(method, R_WA, p_WA, R_WB, p_WB)
+    y1, y2 = _mat6_vec(K, e1, e2)
+    power = 0.0
+    if viscous:
+        r1, r2 = _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB)
+        b1, b2 = _mat6_vec(B, r1, r2)
+        power = _dot(r1, b1) + _dot(r2, b2)
+        y1 = _lin(1.0, y1, 1.0, b1)
+        y2 = _lin(1.0, y2, 1.0, b2)
+    if method == TWIST:
+        m, f = _twist_gamma(e1, e2, aux[0], aux[1], y1, y2)
+        scale = -1.0
+    else:
+        m, f = _lambda_apply(aux[0], e1, aux[1], e2, y1, y2)
+        scale = -2.0
+        power *= 4.0
+    m = _mat_vec(R_WB, m)
+    f = _mat_vec(R_WB, f)
+    return _lin(scale, m, 0.0, m), _lin(scale, f, 0.0, f), power
+
+
+# --------------------------------------------------------------------------- planar kernels
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def wrap_angle(d):
+    """Angle wrapped to (-pi, pi]."""
+    if d > _PI or d <= -_PI:
+        d = d - _TWO_PI * math.floor((d + _PI) / _TWO_PI)
+        if d <= -_PI:
+            d += _TWO_PI
+    return d
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _cross2(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _rot2_t(th, v):
+    """``R(th)^T v``."""
+    c, s = math.cos(th), math.sin(th)
+    return (c * v[0] + s * v[1], -s * v[0] + c * v[1])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _lin2(ca, a, cb, b):
+    return (ca * a[0] + cb * b[0], ca * a[1] + cb * b[1])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _perp(v):
+    """``J v``: ``v`` turned by +90 degrees (``e_z x v``)."""
+    return (-v[1], v[0])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _mat3_vec(M, s, v):
+    """``M @ [s; v]`` for a row-major 9-tuple ``M``, as ``(scalar, 2-tuple)``."""
+    a = M[0] * s + M[1] * v[0] + M[2] * v[1]
+    b = M[3] * s + M[4] * v[0] + M[5] * v[1]
+    c = M[6] * s + M[7] * v[0] + M[8] * v[1]
+    return a, (b, c)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _planar_coords(method, th_a, p_WA, th_b, p_WB):
+    """Planar displacement coordinates ``(e1, e2, aux)`` (appendices A and B)."""
+    th = wrap_angle(th_b - th_a)
+    p = _rot2_t(th_a, (p_WB[0] - p_WA[0], p_WB[1] - p_WA[1]))
+    if method == TWIST:
+        c = jl_inv_coefs(abs(th), math.cos(0.5 * th), abs(math.sin(0.5 * th)))[0]
+        k = 1.0 - c * th * th  # (th/2) cot(th/2)
+        return th, _lin2(k, p, -0.5 * th, _perp(p)), (c, k)
+    sig, xi = math.cos(0.5 * th), math.sin(0.5 * th)
+    return xi, _lin2(0.5 * sig, p, -0.5 * xi, _perp(p)), (sig, 0.0)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def planar_potential(method, th_a, p_WA, th_b, p_WB, K):
+    e1, e2, _ = _planar_coords(method, th_a, p_WA, th_b, p_WB)
+    y1, y2 = _mat3_vec(K, e1, e2)
+    scale = 0.5 if method == TWIST else 2.0
+    return scale * (e1 * y1 + e2[0] * y2[0] + e2[1] * y2[1])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _planar_rate(method, e1, e2, aux, th_a, th_b, w_a, v_WA, w_b, v_WB):
+    va = _rot2_t(th_a, v_WA)
+    vb = _rot2_t(th_b, v_WB)
+    if method == TWIST:
+        th, t, c, k = e1, e2, aux[0], aux[1]
+        jt = _perp(t)
+        rb = _lin2(w_b, _lin2(-0.5, jt, c * th, t), 1.0, _lin2(k, vb, 0.5 * th, _perp(vb)))
+        ra = _lin2(w_a, _lin2(0.5, jt, c * th, t), 1.0, _lin2(k, va, -0.5 * th, _perp(va)))
+        return w_b - w_a, _lin2(1.0, rb, -1.0, ra)
+    xi, xd, sig = e1, e2, aux[0]
+    jx = _perp(xd)
+    rb = _lin2(-w_b, jx, 1.0, _lin2(sig, vb, xi, _perp(vb)))
+    ra = _lin2(w_a, jx, 1.0, _lin2(sig, va, -xi, _perp(va)))
+    return 0.5 * sig * (w_b - w_a), _lin2(0.5, rb, -0.5, ra)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def planar_wrench(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA, w_b, v_WB):
+    """Planar wrench on body B: ``(moment, (fx, fy), power)`` in world axes."""
+    e1, e2, aux = _planar_coords(method, th_a, p_WA, th_b, p_WB)
+    y1, y2 = _mat3_vec(K, e1, e2)
+    power = 0.0
+    if viscous:
+        r1, r2 = _planar_rate(method, e1, e2, aux, th_a, th_b, w_a, v_WA, w_b, v_WB)
+        b1, b2 = _mat3_vec(B, r1, r2)
+        power = r1 * b1 + r2[0] * b2[0] + r2[1] * b2[1]
+        y1 = y1 + b1
+        y2 = _lin2(1.0, y2, 1.0, b2)
+    if method == TWIST:
+        th, t, c, k = e1, e2, aux[0], aux[1]
+        m = y1 - 0.5 * _cross2(t, y2) + c * th * (t[0] * y2[0] + t[1] * y2[1])
+        f = _lin2(k, y2, -0.5 * th, _perp(y2))
+    else:
+        xi, xd, sig = e1, e2, aux[0]
+        m = 2.0 * (sig * y1 - _cross2(xd, y2))
+        f = _lin2(2.0 * sig, y2, -2.0 * xi, _perp(y2))
+        power *= 4.0
+    cb, sb = math.cos(th_b), math.sin(th_b)
+    return -m, (-(cb * f[0] - sb * f[1]), -(sb * f[0] + cb * f[1])), power
+
+
+# --------------------------------------------------------------------------- batch loops
+# Every array argument has a leading batch axis of length n or 1 (broadcast).
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def _i(a, i):
+    return i if a.shape[0] > 1 else 0
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_wrench_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB, out, power):
+    for i in range(out.shape[0]):
+        m, f, power[i] = spatial_wrench(
+            method,
+            load9(R_WA, _i(R_WA, i)),
+            load3(p_WA, _i(p_WA, i)),
+            load9(R_WB, _i(R_WB, i)),
+            load3(p_WB, _i(p_WB, i)),
+            load36(K, _i(K, i)),
+            load36(B, _i(B, i)),
+            viscous,
+            load3(w_WA, _i(w_WA, i)),
+            load3(v_WA, _i(v_WA, i)),
+            load3(w_WB, _i(w_WB, i)),
+            load3(v_WB, _i(v_WB, i)),
+        )
+        for j in range(3):
+            out[i, j] = m[j]
+            out[i, 3 + j] = f[j]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_potential_batch(method, R_WA, p_WA, R_WB, p_WB, K, out):
+    for i in range(out.shape[0]):
+        out[i] = spatial_potential(
+            method,
+            load9(R_WA, _i(R_WA, i)),
+            load3(p_WA, _i(p_WA, i)),
+            load9(R_WB, _i(R_WB, i)),
+            load3(p_WB, _i(p_WB, i)),
+            load36(K, _i(K, i)),
+        )
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def planar_wrench_batch(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA, w_b, v_WB, out, power):
+    for i in range(out.shape[0]):
+        m, f, power[i] = planar_wrench(
+            method,
+            th_a[_i(th_a, i)],
+            (p_WA[_i(p_WA, i), 0], p_WA[_i(p_WA, i), 1]),
+            th_b[_i(th_b, i)],
+            (p_WB[_i(p_WB, i), 0], p_WB[_i(p_WB, i), 1]),
+            load9(K, _i(K, i)),
+            load9(B, _i(B, i)),
+            viscous,
+            w_a[_i(w_a, i)],
+            (v_WA[_i(v_WA, i), 0], v_WA[_i(v_WA, i), 1]),
+            w_b[_i(w_b, i)],
+            (v_WB[_i(v_WB, i), 0], v_WB[_i(v_WB, i), 1]),
+        )
+        out[i, 0], out[i, 1], out[i, 2] = m, f[0], f[1]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def planar_potential_batch(method, th_a, p_WA, th_b, p_WB, K, out):
+    for i in range(out.shape[0]):
+        out[i] = planar_potential(
+            method,
+            th_a[_i(th_a, i)],
+            (p_WA[_i(p_WA, i), 0], p_WA[_i(p_WA, i), 1]),
+            th_b[_i(th_b, i)],
+            (p_WB[_i(p_WB, i), 0], p_WB[_i(p_WB, i), 1]),
+            load9(K, _i(K, i)),
+        )
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _quat_of(R, i):
+    r = load9(R, i)
+    return quat_from_rot9(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8])
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def twist_from_transform_batch(R, p, out):
+    for i in range(out.shape[0]):
+        w, x, y, z = _quat_of(R, _i(R, i))
+        tau, t, _ = twist_from_quat_pos(w, x, y, z, load3(p, _i(p, i)))
+        for k in range(3):
+            out[i, k] = tau[k]
+            out[i, 3 + k] = t[k]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def transform_from_twist_batch(xi, R_out, p_out):
+    for i in range(R_out.shape[0]):
+        tau = (xi[i, 0], xi[i, 1], xi[i, 2])
+        t = (xi[i, 3], xi[i, 4], xi[i, 5])
+        a = math.sqrt(_dot(tau, tau))
+        sh, c2, c3 = exp_coefs(a)
+        # Rodrigues through the quaternion (cos(a/2), sin(a/2)/a * tau), eqs 16-17
+        write_rot_from_quat(math.cos(0.5 * a), sh * tau[0], sh * tau[1], sh * tau[2], R_out[i])
+        tt = _cross(tau, t)
+        p = _lin3(1.0, t, c2, tt, c3, _cross(tau, tt))  # p = J_l(tau) t, eq. 19
+        for k in range(3):
+            p_out[i, k] = p[k]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def dual_quaternion_from_transform_batch(R, p, out):
+    for i in range(out.shape[0]):
+        w, x, y, z = _quat_of(R, _i(R, i))
+        s_d, x_d = dual_part(w, (x, y, z), load3(p, _i(p, i)))
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = w, x, y, z
+        out[i, 4], out[i, 5], out[i, 6], out[i, 7] = s_d, x_d[0], x_d[1], x_d[2]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def transform_from_dual_quaternion_batch(q, R_out, p_out):
+    for i in range(R_out.shape[0]):
+        w, xv = q[i, 0], (q[i, 1], q[i, 2], q[i, 3])
+        s_d, x_d = q[i, 4], (q[i, 5], q[i, 6], q[i, 7])
+        write_rot_from_quat(w, xv[0], xv[1], xv[2], R_out[i])
+        # p = 2 vec(q_d * conj(q_r)) = 2 (w x' - s' xi + xi x x')
+        p = _lin3(2.0 * w, x_d, -2.0 * s_d, xv, 2.0, _cross(xv, x_d))
+        for k in range(3):
+            p_out[i, k] = p[k]

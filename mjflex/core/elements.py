@@ -1,0 +1,297 @@
+r"""Visco-elastic elements between two rigid bodies: energy, wrench and dissipation.
+
+An element joins frame ``a`` (fixed to body A, pose ``X_WA = (R_WA, p_WA)``) and frame
+``b`` (fixed to body B, pose ``X_WB``); it is relaxed when the frames coincide. Its state is
+the relative displacement ``X_ab = X_WA^-1 X_WB``, i.e. ``R_ab = R_WA^T R_WB`` and
+``p_ab = R_WA^T (p_WB - p_WA)``, written either as
+
+* ``method="twist"`` (paper sec. 4): the finite twist ``xi = [tau; t] = log(X_ab)``, energy
+  ``U = 1/2 xi^T K xi`` (eq. 39); or
+* ``method="dualquat"`` (sec. 5): the unit dual quaternion ``(sigma, xi_v) + eps (s', x')``,
+  energy ``U = 2 [xi_v; x']^T K [xi_v; x']`` (eq. 80).
+
+Both agree to second order at rest, where ``K`` is the stiffness of the element in frame
+``a`` = frame ``b`` coordinates, about their common origin, angular rows first
+(``K = [[K_o, K_c], [K_c^T, K_t]]``, eq. 40). The damping ``B`` acts on the rate of the same
+coordinates (eqs 58-67, 96-104).
+
+Sign convention
+---------------
+:func:`wrench_on_b` returns the wrench **the element exerts on body B**,
+``[moment about p_WB; force]`` in world axes. Derivation sketch: displace B by a small
+world-frame twist ``delta = [d_theta; d_p]`` about ``p_WB`` (``R_WB <- exp(d_theta^) R_WB``,
+``p_WB <- p_WB + d_p``); the elastic wrench is the negative gradient,
+``W_B = -dU/d(delta)``, so that the virtual work ``W_B . delta = -dU``. In b coordinates this
+is ``-Gamma_ab K xi`` (eq. 49, the paper's "wrench by B on the element" with the opposite
+sign) or ``-2 Lambda_ab K [xi_v; x']`` (eq. 87); rotating by ``R_WB`` gives world axes (the
+paper's eq. 50 also shifts the moment to the world origin; we keep it about ``p_WB``).
+The element exerts the equal and opposite wrench on body A: ``-W_B`` about ``p_WB``, which
+about ``p_WA`` has moment ``-m_B - (p_WB - p_WA) x f_B``. Since ``U`` only depends on
+``X_ab``, the pair does no net work under a common rigid motion (momentum is conserved).
+The viscous part is ``-Gamma_ab B xi_dot`` (eq. 65) or ``-2 Lambda_ab B [xi_v; x']_dot``
+(eq. 102), likewise mapped; its power on the pair is ``-xi_dot^T B xi_dot`` (twist) or
+``-4 [xi_v; x']_dot^T B [xi_v; x']_dot`` (dual quaternion), never positive when the
+symmetric part of ``B`` is positive semi-definite; :func:`dissipation_power` returns its
+negative.
+
+Large rotations
+---------------
+* Twist method: defined for every relative rotation angle ``alpha`` in ``[0, pi]``; the
+  logarithm is two-valued at ``alpha = pi`` (``tau = +pi u`` or ``-pi u``). We take the
+  branch whose axis has its largest-magnitude component positive there, so the energy and
+  wrench are well defined everywhere, but past a half turn the branch flips: the rotational
+  energy ``1/2 tau^T K_o tau`` is continuous with a kink (its slope jumps from ``+`` to ``-``),
+  and terms that couple to the translation (``K_c``, or ``p_ab`` not along the axis) can jump.
+* Dual-quaternion method: ``U`` is even in ``q`` and smooth for every rotation, no branch
+  is chosen anywhere. About a fixed axis ``u`` the rotational energy is
+  ``2 sin^2(alpha/2) u^T K_o u``, which peaks at ``alpha = pi``: there the restoring moment
+  about ``u`` vanishes (an unstable equilibrium), whereas the twist energy
+  ``alpha^2 u^T K_o u / 2`` keeps growing. For small displacements both methods agree to first
+  order in the wrench (``W ~ -K delta``, eqs 52/90); they differ at third order in the angle,
+  e.g. the moment about a principal axis is ``-k alpha`` (twist, exactly, when ``K_c = 0``
+  and ``p_ab = 0``) versus ``-k sin(alpha)`` (dual quaternion).
+"""
+
+import math
+
+import numpy as np
+
+from . import _kernels as _k
+from ._batch import flatten
+from .validation import as_array, check_psd_matrix, check_rotation, method_code
+
+_SPATIAL = {  # argument -> (core shape, what)
+    "R_WA": ((3, 3), "rotation"), "p_WA": ((3,), None), "R_WB": ((3, 3), "rotation"), "p_WB": ((3,), None),
+    "K": ((6, 6), "stiffness"), "B": ((6, 6), "damping"),
+    "w_WA": ((3,), None), "v_WA": ((3,), None), "w_WB": ((3,), None), "v_WB": ((3,), None),
+}  # fmt: skip
+_PLANAR = {
+    "theta_WA": ((), None), "p_WA": ((2,), None), "theta_WB": ((), None), "p_WB": ((2,), None),
+    "K": ((3, 3), "stiffness"), "B": ((3, 3), "damping"),
+    "w_WA": ((), None), "v_WA": ((2,), None), "w_WB": ((), None), "v_WB": ((2,), None),
+}  # fmt: skip
+_VELOCITIES = ("w_WA", "v_WA", "w_WB", "v_WB")
+# zero arguments for omitted velocities / damping; only ever read by the kernels
+_ZEROS = {core: np.zeros(core) for core, _ in list(_SPATIAL.values()) + list(_PLANAR.values())}
+
+
+def _convert(name, x, core, what):
+    """``x`` validated, as a C-contiguous float64 array."""
+    if what == "rotation":
+        x = check_rotation(x, name)
+    elif what is not None:
+        x = check_psd_matrix(x, name, core[0], what=what)
+    else:
+        x = as_array(x, name, core)
+    return np.asarray(x, dtype=np.float64, order="C")
+
+
+def _prepare(spec, values, check):
+    """Validate (if ``check``) and flatten the arguments named in ``spec``.
+
+    ``values`` maps names to arguments; a missing damping ``B`` means no viscous part and
+    missing velocities are zero. Returns ``(batch_shape, flat_arrays, viscous)``.
+    """
+    viscous = values.get("B") is not None
+    if not viscous:
+        given = sorted(k for k in _VELOCITIES if values.get(k) is not None)
+        if given:
+            raise ValueError(
+                f"velocities {given} were given but B is None: pass the damping matrix B to get "
+                "the viscous wrench, or drop the velocities."
+            )
+    arrays, leading = [], []
+    for name, x in values.items():
+        core, what = spec[name]
+        if x is None:
+            a = _ZEROS[core]
+        elif check:
+            a = _convert(name, x, core, what)
+        else:
+            a = np.asarray(x, dtype=np.float64, order="C")
+        arrays.append(a)
+        leading.append(a.shape[: a.ndim - len(core)])
+    shape, flat = flatten(arrays, leading, values.keys())
+    return shape, flat, viscous
+
+
+def _spatial_call(values, method, check):
+    """Run the spatial wrench kernel; returns (wrench (..., 6), dissipated power (...))."""
+    code = method_code(method)
+    shape, f, viscous = _prepare(_SPATIAL, values, check)
+    n = math.prod(shape)
+    out, power = np.empty((n, 6)), np.empty(n)
+    _k.spatial_wrench_batch(code, *f[:6], viscous, *f[6:], out, power)
+    return out.reshape((*shape, 6)), power.reshape(shape)
+
+
+def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", check=True):
+    """Elastic energy stored in the element [J].
+
+    Parameters
+    ----------
+    R_WA, R_WB : array_like, shape (..., 3, 3)
+        Orientations of frames a and b in world coordinates.
+    p_WA, p_WB : array_like, shape (..., 3)
+        Origins of frames a and b in world coordinates [m].
+    K : array_like, shape (..., 6, 6)
+        Symmetric positive semi-definite stiffness at rest, in a (= b) coordinates about the
+        common origin, rows ``[rotation; translation]``: units ``N m/rad``, ``N/rad``, ``N/m``.
+    method : {"twist", "dualquat"}
+        ``1/2 xi^T K xi`` (eq. 39) or ``2 [xi_v; x']^T K [xi_v; x']`` (eq. 80).
+    check : bool
+        Validate the arguments (skip only for arguments validated before).
+
+    Returns
+    -------
+    U : ndarray, shape (...)
+        Energy [J], broadcast over the leading axes of all arguments.
+    """
+    code = method_code(method)
+    values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K}
+    shape, f, _ = _prepare(_SPATIAL, values, check)
+    out = np.empty(math.prod(shape))
+    _k.spatial_potential_batch(code, *f, out)
+    return out.reshape(shape)[()]
+
+
+def wrench_on_b(
+    R_WA, p_WA, R_WB, p_WB, K, *, method="twist", B=None,
+    w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True,
+):  # fmt: skip
+    """Wrench that the element exerts on body B (elastic plus viscous).
+
+    Parameters
+    ----------
+    R_WA, R_WB : array_like, shape (..., 3, 3)
+        Orientations of frames a and b in world coordinates.
+    p_WA, p_WB : array_like, shape (..., 3)
+        Origins of frames a and b in world coordinates [m].
+    K : array_like, shape (..., 6, 6)
+        Stiffness at rest in a (= b) coordinates about the common origin, rows
+        ``[rotation; translation]`` (see :func:`potential`).
+    method : {"twist", "dualquat"}
+        Displacement coordinates (module docstring).
+    B : array_like, shape (..., 6, 6), optional
+        Damping on the rate of the same coordinates, same layout and frame as ``K``
+        (``N m s/rad``, ``N s/rad``, ``N s/m``). Without it the wrench is purely elastic.
+    w_WA, w_WB : array_like, shape (..., 3), optional
+        Angular velocities of frames a and b, world axes [rad/s]. Zero when omitted.
+    v_WA, v_WB : array_like, shape (..., 3), optional
+        Linear velocities of the origins of frames a and b, world axes [m/s] (what
+        ``mujoco.mj_objectVelocity`` returns for a site with ``flg_local=0``, reordered as
+        ``w = res[:3]``, ``v = res[3:]``). Zero when omitted; only allowed with ``B``.
+    check : bool
+        Validate the arguments (skip only for arguments validated before).
+
+    Returns
+    -------
+    wrench : ndarray, shape (..., 6)
+        ``[moment about p_WB; force]`` on body B in world axes [N m; N]. The element exerts
+        the equal and opposite wrench on body A.
+    """
+    values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
+              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    return _spatial_call(values, method, check)[0]
+
+
+def dissipation_power(
+    R_WA, p_WA, R_WB, p_WB, B, *, method="twist", w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True
+):
+    """Power dissipated by the viscous part of the element [W] (non-negative for valid B).
+
+    Equals minus the power of the viscous wrenches on A and B together:
+    ``xi_dot^T B xi_dot`` (twist) or ``4 [xi_v; x']_dot^T B [xi_v; x']_dot`` (dual
+    quaternion). Arguments as in :func:`wrench_on_b`.
+
+    Returns
+    -------
+    power : ndarray, shape (...)
+        Dissipated power [W].
+    """
+    if B is None:
+        raise ValueError("B is required: dissipation_power needs the damping matrix.")
+    values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": None, "B": B,
+              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    return _spatial_call(values, method, check)[1][()]
+
+
+# --------------------------------------------------------------------------- planar
+
+
+def _planar_call(values, method, check):
+    code = method_code(method)
+    shape, f, viscous = _prepare(_PLANAR, values, check)
+    n = math.prod(shape)
+    out, power = np.empty((n, 3)), np.empty(n)
+    _k.planar_wrench_batch(code, *f[:6], viscous, *f[6:], out, power)
+    return out.reshape((*shape, 3)), power.reshape(shape)
+
+
+def planar_potential(theta_WA, p_WA, theta_WB, p_WB, K, *, method="twist", check=True):
+    """Elastic energy of a planar element [J] (appendices A and B).
+
+    Parameters
+    ----------
+    theta_WA, theta_WB : array_like, shape (...)
+        Orientation angles of frames a and b in the world plane [rad] (counter-clockwise).
+    p_WA, p_WB : array_like, shape (..., 2)
+        Origins of frames a and b in world coordinates [m].
+    K : array_like, shape (..., 3, 3)
+        Stiffness at rest in a (= b) coordinates about the common origin, ordered
+        ``[theta; x; y]`` (``N m/rad``, ``N/rad``, ``N/m``).
+    method : {"twist", "dualquat"}
+        Planar twist (eq. 132) or planar Clifford-algebra (planar dual quaternion) energy.
+    check : bool
+        Validate the arguments.
+
+    Returns
+    -------
+    U : ndarray, shape (...)
+        Energy [J]. Equals :func:`potential` of the same motion embedded in the x-y plane
+        with ``K`` in rows/columns ``(2, 3, 4)`` of a 6x6 matrix.
+    """
+    code = method_code(method)
+    values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K}
+    shape, f, _ = _prepare(_PLANAR, values, check)
+    out = np.empty(math.prod(shape))
+    _k.planar_potential_batch(code, *f, out)
+    return out.reshape(shape)[()]
+
+
+def planar_wrench_on_b(
+    theta_WA, p_WA, theta_WB, p_WB, K, *, method="twist", B=None,
+    w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True,
+):  # fmt: skip
+    """Wrench that a planar element exerts on body B.
+
+    Parameters
+    ----------
+    theta_WA, theta_WB, p_WA, p_WB, K, method, check
+        As in :func:`planar_potential`.
+    B : array_like, shape (..., 3, 3), optional
+        Damping, same layout as ``K`` (``N m s/rad``, ``N s/rad``, ``N s/m``).
+    w_WA, w_WB : array_like, shape (...), optional
+        Angular velocities of frames a and b [rad/s]. Zero when omitted.
+    v_WA, v_WB : array_like, shape (..., 2), optional
+        Linear velocities of the origins of frames a and b, world axes [m/s].
+
+    Returns
+    -------
+    wrench : ndarray, shape (..., 3)
+        ``[moment about p_WB; fx; fy]`` on body B, world axes [N m; N; N].
+    """
+    values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K, "B": B,
+              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    return _planar_call(values, method, check)[0]
+
+
+def planar_dissipation_power(
+    theta_WA, p_WA, theta_WB, p_WB, B, *, method="twist", w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True
+):
+    """Power dissipated by a planar element [W]; arguments as in :func:`planar_wrench_on_b`."""
+    if B is None:
+        raise ValueError("B is required: planar_dissipation_power needs the damping matrix.")
+    values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": None, "B": B,
+              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    return _planar_call(values, method, check)[1][()]

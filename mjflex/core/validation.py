@@ -1,0 +1,152 @@
+"""Argument checks at the boundary of the core (never called inside the compiled kernels).
+
+Every check raises :class:`ValueError` whose message names the argument (and the batch index
+of the first offending element), shows the offending value, and says how to fix it.
+
+Tolerances, all relative so that they do not depend on units:
+
+* symmetry: ``|M_ij - M_ji| <= SYMMETRY_RTOL * sqrt(|M_ii M_jj|)`` (for a positive
+  semi-definite matrix ``|M_ij| <= sqrt(M_ii M_jj)``, so this is relative to the entry's
+  natural scale whatever units rows and columns carry);
+* positive semi-definiteness: the smallest eigenvalue of the diagonally scaled matrix
+  ``S M S``, ``S = diag(M_ii)^(-1/2)``, must be ``>= -PSD_RTOL`` (scale-invariant);
+* rotations: ``max |R^T R - I| <= ORTHONORMAL_ATOL`` and ``det R > 0``;
+* unit dual quaternions: ``| |q_r| - 1 | <= UNIT_ATOL`` and
+  ``|q_r . q_d| <= UNIT_ATOL * max(1, |q_d|)``.
+"""
+
+import numpy as np
+
+SYMMETRY_RTOL = 1e-8
+PSD_RTOL = 1e-10
+ORTHONORMAL_ATOL = 1e-9
+UNIT_ATOL = 1e-9
+
+_ORTHO_FIX = "re-orthonormalize it, e.g. scipy.spatial.transform.Rotation.from_matrix(R).as_matrix()"
+
+
+def _where(name: str, index: tuple) -> str:
+    return f"{name}[{', '.join(str(int(i)) for i in index)}]" if index else name
+
+
+def as_array(x, name: str, core_shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` as a float64 array of shape ``(..., *core_shape)`` with finite entries."""
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array of shape (..., {_fmt(core_shape)}): {exc}") from None
+    n = len(core_shape)
+    if a.ndim < n or a.shape[a.ndim - n :] != tuple(core_shape):
+        raise ValueError(f"{name} must have shape (..., {_fmt(core_shape)}); got shape {a.shape}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(
+            f"{name} contains a non-finite value ({float(a[idx])} at index {list(idx)}). Poses, velocities "
+            "and parameters must be finite; a NaN state usually means that a simulation diverged "
+            "(reduce the time step or check the initial state)."
+        )
+    return a
+
+
+def _fmt(core_shape: tuple[int, ...]) -> str:
+    return ", ".join(str(s) for s in core_shape) if core_shape else ""
+
+
+def _first(mask: np.ndarray) -> tuple:
+    return tuple(np.argwhere(mask)[0]) if mask.ndim else ()
+
+
+def check_rotation(R, name: str) -> np.ndarray:
+    """Validated rotation matrices ``(..., 3, 3)``."""
+    R = as_array(R, name, (3, 3))
+    err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
+    bad = err > ORTHONORMAL_ATOL
+    if bad.any():
+        i = _first(bad)
+        raise ValueError(
+            f"{_where(name, i)} is not a rotation matrix: max |R^T R - I| = {err[i]:.3g} exceeds "
+            f"{ORTHONORMAL_ATOL:g}; {_ORTHO_FIX}."
+        )
+    det = np.linalg.det(R)
+    bad = det <= 0
+    if bad.any():
+        i = _first(bad)
+        raise ValueError(
+            f"{_where(name, i)} has determinant {det[i]:.3g}: it is a reflection, not a rotation. "
+            "Flip the sign of one axis (column) so that the frame is right-handed."
+        )
+    return R
+
+
+def check_psd_matrix(M, name: str, n: int, *, what: str) -> np.ndarray:
+    """Validated symmetric positive semi-definite ``(..., n, n)`` matrices.
+
+    ``what`` is ``"stiffness"`` or ``"damping"`` and only changes the advice in messages.
+    """
+    M = as_array(M, name, (n, n))
+    diag = np.abs(np.diagonal(M, axis1=-2, axis2=-1))
+    scale = np.sqrt(diag[..., :, None] * diag[..., None, :])
+    asym = np.abs(M - np.swapaxes(M, -1, -2)) / np.maximum(scale, np.finfo(float).tiny)
+    bad = asym > SYMMETRY_RTOL
+    if bad.any():
+        idx = tuple(np.argwhere(bad)[0])
+        i, (r, c) = idx[:-2], idx[-2:]
+        where = _where(name, i)
+        raise ValueError(
+            f"{where} is not symmetric: {where}[{r}, {c}] = {M[idx]:.6g} but {where}[{c}, {r}] = "
+            f"{M[i + (c, r)]:.6g} (relative asymmetry {asym[idx]:.3g} > {SYMMETRY_RTOL:g}). A {what} "
+            "matrix must be symmetric; if the difference is round-off, pass (M + M.T) / 2 "
+            "(M + np.swapaxes(M, -1, -2) for batches)."
+        )
+    s = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 1.0)
+    scaled = s[..., :, None] * (0.5 * (M + np.swapaxes(M, -1, -2))) * s[..., None, :]
+    lam = np.linalg.eigvalsh(scaled)[..., 0]
+    bad = lam < -PSD_RTOL
+    if bad.any():
+        i = _first(bad)
+        where = _where(name, i)
+        w, v = np.linalg.eigh(M[i])
+        advice = (
+            "check the signs of the coupling block K_c (rows 0-2, columns 3-5 for 6x6; row 0, "
+            "columns 1-2 for 3x3), or project onto the PSD cone (clip negative eigenvalues) if it "
+            "comes from a noisy identification"
+            if what == "stiffness"
+            else "a damping with an indefinite symmetric part generates energy; check its signs"
+        )
+        raise ValueError(
+            f"{where} is not positive semi-definite: its smallest eigenvalue is {w[0]:.6g} "
+            f"(eigenvector {np.array2string(v[:, 0], precision=3)}), i.e. {lam[i]:.3g} relative to "
+            f"its diagonal (tolerance {PSD_RTOL:g}). A {what} matrix must be positive "
+            f"semi-definite: {advice}."
+        )
+    return M
+
+
+def check_unit_dual_quaternion(q, name: str) -> np.ndarray:
+    """Validated unit dual quaternions ``(..., 8)``."""
+    q = as_array(q, name, (8,))
+    qr, qd = q[..., :4], q[..., 4:]
+    norm_err = np.abs(np.linalg.norm(qr, axis=-1) - 1.0)
+    ortho_err = np.abs(np.sum(qr * qd, axis=-1)) / np.maximum(1.0, np.linalg.norm(qd, axis=-1))
+    bad = (norm_err > UNIT_ATOL) | (ortho_err > UNIT_ATOL)
+    if bad.any():
+        i = _first(bad)
+        raise ValueError(
+            f"{_where(name, i)} is not a unit dual quaternion: | |q_r| - 1 | = {norm_err[i]:.3g} and "
+            f"|q_r . q_d| = {ortho_err[i]:.3g} (tolerance {UNIT_ATOL:g}). Build it with "
+            "dual_quaternion_from_transform, or normalize: q_r /= |q_r|, then remove from q_d its "
+            "component along q_r."
+        )
+    return q
+
+
+METHOD_CODES = {"twist": 0, "dualquat": 1}
+
+
+def method_code(method: str, name: str = "method") -> int:
+    """0 for ``"twist"``, 1 for ``"dualquat"``."""
+    code = METHOD_CODES.get(method) if isinstance(method, str) else None
+    if code is None:
+        raise ValueError(f"{name} must be 'twist' or 'dualquat'; got {method!r}.")
+    return code
