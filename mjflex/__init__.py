@@ -10,6 +10,9 @@ Layers
 ------
 ``mjflex.core``
     Screw theory in numpy (numba-compiled kernels); never imports mujoco.
+``mjflex.mj``
+    The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
+    an ``MjSpec``, and :class:`Flexures`, the passive-force provider.
 
 Conventions (used everywhere in the package)
 --------------------------------------------
@@ -43,10 +46,25 @@ from .core import (
     twist_from_transform,
     wrench_on_b,
 )
+from .mj import (
+    FlexureHandle,
+    FlexureRecord,
+    Flexures,
+    ModelError,
+    add_flexure,
+    add_flexure_in_body_frame,
+    reference_body_poses,
+)
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "FlexureHandle",
+    "FlexureRecord",
+    "Flexures",
+    "ModelError",
+    "add_flexure",
+    "add_flexure_in_body_frame",
     "adjoint_from_transform",
     "centre_of_stiffness",
     "dissipation_power",
@@ -55,6 +73,7 @@ __all__ = [
     "planar_potential",
     "planar_wrench_on_b",
     "potential",
+    "reference_body_poses",
     "stiffness_in_frame",
     "transform_from_dual_quaternion",
     "transform_from_twist",

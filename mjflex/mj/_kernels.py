@@ -1,0 +1,258 @@
+"""Compiled per-step loop of the passive-force provider (numba; reads MuJoCo arrays, no bindings).
+
+:func:`flexure_loop` evaluates every element of one model from the arrays of one ``mjData``
+(``site_xpos``, ``site_xmat``, ``cvel``, ...) with the core kernel and, depending on ``mode``,
+adds the generalized forces to ``qfrc_passive`` and/or writes wrenches, energies or powers.
+:func:`dispatch` is the same loop reached from raw ``mjModel*`` / ``mjData*`` addresses through
+the registry that :mod:`mjflex.mj._callback` maintains; it runs inside ``mj_passive`` without
+the GIL or the Python bindings.
+
+Element tables (built once by :class:`mjflex.Flexures`):
+
+* ``ints`` (n, NI) int64: site and body ids, method, switches, fast-path dof address of each
+  body (-1 when the body is not a free-jointed child of the world), and the range of its dof
+  chain in ``chain``;
+* ``floats`` (n, NF) float64: K and B (row-major 6x6) and the rest offset ``X_ab0`` (R, p) of
+  frame b seen from frame a at ``qpos0`` (round-off of the model file, absorbed so that the
+  reference configuration is exactly unstressed).
+"""
+
+import math
+
+import numpy as np
+from numba import carray, njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from ..core._kernels import relative_position, relative_quat, spatial_potential, spatial_wrench, twist_from_quat_pos
+
+SITE_A, SITE_B, BODY_A, BODY_B, METHOD, ENABLED, VISCOUS, OFFSET, FREE_A, FREE_B, CHAIN_A0, CHAIN_A1 = range(12)
+CHAIN_B0, CHAIN_B1 = 12, 13
+NI = 14
+K_AT, B_AT, R0_AT, P0_AT = 0, 36, 72, 81
+NF = 84
+
+APPLY, WRENCH, ENERGY, POWER, COORDS = 1, 2, 4, 8, 16
+
+# registry layout (int64 words): header, then one slot per registered model
+H_CAPACITY, H_SPRING_BIT, H_DAMPER_BIT, H_DISABLEFLAGS = 0, 1, 2, 3
+H_SITE_XPOS, H_SITE_XMAT, H_XPOS, H_XMAT, H_CVEL, H_SUBTREE_COM, H_CDOF, H_QFRC = 4, 5, 6, 7, 8, 9, 10, 11
+HEADER = 16
+S_MODEL, S_N, S_INTS, S_FLOATS, S_CHAIN, S_NCHAIN, S_ROOTID, S_NSITE, S_NBODY, S_NV, S_MESSAGES = range(11)
+SLOT = 16
+
+_JIT = {"cache": True, "error_model": "numpy", "fastmath": {"contract"}}
+_ZERO3 = (0.0, 0.0, 0.0)
+_ZERO36 = (0.0,) * 36
+
+
+@intrinsic
+def voidptr_from_int(typingctx, addr):
+    """``(void*) addr``."""
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return types.voidptr(types.int64), codegen
+
+
+@intrinsic
+def int_from_voidptr(typingctx, ptr):
+    """``(int64) ptr``."""
+
+    def codegen(context, builder, signature, args):
+        return builder.ptrtoint(args[0], cgutils.intp_t)
+
+    return types.int64(types.voidptr), codegen
+
+
+@njit(**_JIT)
+def _row9(a, i):
+    return (a[i, 0], a[i, 1], a[i, 2], a[i, 3], a[i, 4], a[i, 5], a[i, 6], a[i, 7], a[i, 8])
+
+
+@njit(**_JIT)
+def _row3(a, i):
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@njit(**_JIT)
+def _tuple36(a, i, at):
+    """Row-major 6x6 matrix stored in ``a[i, at:at + 36]``, as a 36-tuple."""
+    return (
+        a[i, at], a[i, at + 1], a[i, at + 2], a[i, at + 3], a[i, at + 4], a[i, at + 5],
+        a[i, at + 6], a[i, at + 7], a[i, at + 8], a[i, at + 9], a[i, at + 10], a[i, at + 11],
+        a[i, at + 12], a[i, at + 13], a[i, at + 14], a[i, at + 15], a[i, at + 16], a[i, at + 17],
+        a[i, at + 18], a[i, at + 19], a[i, at + 20], a[i, at + 21], a[i, at + 22], a[i, at + 23],
+        a[i, at + 24], a[i, at + 25], a[i, at + 26], a[i, at + 27], a[i, at + 28], a[i, at + 29],
+        a[i, at + 30], a[i, at + 31], a[i, at + 32], a[i, at + 33], a[i, at + 34], a[i, at + 35],
+    )  # fmt: skip
+
+
+@njit(**_JIT)
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(**_JIT)
+def _add(a, b, s=1.0):
+    return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
+
+
+@njit(**_JIT)
+def _frame_b(ints, floats, e, R, p):
+    """Pose of frame b, corrected by the rest offset: ``X_Wb* = X_Wb X_ab0^-1``."""
+    if ints[e, OFFSET] == 0:
+        return R, p
+    R0 = (
+        floats[e, R0_AT], floats[e, R0_AT + 1], floats[e, R0_AT + 2],
+        floats[e, R0_AT + 3], floats[e, R0_AT + 4], floats[e, R0_AT + 5],
+        floats[e, R0_AT + 6], floats[e, R0_AT + 7], floats[e, R0_AT + 8],
+    )  # fmt: skip
+    Rs = (  # R_b* = R_b R0^T
+        R[0] * R0[0] + R[1] * R0[1] + R[2] * R0[2], R[0] * R0[3] + R[1] * R0[4] + R[2] * R0[5],
+        R[0] * R0[6] + R[1] * R0[7] + R[2] * R0[8], R[3] * R0[0] + R[4] * R0[1] + R[5] * R0[2],
+        R[3] * R0[3] + R[4] * R0[4] + R[5] * R0[5], R[3] * R0[6] + R[4] * R0[7] + R[5] * R0[8],
+        R[6] * R0[0] + R[7] * R0[1] + R[8] * R0[2], R[6] * R0[3] + R[7] * R0[4] + R[8] * R0[5],
+        R[6] * R0[6] + R[7] * R0[7] + R[8] * R0[8],
+    )  # fmt: skip
+    p0 = (floats[e, P0_AT], floats[e, P0_AT + 1], floats[e, P0_AT + 2])
+    q = (
+        Rs[0] * p0[0] + Rs[1] * p0[1] + Rs[2] * p0[2],
+        Rs[3] * p0[0] + Rs[4] * p0[1] + Rs[5] * p0[2],
+        Rs[6] * p0[0] + Rs[7] * p0[1] + Rs[8] * p0[2],
+    )
+    return Rs, (p[0] - q[0], p[1] - q[1], p[2] - q[2])
+
+
+@njit(**_JIT)
+def _point_velocity(cvel, subtree_com, rootid, body, p):
+    """World angular velocity of ``body`` and linear velocity of its point ``p``."""
+    w = (cvel[body, 0], cvel[body, 1], cvel[body, 2])
+    c = _row3(subtree_com, rootid[body])
+    v = (cvel[body, 3], cvel[body, 4], cvel[body, 5])
+    return w, _add(v, _cross(w, (p[0] - c[0], p[1] - c[1], p[2] - c[2])))
+
+
+@njit(**_JIT)
+def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtree_com, rootid, sign):
+    """Add ``sign * (m about p, f)`` on ``body`` to generalized forces (``J^T`` of the wrench)."""
+    if free_adr >= 0:
+        # free joint: dofs are the world velocity of the body origin, then the body-frame angular velocity
+        o = _row3(xpos, body)
+        mo = _add(m, _cross((p[0] - o[0], p[1] - o[1], p[2] - o[2]), f))
+        for k in range(3):
+            qfrc[free_adr + k] += sign * f[k]
+            qfrc[free_adr + 3 + k] += sign * (
+                xmat[body, k] * mo[0] + xmat[body, 3 + k] * mo[1] + xmat[body, 6 + k] * mo[2]
+            )
+        return
+    c = _row3(subtree_com, rootid[body])
+    mc = _add(m, _cross((p[0] - c[0], p[1] - c[1], p[2] - c[2]), f))
+    for k in range(c0, c1):
+        j = chain[k]
+        qfrc[j] += sign * (
+            cdof[j, 0] * mc[0] + cdof[j, 1] * mc[1] + cdof[j, 2] * mc[2]
+            + cdof[j, 3] * f[0] + cdof[j, 4] * f[1] + cdof[j, 5] * f[2]
+        )  # fmt: skip
+
+
+@njit(**_JIT)
+def flexure_loop(
+    mode, ints, floats, chain, rootid, site_xpos, site_xmat, xpos, xmat, cvel, subtree_com, cdof,
+    spring_on, damper_on, qfrc, out6, out1,
+):  # fmt: skip
+    """Evaluate all elements; returns -1, or the index of the first non-finite result.
+
+    ``mode`` is a bit set: APPLY adds to ``qfrc``; WRENCH writes ``out6[e]`` = wrench on body B
+    ``[moment about frame b; force]`` (world); ENERGY writes ``out1[e]`` = elastic energy;
+    POWER writes ``out1[e]`` = dissipated power; COORDS writes ``out6[e]`` = the element's
+    finite twist. Disabled elements give zeros.
+    """
+    for e in range(ints.shape[0]):
+        if ints[e, ENABLED] == 0:
+            if mode & (WRENCH | COORDS):
+                out6[e, :] = 0.0
+            if mode & (ENERGY | POWER):
+                out1[e] = 0.0
+            continue
+        Ra, pa = _row9(site_xmat, ints[e, SITE_A]), _row3(site_xpos, ints[e, SITE_A])
+        Rb, pb = _frame_b(ints, floats, e, _row9(site_xmat, ints[e, SITE_B]), _row3(site_xpos, ints[e, SITE_B]))
+        method = ints[e, METHOD]
+        if mode & COORDS:
+            w, x, y, z = relative_quat(Ra, Rb)
+            tau, t, _ = twist_from_quat_pos(w, x, y, z, relative_position(Ra, pa, pb))
+            out6[e, 0], out6[e, 1], out6[e, 2], out6[e, 3], out6[e, 4], out6[e, 5] = tau + t
+            continue
+        K = _tuple36(floats, e, K_AT) if spring_on else _ZERO36
+        if mode & ENERGY:
+            out1[e] = spatial_potential(method, Ra, pa, Rb, pb, K)
+            continue
+        viscous = damper_on and ints[e, VISCOUS] != 0
+        wa, va, wb, vb = _ZERO3, _ZERO3, _ZERO3, _ZERO3
+        if viscous:
+            wa, va = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_A], pa)
+            wb, vb = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_B], pb)
+        B = _tuple36(floats, e, B_AT) if viscous else _ZERO36
+        m, f, power = spatial_wrench(method, Ra, pa, Rb, pb, K, B, viscous, wa, va, wb, vb)
+        if not math.isfinite(m[0] + m[1] + m[2] + f[0] + f[1] + f[2] + power):
+            return e
+        if mode & WRENCH:
+            out6[e, 0], out6[e, 1], out6[e, 2], out6[e, 3], out6[e, 4], out6[e, 5] = m[0], m[1], m[2], f[0], f[1], f[2]
+        if mode & POWER:
+            out1[e] = power
+        if mode & APPLY:
+            _apply(qfrc, ints[e, BODY_B], ints[e, FREE_B], chain, ints[e, CHAIN_B0], ints[e, CHAIN_B1],
+                   m, f, pb, xpos, xmat, cdof, subtree_com, rootid, 1.0)  # fmt: skip
+            _apply(qfrc, ints[e, BODY_A], ints[e, FREE_A], chain, ints[e, CHAIN_A0], ints[e, CHAIN_A1],
+                   m, f, pb, xpos, xmat, cdof, subtree_com, rootid, -1.0)  # fmt: skip
+    return -1
+
+
+# --------------------------------------------------------------------------- raw-pointer access
+
+
+@njit(**_JIT)
+def _word(addr):
+    return carray(voidptr_from_int(addr), (1,), np.int64)[0]
+
+
+@njit(**_JIT)
+def _field(d_addr, offset, rows, cols):
+    """The (rows, cols) float64 array that the pointer at ``d_addr + offset`` points to."""
+    return carray(voidptr_from_int(_word(d_addr + offset)), (rows, cols), np.float64)
+
+
+@njit(**_JIT)
+def dispatch(m_addr, d_addr, reg_addr):
+    """Apply the elements registered for model ``m_addr`` to data ``d_addr``.
+
+    Returns 0, or the address of the error message of the first element whose wrench is not
+    finite (the callback passes it to ``mju_error``).
+    """
+    capacity = _word(reg_addr + 8 * H_CAPACITY)
+    reg = carray(voidptr_from_int(reg_addr), (HEADER + SLOT * capacity,), np.int64)
+    for s in range(capacity):
+        at = HEADER + SLOT * s
+        if reg[at + S_MODEL] != m_addr:
+            continue
+        flags = carray(voidptr_from_int(m_addr + reg[H_DISABLEFLAGS]), (1,), np.int32)[0]
+        n, nsite, nbody, nv = reg[at + S_N], reg[at + S_NSITE], reg[at + S_NBODY], reg[at + S_NV]
+        ints = carray(voidptr_from_int(reg[at + S_INTS]), (n, NI), np.int64)
+        floats = carray(voidptr_from_int(reg[at + S_FLOATS]), (n, NF), np.float64)
+        chain = carray(voidptr_from_int(reg[at + S_CHAIN]), (reg[at + S_NCHAIN],), np.int64)
+        rootid = carray(voidptr_from_int(reg[at + S_ROOTID]), (nbody,), np.int64)
+        qfrc = carray(voidptr_from_int(_word(d_addr + reg[H_QFRC])), (nv,), np.float64)
+        status = flexure_loop(
+            APPLY, ints, floats, chain, rootid,
+            _field(d_addr, reg[H_SITE_XPOS], nsite, 3), _field(d_addr, reg[H_SITE_XMAT], nsite, 9),
+            _field(d_addr, reg[H_XPOS], nbody, 3), _field(d_addr, reg[H_XMAT], nbody, 9),
+            _field(d_addr, reg[H_CVEL], nbody, 6), _field(d_addr, reg[H_SUBTREE_COM], nbody, 3),
+            _field(d_addr, reg[H_CDOF], nv, 6),
+            (flags & reg[H_SPRING_BIT]) == 0, (flags & reg[H_DAMPER_BIT]) == 0,
+            qfrc, np.empty((0, 6)), np.empty(0),
+        )  # fmt: skip
+        if status >= 0:
+            return carray(voidptr_from_int(reg[at + S_MESSAGES]), (n,), np.int64)[status]
+        return 0
+    return 0

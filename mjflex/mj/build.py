@@ -1,0 +1,181 @@
+"""Adding flexure elements to a model with ``mujoco.MjSpec``."""
+
+import ctypes
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..core import stiffness_in_frame, validation
+from . import schema
+
+SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
+SITE_GROUP = 4  # hidden by default in MuJoCo's viewers; renderers enable it to show flexures
+
+
+@dataclass
+class FlexureHandle:
+    """The spec elements that make up one flexure."""
+
+    name: str
+    site_a: "mujoco.MjsSite"
+    site_b: "mujoco.MjsSite"
+    text: "mujoco.MjsText"
+
+
+def _unit_quat(quat, name):
+    q = validation.as_array(quat, name, (4,))
+    norm = np.linalg.norm(q)
+    if norm < 1e-12:
+        raise ValueError(f"{name} = {q.tolist()} is not a rotation (zero norm); use (1, 0, 0, 0) for no rotation")
+    return q / norm  # MuJoCo normalizes quaternions the same way
+
+
+def _rotation(q):
+    R = np.empty(9)
+    mujoco.mju_quat2Mat(R, q)
+    return R.reshape(3, 3)
+
+
+def _quaternion(R):
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R).ravel())
+    return q
+
+
+def _body(spec, body, role):
+    if not isinstance(body, str):
+        return body
+    found = spec.worldbody if body == "world" else spec.body(body)
+    if found is None:
+        names = [b.name for b in spec.bodies if b.name]
+        raise ValueError(f"{role} {body!r} is not a body of the spec (bodies: {names[:10]}...); 'world' grounds")
+    return found
+
+
+def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """World positions ``(nbody, 3)``, rotation matrices ``(nbody, 3, 3)`` and names of the
+    bodies of ``spec`` in its reference configuration (``qpos0``)."""
+    previous = mujoco.get_mjcb_passive()
+    python_callback = previous is not None and not isinstance(previous, ctypes._CFuncPtr)
+    if python_callback:  # MuJoCo cannot compile while a Python passive callback is installed
+        mujoco.set_mjcb_passive(None)
+    try:
+        model = spec.compile()
+    except ValueError as exc:
+        raise ValueError(
+            f"the spec must compile to place flexures in world coordinates ({exc}); add the bodies' geoms or "
+            "inertias before the flexures"
+        ) from None
+    finally:
+        if python_callback:
+            mujoco.set_mjcb_passive(previous)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(model.nbody)]
+    return data.xpos.copy(), data.xmat.reshape(-1, 3, 3).copy(), names
+
+
+def _matrix(M, name, element, what):
+    M = np.asarray(M, dtype=float)
+    if M.ndim == 1 and M.shape[0] in (3, 6):
+        M = np.diag(M)
+    n = M.shape[-1] if M.ndim == 2 else 0
+    if n not in (3, 6):
+        raise ValueError(f"flexure {element!r}: {name} must be 6x6 (or 6 diagonal entries), or 3x3 for a planar "
+                         f"element; got shape {M.shape}")  # fmt: skip
+    try:
+        return validation.check_psd_matrix(M, f"{name} of flexure {element!r}", n, what=what)
+    except ValueError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def add_flexure(
+    spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist",
+    stiffness_frame=None, enabled=True, viscous=True, poses=None,
+):  # fmt: skip
+    """Add a flexure element between two bodies of ``spec``.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The model being built; it must compile (bodies with their geoms or inertias).
+    name : str
+        Element name (free text, unique): the sites are ``name/a``, ``name/b`` and the record
+        ``mjflex:name``.
+    body_a, body_b : str or mujoco.MjsBody
+        The two bodies; ``"world"`` grounds the other one.
+    pos : array_like, shape (3,)
+        Origin of the element frame in world coordinates at the reference configuration [m].
+    quat : array_like, shape (4,)
+        Orientation of the element frame in world coordinates, w-first (normalized like MJCF).
+    K : array_like, shape (6, 6) or (6,)
+        Stiffness in the element frame about its origin, ``[rotation; translation]`` rows
+        (``N m/rad``, ``N/rad``, ``N/m``); a 6-vector is the diagonal. 3x3 / 3-vector: planar
+        element ``[theta_z; x; y]`` in the frame's x-y plane.
+    B : array_like, optional
+        Damping, same layout as ``K``.
+    method : {"twist", "dualquat"}
+        How the relative displacement is measured (:mod:`mjflex.core.elements`).
+    stiffness_frame : tuple (pos, quat), optional
+        World pose (reference configuration) of the frame in which ``K`` and ``B`` are given,
+        e.g. a centre of stiffness or a clamped end; they are moved to the element frame with
+        the adjoint (eq. 54). Default: the element frame itself.
+    enabled, viscous : bool
+        Initial run-time switches stored in the model.
+    poses : tuple, optional
+        Output of :func:`reference_body_poses` to reuse when adding many flexures (the spec is
+        compiled otherwise).
+
+    Returns
+    -------
+    FlexureHandle
+    """
+    validation.method_code(method)
+    site_names = schema.site_names(name)
+    if spec.text(schema.PREFIX + name) is not None or any(spec.site(s) is not None for s in site_names):
+        raise ValueError(f"flexure {name!r} already exists in the spec (its sites or text record); pick another name")
+    K = _matrix(K, "K", name, "stiffness")
+    B = None if B is None else _matrix(B, "B", name, "damping")
+    if B is not None and B.shape != K.shape:
+        raise ValueError(f"flexure {name!r}: B has shape {B.shape} but K has {K.shape}; both 6x6 or both 3x3")
+    p_WE = validation.as_array(pos, "pos", (3,))
+    R_WE = _rotation(_unit_quat(quat, "quat"))
+    if stiffness_frame is not None:
+        if K.shape != (6, 6):
+            raise ValueError("stiffness_frame is supported for spatial (6x6) elements only")
+        p_WF = validation.as_array(stiffness_frame[0], "stiffness_frame pos", (3,))
+        R_WF = _rotation(_unit_quat(stiffness_frame[1], "stiffness_frame quat"))
+        R_FE, p_FE = R_WF.T @ R_WE, R_WF.T @ (p_WE - p_WF)
+        K = stiffness_in_frame(K, R_FE, p_FE)
+        B = None if B is None else stiffness_in_frame(B, R_FE, p_FE)
+    bodies = _body(spec, body_a, "body_a"), _body(spec, body_b, "body_b")
+    if bodies[0] is bodies[1]:
+        raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
+    xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
+    sites = []
+    for b, site_name in zip(bodies, site_names, strict=True):
+        i = 0 if b is spec.worldbody else body_names.index(b.name)
+        R_WB, p_WB = xmat[i], xpos[i]
+        sites.append(b.add_site(
+            name=site_name, pos=R_WB.T @ (p_WE - p_WB), quat=_quaternion(R_WB.T @ R_WE),
+            size=[SITE_SIZE, 0, 0], group=SITE_GROUP,
+        ))  # fmt: skip
+    record = schema.FlexureRecord(name, method, K, B, enabled, viscous)
+    text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
+    return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def add_flexure_in_body_frame(spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), poses=None, **kwargs):
+    """:func:`add_flexure` with the element frame given relative to body A's frame.
+
+    ``pos`` [m] and ``quat`` (w-first) are the pose of the element frame in body A coordinates
+    at the reference configuration; other arguments as in :func:`add_flexure`.
+    """
+    poses = poses if poses is not None else reference_body_poses(spec)
+    xpos, xmat, names = poses
+    b = _body(spec, body_a, "body_a")
+    i = 0 if b is spec.worldbody else names.index(b.name)
+    R_AE = _rotation(_unit_quat(quat, "quat"))
+    p_WE = xpos[i] + xmat[i] @ validation.as_array(pos, "pos", (3,))
+    return add_flexure(spec, name, body_a, body_b, pos=p_WE, quat=_quaternion(xmat[i] @ R_AE), poses=poses, **kwargs)
