@@ -46,6 +46,7 @@ from .core import (
     twist_from_transform,
     wrench_on_b,
 )
+from . import geometry
 from .mj import (
     FlexureHandle,
     FlexureRecord,
