@@ -68,7 +68,7 @@ def test_slender_leaf_spring_matches_euler_bernoulli():
     assert K[4, 4] < 12 * E * I / L**3
     assert K[3, 3] == pytest.approx(E * B * t / L, rel=1e-12)
     G = E / (2 * (1 + NU))
-    assert K[0, 0] == pytest.approx(G * B * t**3 / 3 * (1 - 0.630 * t / B), rel=2e-3)  # thin-strip torsion
+    assert K[0, 0] == pytest.approx(G * B * t**3 / 3 * (1 - 0.630 * t / B) / L, rel=2e-3)  # thin-strip torsion
 
 
 @pytest.mark.parametrize(
