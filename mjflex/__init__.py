@@ -10,9 +10,15 @@ Layers
 ------
 ``mjflex.core``
     Screw theory in numpy (numba-compiled kernels); never imports mujoco.
+``mjflex.geometry``
+    Stiffness of notch hinges and leaf springs from geometry and material; never imports
+    mujoco.
 ``mjflex.mj``
     The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
-    an ``MjSpec``, and :class:`Flexures`, the passive-force provider.
+    an ``MjSpec``, :class:`Flexures` (the passive-force provider) and linearization.
+``mjflex.app``
+    Applications on top: the ARCADE model, simulation runs, rendering and the command line
+    (``python -m mjflex``).
 
 Conventions (used everywhere in the package)
 --------------------------------------------
@@ -31,6 +37,21 @@ Conventions (used everywhere in the package)
   ``W`` is the world frame; lower-case ``a``, ``b`` are the two frames of an element.
 """
 
+import os as _os
+import platform as _platform
+import sys as _sys
+
+# Headless Linux: let MuJoCo's offscreen renderer use EGL unless the user chose a backend.
+# (MuJoCo reads MUJOCO_GL once, when it is first imported.)
+if (
+    "mujoco" not in _sys.modules
+    and _platform.system() == "Linux"
+    and not _os.environ.get("DISPLAY")
+    and not _os.environ.get("WAYLAND_DISPLAY")
+):
+    _os.environ.setdefault("MUJOCO_GL", "egl")
+
+from . import geometry
 from .core import (
     adjoint_from_transform,
     centre_of_stiffness,
@@ -46,7 +67,6 @@ from .core import (
     twist_from_transform,
     wrench_on_b,
 )
-from . import geometry
 from .mj import (
     FlexureHandle,
     FlexureRecord,
@@ -70,6 +90,7 @@ __all__ = [
     "centre_of_stiffness",
     "dissipation_power",
     "dual_quaternion_from_transform",
+    "geometry",
     "planar_dissipation_power",
     "planar_potential",
     "planar_wrench_on_b",

@@ -14,10 +14,10 @@ def paros_weisbord_exact(R, t, b, E):
     """Angular compliance [rad/(N m)] of a circular notch hinge, Paros & Weisbord (1965), full equation."""
     beta = t / (2 * R)
     s = 2 * beta + beta**2
-    return (
-        3 / (2 * E * b * R**2) / s
-        * ((3 + 4 * beta + 2 * beta**2) / ((1 + beta) * s) + 6 * (1 + beta) / s**1.5 * np.arctan(np.sqrt((2 + beta) / beta)))
-    )  # fmt: skip
+    bracket = (3 + 4 * beta + 2 * beta**2) / ((1 + beta) * s) + 6 * (1 + beta) / s**1.5 * np.arctan(
+        np.sqrt((2 + beta) / beta)
+    )
+    return 3 / (2 * E * b * R**2) / s * bracket
 
 
 @pytest.mark.parametrize("ratio", [0.05, 0.125, 0.3, 0.8])
@@ -114,7 +114,9 @@ def test_in_plane_fe_option():
 
 
 def test_out_of_range_and_bad_input():
-    with pytest.raises(ValueError, match=r"notch hinge t/R = 1\.5 is outside the validated range.*allow_out_of_range=True"):
+    with pytest.raises(
+        ValueError, match=r"notch hinge t/R = 1\.5 is outside the validated range.*allow_out_of_range=True"
+    ):
         mjflex.geometry.notch_hinge_stiffness(R, 1.5 * R, B, E, NU)
     assert mjflex.geometry.notch_hinge_stiffness(R, 1.5 * R, B, E, NU, allow_out_of_range=True)[2, 2] > 0
     with pytest.raises(ValueError, match=r"leaf spring with L/t = 2 .*outside the beam model's range"):

@@ -150,7 +150,7 @@ def notch_hinge_stiffness(R, t, b, E, nu, *, wide=None, in_plane="beam", allow_o
     wide = b >= WIDE_RATIO * t if wide is None else wide
     C = _beam_compliance(lambda x: notch_hinge_thickness(x, R, t), R, b, E, nu, wide)
     if in_plane == "fe":
-        from .fe2d import centre_compliance  # noqa: PLC0415 (scipy sparse; only when asked)
+        from .fe2d import centre_compliance
 
         C_fe = centre_compliance(
             lambda x: notch_hinge_thickness(x, R, t), R, b, E, nu, plane="strain" if wide else "stress"

@@ -92,7 +92,7 @@ def _matrix(M, name, element, what):
 
 def add_flexure(
     spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist",
-    stiffness_frame=None, enabled=True, viscous=True, poses=None,
+    stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -123,6 +123,10 @@ def add_flexure(
         the adjoint (eq. 54). Default: the element frame itself.
     enabled, viscous : bool
         Initial run-time switches stored in the model.
+    strain_per_radian : float, optional
+        Peak bending strain per radian about the frame's z axis, stored for reports.
+    source : dict, optional
+        JSON-serializable description of where K and B come from, stored in the model file.
     poses : tuple, optional
         Output of :func:`reference_body_poses` to reuse when adding many flexures (the spec is
         compiled otherwise).
@@ -161,7 +165,7 @@ def add_flexure(
             name=site_name, pos=R_WB.T @ (p_WE - p_WB), quat=_quaternion(R_WB.T @ R_WE),
             size=[SITE_SIZE, 0, 0], group=SITE_GROUP,
         ))  # fmt: skip
-    record = schema.FlexureRecord(name, method, K, B, enabled, viscous)
+    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source)
     text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
     return FlexureHandle(name, sites[0], sites[1], text)
 

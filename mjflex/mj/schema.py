@@ -4,22 +4,20 @@ An element named ``E`` (any text) is
 
 * two sites, ``E/a`` on body A and ``E/b`` on body B, at the same world pose in the model's
   reference configuration (``qpos0``): the element frame; and
-* a custom text record ``<text name="mjflex:E" data="{...}"/>`` whose data is a JSON object:
+* a custom text record ``<text name="mjflex:E" data="{...}"/>`` whose data is a JSON object
+  with the keys
 
-  ============ ======================================== =====================================
-  key          value                                    default
-  ============ ======================================== =====================================
-  ``"mjflex"`` schema version, ``1``                    required
-  ``"method"`` ``"twist"`` or ``"dualquat"``            ``"twist"``
-  ``"K"``      stiffness in the element frame: 6x6      required
-               nested list, or 6 numbers (diagonal);
-               3x3 / 3 numbers for a planar element
-               ``[theta_z; x; y]`` in the frame's x-y
-               plane
-  ``"B"``      damping, same layout as ``K``            none (purely elastic)
-  ``"enabled"`` ``true`` / ``false``                    ``true``
-  ``"viscous"`` ``true`` / ``false``                    ``true``
-  ============ ======================================== =====================================
+  - ``"mjflex"``: schema version, ``1`` (required);
+  - ``"method"``: ``"twist"`` (default) or ``"dualquat"``;
+  - ``"K"``: stiffness in the element frame (required): a 6x6 nested list or 6 numbers (the
+    diagonal); 3x3 / 3 numbers for a planar element ``[theta_z; x; y]`` in the frame's x-y
+    plane;
+  - ``"B"``: damping, same layout as ``K`` (default: none, purely elastic);
+  - ``"enabled"``, ``"viscous"``: run-time switches, ``true`` (default) or ``false``;
+  - ``"strain_per_radian"``: peak bending strain per radian about the frame's z axis, used in
+    reports (optional);
+  - ``"source"``: any JSON object recording where ``K`` came from (geometry, material,
+    formula); kept verbatim (optional).
 
 Units are SI and the row order is ``[rotation; translation]`` (``N m/rad``, ``N/rad``,
 ``N/m``; damping per unit rate). A text record rather than ``<numeric>`` keeps every digit:
@@ -48,7 +46,7 @@ PREFIX = "mjflex:"
 SITE_A_SUFFIX = "/a"
 SITE_B_SUFFIX = "/b"
 SCHEMA_VERSION = 1
-KEYS = ("mjflex", "method", "K", "B", "enabled", "viscous")
+KEYS = ("mjflex", "method", "K", "B", "enabled", "viscous", "strain_per_radian", "source")
 #: Relative (to the model extent) distance below which the two sites count as coincident.
 COINCIDENCE_RTOL = 1e-5
 #: Angle [rad] below which the two site frames count as aligned.
@@ -70,6 +68,8 @@ class FlexureRecord:
     B: np.ndarray | None = None
     enabled: bool = True
     viscous: bool = True
+    strain_per_radian: float | None = None
+    source: dict | None = None
 
     @property
     def planar(self) -> bool:
@@ -84,6 +84,10 @@ class FlexureRecord:
             payload["enabled"] = False
         if not self.viscous:
             payload["viscous"] = False
+        if self.strain_per_radian is not None:
+            payload["strain_per_radian"] = float(self.strain_per_radian)
+        if self.source is not None:
+            payload["source"] = self.source
         return json.dumps(payload)
 
 
@@ -139,4 +143,11 @@ def parse_text(element: str, data: str) -> FlexureRecord:
     for key in ("enabled", "viscous"):
         if not isinstance(payload.get(key, True), bool):
             raise ValueError(f'"{key}" must be true or false; got {payload[key]!r}')
-    return FlexureRecord(element, method, K, B, payload.get("enabled", True), payload.get("viscous", True))
+    strain = payload.get("strain_per_radian")
+    if strain is not None and not (isinstance(strain, int | float) and not isinstance(strain, bool) and strain >= 0):
+        raise ValueError(f'"strain_per_radian" must be a non-negative number; got {strain!r}')
+    source = payload.get("source")
+    if source is not None and not isinstance(source, dict):
+        raise ValueError(f'"source" must be a JSON object; got {source!r}')
+    return FlexureRecord(element, method, K, B, payload.get("enabled", True), payload.get("viscous", True),
+                         None if strain is None else float(strain), source)  # fmt: skip

@@ -1,0 +1,157 @@
+"""Command line: ``python -m mjflex simulate MODEL.xml ...`` and ``python -m mjflex demo``."""
+
+import argparse
+import json
+import os
+import sys
+
+import mujoco
+import numpy as np
+
+from ..mj import Flexures, ModelError
+from . import render
+from .simulate import INTEGRATORS, configure, simulate, summarize
+
+REPO_MODELS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "models")
+
+
+def _load(path):
+    if not os.path.exists(path):
+        raise SystemExit(f"error: model file {path!r} not found")
+    try:
+        return mujoco.MjModel.from_xml_path(path)
+    except ValueError as exc:
+        raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
+
+
+def _initial_state(model, keyframe):
+    data = mujoco.MjData(model)
+    if keyframe is None and model.nkey > 0:
+        keyframe = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, 0) or "0"
+    if keyframe is not None:
+        key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+        if key < 0:
+            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(model.nkey)]
+            raise SystemExit(f"error: no keyframe {keyframe!r}; the model has {names}")
+        mujoco.mj_resetDataKeyframe(model, data, key)
+    mujoco.mj_forward(model, data)
+    return data, keyframe
+
+
+def _frames(run, fps, slowdown):
+    """Indices of the stored samples to show at ``fps`` with time slowed down ``slowdown`` times."""
+    t = run.array("time")
+    wanted = np.arange(t[0], t[-1] + 1e-15, 1.0 / (fps * slowdown))
+    return np.unique(np.clip(np.searchsorted(t, wanted - 1e-12), 0, len(t) - 1))
+
+
+def run_model(model, name, *, duration, method=None, integrator=None, timestep=None, keyframe=None, damping=True,
+              video=None, width=640, height=360, fps=30, slowdown=100.0, every_step=False, progress=True):  # fmt: skip
+    """Simulate ``model`` and optionally render a video; returns ``(summary, run, flex)``.
+
+    States are kept every video frame (or every step with ``every_step``).
+    """
+    configure(model, integrator=integrator, timestep=timestep)
+    try:
+        flex = Flexures(model)
+    except ModelError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    for element in flex.names:
+        if method is not None:
+            flex.set_method(element, method)
+        if not damping:
+            flex.set_viscous(element, False)
+    data, key = _initial_state(model, keyframe)
+    sample_dt = 1.0 / (fps * slowdown) if video and not every_step else None
+    if progress:
+        start = f"keyframe {key!r}" if key else "qpos0 at rest"
+        print(f"simulating {name} for {duration * 1e3:g} ms from {start}", file=sys.stderr)
+    run, wall, steps = simulate(model, data, flex, duration, sample_dt=sample_dt, progress=progress)
+    summary = summarize(name, model, flex, run, wall, steps)
+    if video:
+        renderer = render.RunRenderer(model, flex, run, width=width, height=height)
+        frames = [renderer.frame(k) for k in _frames(run, fps, slowdown)]
+        renderer.close()
+        render.write_video(video, frames, fps)
+        if progress:
+            print(f"wrote {video} ({len(frames)} frames, {fps} fps, {slowdown:g}x slow motion)", file=sys.stderr)
+    return summary, run, flex
+
+
+def _simulate_command(args):
+    model = _load(args.model)
+    summary, _, _ = run_model(
+        model, os.path.basename(args.model), duration=args.duration, method=args.method, integrator=args.integrator,
+        timestep=args.timestep, keyframe=args.keyframe, damping=not args.no_damping, video=args.video,
+        width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown, progress=not args.quiet,
+    )  # fmt: skip
+    print(summary.text())
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(summary.to_dict(), f, indent=2)
+
+
+def arcade_model():
+    """``models/arcade.xml`` of the source tree, or the same model built in memory."""
+    path = os.path.join(REPO_MODELS, "arcade.xml")
+    if os.path.exists(path):
+        return mujoco.MjModel.from_xml_path(path), path
+    from .arcade import build_arcade_spec
+
+    return build_arcade_spec().compile(), "arcade (built in memory)"
+
+
+def _demo_command(args):
+    os.makedirs(args.out, exist_ok=True)
+    model, source = arcade_model()
+    video = os.path.join(args.out, "arcade.mp4")
+    summary, run, flex = run_model(
+        model, os.path.basename(source), duration=args.duration, keyframe="paper_run", video=video,
+        width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown, every_step=True,
+        progress=not args.quiet,
+    )  # fmt: skip
+    title = "ARCADE-like guide: 105 rad/s spin + 5 m/s cylinder (paper sec. 6)"
+    renderer = render.RunRenderer(model, flex, run, width=args.width // 2, height=args.height // 2)
+    t = run.array("time")
+    picks = [int(np.argmin(np.abs(t - 0.5e-3 * i))) for i in range(6)]  # 0.5 ms apart, as Fig. 4
+    render.panel_figure(os.path.join(args.out, "arcade_panels.png"), [renderer.frame(k, label=False) for k in picks],
+                        t[picks], title)  # fmt: skip
+    renderer.close()
+    render.energy_plot(os.path.join(args.out, "arcade_energy.png"), run, title)
+    render.stroke_plot(os.path.join(args.out, "arcade_stroke.png"), run, title)
+    with open(os.path.join(args.out, "arcade_summary.json"), "w") as f:
+        json.dump(summary.to_dict(), f, indent=2)
+    print(summary.text())
+    print(f"wrote {args.out}/arcade.mp4, arcade_panels.png, arcade_energy.png, arcade_stroke.png, arcade_summary.json")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
+    sub = ap.add_subparsers(dest="command", required=True)
+    sim = sub.add_parser("simulate", help="simulate an MJCF model with mjflex elements")
+    sim.add_argument("model", help="MJCF file")
+    sim.add_argument("--duration", type=float, default=0.01, help="simulated time [s] (default 0.01)")
+    sim.add_argument("--video", help="write an MP4 of the run here")
+    sim.add_argument("--method", choices=["twist", "dualquat"], help="override every element's method")
+    sim.add_argument("--integrator", choices=sorted(INTEGRATORS), help="override the model's integrator")
+    sim.add_argument("--timestep", type=float, help="override the model's time step [s]")
+    sim.add_argument("--keyframe", help="initial state (default: the first keyframe, else qpos0 at rest)")
+    sim.add_argument("--no-damping", action="store_true", help="switch off every element's viscous part")
+    sim.add_argument("--json", help="write the summary as JSON here")
+    demo = sub.add_parser("demo", help="the paper's ARCADE run: video, Fig. 4-like panels, energy and stroke plots")
+    demo.add_argument("--out", default="out")
+    demo.add_argument("--duration", type=float, default=0.08, help="simulated time [s] (default 0.08)")
+    for p in (sim, demo):
+        p.add_argument("--width", type=int, default=1280 if p is demo else 640)
+        p.add_argument("--height", type=int, default=720 if p is demo else 360)
+        p.add_argument("--fps", type=int, default=30)
+        p.add_argument("--slowdown", type=float, default=100.0, help="slow-motion factor of the video (default 100)")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = ap.parse_args(argv)
+    for name in ("duration", "fps", "slowdown", "width", "height"):
+        if getattr(args, name) <= 0:
+            ap.error(f"--{name} must be positive")
+    if args.command == "simulate":
+        _simulate_command(args)
+    else:
+        _demo_command(args)
