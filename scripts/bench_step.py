@@ -36,8 +36,9 @@ def random_spec(seed=0, n_bodies=35, n_elements=48):
     Each element is the paper's notch hinge (mjflex.geometry) in a random orientation, scaled by a
     random factor in [0.5, 2]: a full, coupled 6x6 K; B = 2e-6 s K.
     """
-    from mjflex.app.arcade import ArcadeParams, notch_stiffness  # noqa: PLC0415
-    from scipy.spatial.transform import Rotation  # noqa: PLC0415
+    from scipy.spatial.transform import Rotation
+
+    from mjflex.app.arcade import ArcadeParams, notch_stiffness
 
     K_notch = notch_stiffness(ArcadeParams())
     rng = np.random.default_rng(seed)

@@ -14,12 +14,12 @@ import os
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
+import matplotlib.pyplot as plt
+import mujoco
+import numpy as np
+from matplotlib.patches import Rectangle
 
-import mjflex  # noqa: E402
+import mjflex
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 COLORS = {"base": "#3b3f4a", "cylinder": "#5b8bd9", "hub": "#d99a4e", "rod": "#9aa0aa", "leg": "#b9bec7"}
@@ -74,8 +74,9 @@ def main():
     ax.set_aspect("equal")
     ax.set_xlabel("r [m] (radial, in the plate)")
     ax.set_ylabel("z [m] (cylinder axis)")
-    ax.set_title("ARCADE-like guide: one of three linkage plates (others at 120°, 240°)\n"
-                 "hub guided by 4 two-link legs to the base; cylinder guided by 2 rods to the hub", fontsize=9)  # fmt: skip
+    title = "ARCADE-like guide: one of three linkage plates (others at 120°, 240°)\n"
+    title += "hub guided by 4 two-link legs to the base; cylinder guided by 2 rods to the hub"
+    ax.set_title(title, fontsize=9)
     ax.legend(loc="center", bbox_to_anchor=(0.64, 0.5), fontsize=7)
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     fig.tight_layout()
