@@ -163,13 +163,18 @@ def test_nan_state_raises_with_the_element_name():
         mjflex.Flexures(model).wrenches(data)
 
 
-def test_run_time_switches():
+def _displaced_moving():
+    """The two-body model with B displaced and everything moving."""
     model = two_body_spec(B=B_DEMO).compile()
     data = mujoco.MjData(model)
     data.qpos[7:10] += [0.01, -0.02, 0.005]
     data.qvel[:] = 1.0
     mujoco.mj_forward(model, data)
-    flex = mjflex.Flexures(model)
+    return model, data, mjflex.Flexures(model)
+
+
+def test_run_time_switches():
+    model, data, flex = _displaced_moving()
     full = flex.wrenches(data)[0]
     flex.set_viscous("link", False)
     elastic = flex.wrenches(data)[0]
@@ -191,33 +196,19 @@ def test_run_time_switches():
 
 
 def test_mujoco_spring_and_damper_flags():
-    model = two_body_spec(B=B_DEMO).compile()
-    data = mujoco.MjData(model)
-    data.qpos[7:10] += [0.01, -0.02, 0.005]
-    data.qvel[:] = 1.0
-    mujoco.mj_forward(model, data)
-    flex = mjflex.Flexures(model)
-    full = flex.wrenches(data)[0]
-    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_DAMPER
-    elastic = flex.wrenches(data)[0]
-    model.opt.disableflags = mujoco.mjtDisableBit.mjDSBL_SPRING
-    viscous = flex.wrenches(data)[0]
-    assert np.allclose(elastic + viscous, full, rtol=1e-12, atol=1e-15)
-    assert flex.potential_energy(data) == 0.0
-    with flex:  # the native callback reads the same flags
-        mujoco.mj_forward(model, data)
-    model.opt.disableflags = 0
-    ref = mujoco.MjData(model)
-    ref.qpos[:], ref.qvel[:] = data.qpos, data.qvel
-    mujoco.mj_forward(model, ref)
-    assert np.allclose(data.qfrc_passive, flex.generalized_forces(data) - _elastic_qfrc(flex, data, model), atol=1e-15)
-
-
-def _elastic_qfrc(flex, data, model):
+    model, data, flex = _displaced_moving()
+    full = flex.generalized_forces(data)
     model.opt.disableflags = mujoco.mjtDisableBit.mjDSBL_DAMPER
-    out = flex.generalized_forces(data)
-    model.opt.disableflags = 0
-    return out
+    elastic = flex.generalized_forces(data)
+    model.opt.disableflags = mujoco.mjtDisableBit.mjDSBL_SPRING
+    viscous = flex.generalized_forces(data)
+    assert flex.potential_energy(data) == 0.0
+    assert np.allclose(elastic + viscous, full, rtol=1e-12, atol=1e-15)
+    assert np.abs(elastic).max() > 0 and np.abs(viscous).max() > 0
+    with flex:  # the native callback reads the same flags
+        data.qfrc_passive[:] = 0.0
+        mujoco.mj_forward(model, data)
+    assert np.allclose(data.qfrc_passive, viscous, rtol=1e-13, atol=1e-15)
 
 
 @pytest.mark.parametrize("writer", ["to_xml", "mj_saveLastXML"])
@@ -245,3 +236,25 @@ def test_model_file_round_trip(tmp_path, writer):
     with b:
         tb = _run(again, 200)
     assert np.abs(ta - tb).max() <= 1e-5
+
+
+def test_threaded_rollout_matches_serial_stepping():
+    """The native callback needs no GIL: mujoco.rollout threads apply the flexures too, identically."""
+    from mujoco import rollout
+
+    model = two_body_spec(B=B_DEMO, integrator="Euler").compile()
+    data = mujoco.MjData(model)
+    data.qvel[:] = np.random.default_rng(2).normal(size=model.nv)
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.empty(mujoco.mj_stateSize(model, kind))
+    mujoco.mj_getState(model, data, state0, kind)
+    with mjflex.Flexures(model):
+        states, _ = rollout.rollout([model] * 4, [mujoco.MjData(model) for _ in range(2)], np.tile(state0, (4, 1)),
+                                    nstep=300)  # fmt: skip
+        for _ in range(300):
+            mujoco.mj_step(model, data)
+    final = np.empty_like(state0)
+    mujoco.mj_getState(model, data, final, kind)
+    assert np.array_equal(states[:, -1], np.tile(final, (4, 1)))
+    free, _ = rollout.rollout(model, mujoco.MjData(model), state0, nstep=300)  # not installed: no flexure forces
+    assert np.abs(free[0, -1] - final).max() > 1e-3

@@ -57,6 +57,7 @@ import math
 import numpy as np
 
 from . import _kernels as _k
+from . import _planar_kernels as _pk
 from ._batch import flatten
 from .validation import as_array, check_psd_matrix, check_rotation, method_code
 
@@ -115,14 +116,23 @@ def _prepare(spec, values, check):
     return shape, flat, viscous
 
 
-def _spatial_call(values, method, check):
-    """Run the spatial wrench kernel; returns (wrench (..., 6), dissipated power (...))."""
+def _wrench_call(spec, kernel, values, method, check):
+    """Run a wrench kernel; returns (wrench (..., n), dissipated power (...))."""
     code = method_code(method)
-    shape, f, viscous = _prepare(_SPATIAL, values, check)
+    shape, f, viscous = _prepare(spec, values, check)
     n = math.prod(shape)
-    out, power = np.empty((n, 6)), np.empty(n)
-    _k.spatial_wrench_batch(code, *f[:6], viscous, *f[6:], out, power)
-    return out.reshape((*shape, 6)), power.reshape(shape)
+    out, power = np.empty((n, spec["K"][0][0])), np.empty(n)
+    kernel(code, *f[:6], viscous, *f[6:], out, power)
+    return out.reshape((*shape, spec["K"][0][0])), power.reshape(shape)
+
+
+def _energy_call(spec, kernel, values, method, check):
+    """Run a potential kernel; returns the energy (...)."""
+    code = method_code(method)
+    shape, f, _ = _prepare(spec, values, check)
+    out = np.empty(math.prod(shape))
+    kernel(code, *f, out)
+    return out.reshape(shape)[()]
 
 
 def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", check=True):
@@ -147,12 +157,8 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", check=True):
     U : ndarray, shape (...)
         Energy [J], broadcast over the leading axes of all arguments.
     """
-    code = method_code(method)
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K}
-    shape, f, _ = _prepare(_SPATIAL, values, check)
-    out = np.empty(math.prod(shape))
-    _k.spatial_potential_batch(code, *f, out)
-    return out.reshape(shape)[()]
+    return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check)
 
 
 def wrench_on_b(
@@ -192,7 +198,7 @@ def wrench_on_b(
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _spatial_call(values, method, check)[0]
+    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check)[0]
 
 
 def dissipation_power(
@@ -213,19 +219,10 @@ def dissipation_power(
         raise ValueError("B is required: dissipation_power needs the damping matrix.")
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _spatial_call(values, method, check)[1][()]
+    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check)[1][()]
 
 
 # --------------------------------------------------------------------------- planar
-
-
-def _planar_call(values, method, check):
-    code = method_code(method)
-    shape, f, viscous = _prepare(_PLANAR, values, check)
-    n = math.prod(shape)
-    out, power = np.empty((n, 3)), np.empty(n)
-    _k.planar_wrench_batch(code, *f[:6], viscous, *f[6:], out, power)
-    return out.reshape((*shape, 3)), power.reshape(shape)
 
 
 def planar_potential(theta_WA, p_WA, theta_WB, p_WB, K, *, method="twist", check=True):
@@ -251,12 +248,8 @@ def planar_potential(theta_WA, p_WA, theta_WB, p_WB, K, *, method="twist", check
         Energy [J]. Equals :func:`potential` of the same motion embedded in the x-y plane
         with ``K`` in rows/columns ``(2, 3, 4)`` of a 6x6 matrix.
     """
-    code = method_code(method)
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K}
-    shape, f, _ = _prepare(_PLANAR, values, check)
-    out = np.empty(math.prod(shape))
-    _k.planar_potential_batch(code, *f, out)
-    return out.reshape(shape)[()]
+    return _energy_call(_PLANAR, _pk.planar_potential_batch, values, method, check)
 
 
 def planar_wrench_on_b(
@@ -283,7 +276,7 @@ def planar_wrench_on_b(
     """
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _planar_call(values, method, check)[0]
+    return _wrench_call(_PLANAR, _pk.planar_wrench_batch, values, method, check)[0]
 
 
 def planar_dissipation_power(
@@ -294,4 +287,4 @@ def planar_dissipation_power(
         raise ValueError("B is required: planar_dissipation_power needs the damping matrix.")
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _planar_call(values, method, check)[1][()]
+    return _wrench_call(_PLANAR, _pk.planar_wrench_batch, values, method, check)[1][()]

@@ -24,7 +24,15 @@ from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ..core._kernels import relative_position, relative_quat, spatial_potential, spatial_wrench, twist_from_quat_pos
+from ..core._kernels import (
+    _cross,
+    _lin,
+    relative_position,
+    relative_quat,
+    spatial_potential,
+    spatial_wrench,
+    twist_from_quat_pos,
+)
 
 SITE_A, SITE_B, BODY_A, BODY_B, METHOD, ENABLED, VISCOUS, OFFSET, FREE_A, FREE_B, CHAIN_A0, CHAIN_A1 = range(12)
 CHAIN_B0, CHAIN_B1 = 12, 13
@@ -90,16 +98,6 @@ def _tuple36(a, i, at):
 
 
 @njit(**_JIT)
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@njit(**_JIT)
-def _add(a, b, s=1.0):
-    return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
-
-
-@njit(**_JIT)
 def _frame_b(ints, floats, e, R, p):
     """Pose of frame b, corrected by the rest offset: ``X_Wb* = X_Wb X_ab0^-1``."""
     if ints[e, OFFSET] == 0:
@@ -131,7 +129,7 @@ def _point_velocity(cvel, subtree_com, rootid, body, p):
     w = (cvel[body, 0], cvel[body, 1], cvel[body, 2])
     c = _row3(subtree_com, rootid[body])
     v = (cvel[body, 3], cvel[body, 4], cvel[body, 5])
-    return w, _add(v, _cross(w, (p[0] - c[0], p[1] - c[1], p[2] - c[2])))
+    return w, _lin(1.0, v, 1.0, _cross(w, (p[0] - c[0], p[1] - c[1], p[2] - c[2])))
 
 
 @njit(**_JIT)
@@ -140,7 +138,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
     if free_adr >= 0:
         # free joint: dofs are the world velocity of the body origin, then the body-frame angular velocity
         o = _row3(xpos, body)
-        mo = _add(m, _cross((p[0] - o[0], p[1] - o[1], p[2] - o[2]), f))
+        mo = _lin(1.0, m, 1.0, _cross((p[0] - o[0], p[1] - o[1], p[2] - o[2]), f))
         for k in range(3):
             qfrc[free_adr + k] += sign * f[k]
             qfrc[free_adr + 3 + k] += sign * (
@@ -148,7 +146,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
             )
         return
     c = _row3(subtree_com, rootid[body])
-    mc = _add(m, _cross((p[0] - c[0], p[1] - c[1], p[2] - c[2]), f))
+    mc = _lin(1.0, m, 1.0, _cross((p[0] - c[0], p[1] - c[1], p[2] - c[2]), f))
     for k in range(c0, c1):
         j = chain[k]
         qfrc[j] += sign * (

@@ -58,21 +58,3 @@ def normal_modes(model, flex, *, step=1e-6):
     M = mass_matrix(model)
     lam, modes = scipy.linalg.eigh(K, M)
     return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi), modes
-
-
-def body_velocities(model, qvel, qpos=None):
-    """Linear velocity of each body's centre of mass and angular velocity, world axes, for ``qvel``.
-
-    Returns ``(v, w)``, each ``(nbody, 3)``.
-    """
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0 if qpos is None else qpos
-    data.qvel[:] = qvel
-    mujoco.mj_fwdPosition(model, data)
-    mujoco.mj_fwdVelocity(model, data)
-    v, w = np.zeros((model.nbody, 3)), np.zeros((model.nbody, 3))
-    res = np.zeros(6)
-    for b in range(model.nbody):
-        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, b, res, 0)
-        w[b], v[b] = res[:3], res[3:]
-    return v, w

@@ -70,6 +70,15 @@ class Flexures:
     ``potential_energy``, ...) use its kinematics as they are (``site_xpos``, ``cvel``...), i.e.
     as of the last ``mj_forward`` or the start of the last ``mj_step``, like ``data.energy``.
     MuJoCo's ``spring`` / ``damper`` disable flags switch off the elastic / viscous parts.
+
+    Integrators: the forces enter every integrator explicitly, as external smooth forces
+    (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
+    the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
+    discrete) and ``h < 2.8 / omega_max`` (RK4); see ``mjflex.mj.linearize.normal_modes``.
+    Convergence is first order for the single-step integrators and fourth order for RK4
+    (tested). Under ``discrete`` the velocity-stepping solve treats them like any applied force:
+    first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
+    map ``(v+ - v)/h``.
     """
 
     def __init__(self, model: mujoco.MjModel):
