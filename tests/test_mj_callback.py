@@ -258,3 +258,35 @@ def test_threaded_rollout_matches_serial_stepping():
     assert np.array_equal(states[:, -1], np.tile(final, (4, 1)))
     free, _ = rollout.rollout(model, mujoco.MjData(model), state0, nstep=300)  # not installed: no flexure forces
     assert np.abs(free[0, -1] - final).max() > 1e-3
+
+
+ROLLOUT_NAN = """
+import mujoco, numpy as np
+from mujoco import rollout
+import mjflex
+from tests.models import two_body_spec, B_DEMO
+model = two_body_spec(B=B_DEMO, integrator="Euler").compile()
+model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+state = np.zeros(mujoco.mj_stateSize(model, kind))
+mujoco.mj_getState(model, mujoco.MjData(model), state, kind)
+state[1 + 7] = np.nan
+with mjflex.Flexures(model):
+    states, _ = rollout.rollout([model] * 2, [mujoco.MjData(model) for _ in range(2)], np.tile(state, (2, 1)), nstep=5)
+print("survived", np.isnan(states).any())
+"""
+
+
+def test_diverging_rollout_threads_warn_instead_of_ending_the_process():
+    """In MuJoCo's own threads mju_error would exit the process; the element is reported as a warning."""
+    import subprocess
+    import sys
+
+    root = os.path.join(os.path.dirname(__file__), "..")
+    result = subprocess.run([sys.executable, "-c", ROLLOUT_NAN], cwd=root, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "survived True" in result.stdout
+    assert (
+        "WARNING: mjflex: flexure 'link' of model 'two_body' produced a non-finite wrench"
+        in result.stdout + result.stderr
+    )

@@ -23,7 +23,7 @@ import warnings
 
 import mujoco
 import numpy as np
-from numba import cfunc, types
+from numba import cfunc, njit, types
 
 from . import _kernels as k
 from ._layout import LayoutError, verified_offsets
@@ -62,7 +62,7 @@ def native_available() -> bool:
     if "available" not in _STATE["native"]:
         try:
             _native_header()
-            _STATE["native"]["error"] = _libmujoco().mju_error
+            _libmujoco()
             _STATE["native"]["available"] = True
         except (LayoutError, OSError) as exc:
             warnings.warn(f"mjflex: using the Python passive callback ({exc})", RuntimeWarning, stacklevel=3)
@@ -70,32 +70,54 @@ def native_available() -> bool:
     return _STATE["native"]["available"]
 
 
+def _c_function(function, argtypes, restype):
+    function.argtypes, function.restype = argtypes, restype
+    return function
+
+
 def _native_callback(previous_address):
-    """A ctypes function pointer to the native dispatcher (chaining a native previous callback)."""
+    """A ctypes function pointer to the native dispatcher (chaining a native previous callback).
+
+    On a non-finite wrench, ``dispatch`` fills ``qfrc_passive`` with NaN and returns the
+    element's message. In a thread that Python runs (``mj_step`` called through the bindings,
+    which intercept MuJoCo errors) the dispatcher calls ``mju_error``: the step stops and
+    ``mujoco.FatalError`` reaches the caller. In threads MuJoCo starts itself (``rollout``),
+    where ``mju_error`` would end the process, it calls ``mju_warning`` instead and MuJoCo's
+    own divergence handling (warning, auto-reset) takes over.
+    """
     cache = _STATE["native"]
     if ("cb", previous_address) in cache:
         return cache[("cb", previous_address)][0]
     reg_addr = _REGISTRY.ctypes.data
-    mju_error = cache["error"]
-    mju_error.argtypes, mju_error.restype = [ctypes.c_void_p], None
-    sig = types.void(types.voidptr, types.voidptr)
-    if previous_address is None:
+    lib = _libmujoco()
+    mju_error = _c_function(lib.mju_error, [ctypes.c_void_p], None)
+    mju_warning = _c_function(lib.mju_warning, [ctypes.c_void_p], None)
+    python_thread = _c_function(ctypes.pythonapi.PyGILState_GetThisThreadState, [], ctypes.c_void_p)
+    previous = None if previous_address is None else _PROTO(previous_address)
+
+    def report(msg):
+        if k.int_from_voidptr(python_thread()) != 0:
+            mju_error(k.voidptr_from_int(msg))
+        else:
+            mju_warning(k.voidptr_from_int(msg))
+
+    if previous is None:
 
         def dispatcher(m, d):
             msg = k.dispatch(k.int_from_voidptr(m), k.int_from_voidptr(d), reg_addr)
             if msg != 0:
-                mju_error(k.voidptr_from_int(msg))
+                report(msg)
 
     else:
-        previous = _PROTO(previous_address)
 
         def dispatcher(m, d):
             previous(m, d)
             msg = k.dispatch(k.int_from_voidptr(m), k.int_from_voidptr(d), reg_addr)
             if msg != 0:
-                mju_error(k.voidptr_from_int(msg))
+                report(msg)
 
-    compiled = cfunc(sig, error_model="numpy")(dispatcher)
+    report = njit(report)
+    compiled = cfunc(types.void(types.voidptr, types.voidptr), error_model="numpy")(dispatcher)
     pointer = _PROTO(compiled.address)
     cache[("cb", previous_address)] = (pointer, compiled)
     return pointer

@@ -226,7 +226,7 @@ def dispatch(m_addr, d_addr, reg_addr):
     """Apply the elements registered for model ``m_addr`` to data ``d_addr``.
 
     Returns 0, or the address of the error message of the first element whose wrench is not
-    finite (the callback passes it to ``mju_error``).
+    finite; ``qfrc_passive`` is then filled with NaN (the callback reports the message).
     """
     capacity = _word(reg_addr + 8 * H_CAPACITY)
     reg = carray(voidptr_from_int(reg_addr), (HEADER + SLOT * capacity,), np.int64)
@@ -251,6 +251,7 @@ def dispatch(m_addr, d_addr, reg_addr):
             qfrc, np.empty((0, 6)), np.empty(0),
         )  # fmt: skip
         if status >= 0:
+            qfrc[:] = np.nan  # the state diverged: make sure MuJoCo's own checks see it too
             return carray(voidptr_from_int(reg[at + S_MESSAGES]), (n,), np.int64)[status]
         return 0
     return 0
