@@ -4,7 +4,8 @@ MuJoCo has one passive callback per process, called for every model. mjflex inst
 dispatcher and keeps a registry of the models that have elements; every other model
 (including the temporary ones MuJoCo builds while compiling) is left untouched.
 
-The dispatcher is native code (a numba ``cfunc`` given to MuJoCo as a C function pointer):
+Install and uninstall between steps, not while another thread is stepping a registered
+model. The dispatcher is native code (a numba ``cfunc`` given to MuJoCo as a C function pointer):
 it needs neither the GIL nor the Python bindings' wrapper lookup, so compiling models while
 it is installed works (a Python callback makes ``mj_compile`` fail with "Python exception
 raised"), ``mujoco.rollout`` threads can run it, and it costs no Python call per step. It finds
@@ -162,12 +163,13 @@ def register(provider, slot_words) -> None:
             "another mjflex.Flexures is installed for this model; call its uninstall() first (one provider per model)"
         )
     if other is None:
-        free = [s for s in range(CAPACITY) if _REGISTRY[k.HEADER + k.SLOT * s + k.S_MODEL] == 0]
-        if not free:
+        count = int(_REGISTRY[k.H_COUNT])
+        if count == CAPACITY:
             raise RuntimeError(f"mjflex can serve at most {CAPACITY} models at once; uninstall unused ones")
-        at = k.HEADER + k.SLOT * free[0]
+        at = k.HEADER + k.SLOT * count
         _REGISTRY[at + 1 : at + k.SLOT] = slot_words[1:]
-        _REGISTRY[at + k.S_MODEL] = address  # last: the slot becomes visible complete
+        _REGISTRY[at + k.S_MODEL] = address
+        _REGISTRY[k.H_COUNT] = count + 1  # last: the slot becomes visible complete
         _PROVIDERS[address] = provider
     _install_dispatcher()
 
@@ -178,7 +180,11 @@ def unregister(provider) -> None:
     if _PROVIDERS.get(address) is not provider:
         return
     slots = _REGISTRY[k.HEADER :].reshape(CAPACITY, k.SLOT)
-    slots[slots[:, k.S_MODEL] == address] = 0
+    count = int(_REGISTRY[k.H_COUNT])
+    i = int(np.nonzero(slots[:count, k.S_MODEL] == address)[0][0])
+    slots[i] = slots[count - 1]  # keep the used slots contiguous (the dispatcher scans the first H_COUNT)
+    slots[count - 1] = 0
+    _REGISTRY[k.H_COUNT] = count - 1
     del _PROVIDERS[address]
     if not _PROVIDERS:
         if _is_ours(mujoco.get_mjcb_passive()):

@@ -45,6 +45,7 @@ APPLY, WRENCH, ENERGY, POWER, COORDS = 1, 2, 4, 8, 16
 # registry layout (int64 words): header, then one slot per registered model
 H_CAPACITY, H_SPRING_BIT, H_DAMPER_BIT, H_DISABLEFLAGS = 0, 1, 2, 3
 H_SITE_XPOS, H_SITE_XMAT, H_XPOS, H_XMAT, H_CVEL, H_SUBTREE_COM, H_CDOF, H_QFRC = 4, 5, 6, 7, 8, 9, 10, 11
+H_COUNT = 12  # slots in use; they are kept contiguous from the first
 HEADER = 16
 S_MODEL, S_N, S_INTS, S_FLOATS, S_CHAIN, S_NCHAIN, S_ROOTID, S_NSITE, S_NBODY, S_NV, S_MESSAGES = range(11)
 SLOT = 16
@@ -230,7 +231,7 @@ def dispatch(m_addr, d_addr, reg_addr):
     """
     capacity = _word(reg_addr + 8 * H_CAPACITY)
     reg = carray(voidptr_from_int(reg_addr), (HEADER + SLOT * capacity,), np.int64)
-    for s in range(capacity):
+    for s in range(reg[H_COUNT]):
         at = HEADER + SLOT * s
         if reg[at + S_MODEL] != m_addr:
             continue
