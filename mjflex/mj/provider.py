@@ -70,6 +70,8 @@ class Flexures:
     ``potential_energy``, ...) use its kinematics as they are (``site_xpos``, ``cvel``...), i.e.
     as of the last ``mj_forward`` or the start of the last ``mj_step``, like ``data.energy``.
     MuJoCo's ``spring`` / ``damper`` disable flags switch off the elastic / viscous parts.
+    A provider is bound to this ``MjModel`` object; a copy of it (``copy.copy``, or the file
+    loaded again) needs its own ``Flexures``. One provider per model can be installed at a time.
 
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
