@@ -51,54 +51,10 @@ if (
 ):
     _os.environ.setdefault("MUJOCO_GL", "egl")
 
-from . import geometry
-from .core import (
-    adjoint_from_transform,
-    centre_of_stiffness,
-    dissipation_power,
-    dual_quaternion_from_transform,
-    planar_dissipation_power,
-    planar_potential,
-    planar_wrench_on_b,
-    potential,
-    stiffness_in_frame,
-    transform_from_dual_quaternion,
-    transform_from_twist,
-    twist_from_transform,
-    wrench_on_b,
-)
-from .mj import (
-    FlexureHandle,
-    FlexureRecord,
-    Flexures,
-    ModelError,
-    add_flexure,
-    add_flexure_in_body_frame,
-    reference_body_poses,
-)
+from . import core, geometry, mj
+from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
+from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "FlexureHandle",
-    "FlexureRecord",
-    "Flexures",
-    "ModelError",
-    "add_flexure",
-    "add_flexure_in_body_frame",
-    "adjoint_from_transform",
-    "centre_of_stiffness",
-    "dissipation_power",
-    "dual_quaternion_from_transform",
-    "geometry",
-    "planar_dissipation_power",
-    "planar_potential",
-    "planar_wrench_on_b",
-    "potential",
-    "reference_body_poses",
-    "stiffness_in_frame",
-    "transform_from_dual_quaternion",
-    "transform_from_twist",
-    "twist_from_transform",
-    "wrench_on_b",
-]
+__all__ = ["geometry", *core.__all__, *mj.__all__]
