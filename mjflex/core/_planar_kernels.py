@@ -121,22 +121,29 @@ def planar_wrench(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA, w_b,
 # batch loops (arrays with a leading batch axis of length n or 1)
 
 
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def _load2(a, i):
+    """2-tuple ``a[i']`` of an (n, 2) array, broadcasting a leading axis of 1."""
+    j = _i(a, i)
+    return (a[j, 0], a[j, 1])
+
+
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def planar_wrench_batch(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA, w_b, v_WB, out, power):
     for i in range(out.shape[0]):
         m, f, power[i] = planar_wrench(
             method,
             th_a[_i(th_a, i)],
-            (p_WA[_i(p_WA, i), 0], p_WA[_i(p_WA, i), 1]),
+            _load2(p_WA, i),
             th_b[_i(th_b, i)],
-            (p_WB[_i(p_WB, i), 0], p_WB[_i(p_WB, i), 1]),
+            _load2(p_WB, i),
             load9(K, _i(K, i)),
             load9(B, _i(B, i)),
             viscous,
             w_a[_i(w_a, i)],
-            (v_WA[_i(v_WA, i), 0], v_WA[_i(v_WA, i), 1]),
+            _load2(v_WA, i),
             w_b[_i(w_b, i)],
-            (v_WB[_i(v_WB, i), 0], v_WB[_i(v_WB, i), 1]),
+            _load2(v_WB, i),
         )
         out[i, 0], out[i, 1], out[i, 2] = m, f[0], f[1]
 
@@ -147,8 +154,8 @@ def planar_potential_batch(method, th_a, p_WA, th_b, p_WB, K, out):
         out[i] = planar_potential(
             method,
             th_a[_i(th_a, i)],
-            (p_WA[_i(p_WA, i), 0], p_WA[_i(p_WA, i), 1]),
+            _load2(p_WA, i),
             th_b[_i(th_b, i)],
-            (p_WB[_i(p_WB, i), 0], p_WB[_i(p_WB, i), 1]),
+            _load2(p_WB, i),
             load9(K, _i(K, i)),
         )

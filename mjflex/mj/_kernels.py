@@ -241,7 +241,9 @@ def dispatch(m_addr, d_addr, reg_addr):
         floats = carray(voidptr_from_int(reg[at + S_FLOATS]), (n, NF), np.float64)
         chain = carray(voidptr_from_int(reg[at + S_CHAIN]), (reg[at + S_NCHAIN],), np.int64)
         rootid = carray(voidptr_from_int(reg[at + S_ROOTID]), (nbody,), np.int64)
-        qfrc = carray(voidptr_from_int(_word(d_addr + reg[H_QFRC])), (nv,), np.float64)
+        qfrc_ptr = voidptr_from_int(_word(d_addr + reg[H_QFRC]))
+        qfrc = carray(qfrc_ptr, (nv,), np.float64)
+        unused6, unused1 = carray(qfrc_ptr, (0, 6), np.float64), qfrc[:0]  # empty outputs, no allocation
         status = flexure_loop(
             APPLY, ints, floats, chain, rootid,
             _field(d_addr, reg[H_SITE_XPOS], nsite, 3), _field(d_addr, reg[H_SITE_XMAT], nsite, 9),
@@ -249,7 +251,7 @@ def dispatch(m_addr, d_addr, reg_addr):
             _field(d_addr, reg[H_CVEL], nbody, 6), _field(d_addr, reg[H_SUBTREE_COM], nbody, 3),
             _field(d_addr, reg[H_CDOF], nv, 6),
             (flags & reg[H_SPRING_BIT]) == 0, (flags & reg[H_DAMPER_BIT]) == 0,
-            qfrc, np.empty((0, 6)), np.empty(0),
+            qfrc, unused6, unused1,
         )  # fmt: skip
         if status >= 0:
             qfrc[:] = np.nan  # the state diverged: make sure MuJoCo's own checks see it too
