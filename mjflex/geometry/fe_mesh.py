@@ -111,24 +111,31 @@ class NotchProfile:
     def mask(self, s_mid, eta_mid):
         return np.ones((s_mid.size, eta_mid.size), bool)
 
-    def map(self, s, eta):
-        """Physical ``(x, y)`` of parameter points (arrays of the same shape), upper half."""
+    def _angle(self, s):
         a = self._neck_grading()
-        inner = np.abs(s) <= 1.0
         sc = np.clip(s, -1.0, 1.0)
-        g = np.sinh(a * sc) / np.sinh(a) if a > 0 else sc
-        phi = 0.5 * np.pi * g
+        return 0.5 * np.pi * (np.sinh(a * sc) / np.sinh(a) if a > 0 else sc)
+
+    def _foot(self, s):
+        """Column foot on ``y = 0``: near-vertical columns at the neck, evenly spread at the roots."""
+        phi = self._angle(s)
         sin2 = np.sin(phi) ** 2
-        m = self.R * ((1.0 - sin2) * np.sin(phi) + sin2 * 2.0 * phi / np.pi)  # column foot on y = 0
-        if self.filled:
-            top_x, top_y = m, np.full_like(m, 0.5 * self.height)
-        else:
-            top_x, top_y = self.R * np.sin(phi), 0.5 * self.height - self.R * np.cos(phi)
+        m = self.R * ((1.0 - sin2) * np.sin(phi) + sin2 * 2.0 * phi / np.pi)
         u = np.clip(np.abs(s) - 1.0, 0.0, 1.0)
-        xb = np.sign(s) * (self.R + self.block_length * _graded(u, 1.5))
-        x = np.where(inner, m + eta * (top_x - m), xb)
-        y = np.where(inner, eta * top_y, eta * 0.5 * self.height)
-        return x, y
+        return np.where(np.abs(s) <= 1.0, m, np.sign(s) * (self.R + self.block_length * _graded(u, 1.5)))
+
+    def map(self, s, eta, lattice):
+        """Physical ``(x, y)`` of parameter points (arrays of the same shape), upper half."""
+        sv = lattice[0]
+        phi = _between(s, sv, self._angle(sv))  # mid-nodes at the mid-angle: on the arc
+        foot = _between(s, sv, self._foot(sv))  # straight bottom edges, mid-nodes at midpoints
+        inner = np.abs(s) <= 1.0
+        if self.filled:
+            top_x, top_y = foot, np.full_like(foot, 0.5 * self.height)
+        else:
+            top_x = np.where(inner, self.R * np.sin(phi), foot)
+            top_y = np.where(inner, 0.5 * self.height - self.R * np.cos(phi), 0.5 * self.height)
+        return foot + eta * (top_x - foot), eta * top_y
 
 
 def _towards(u, beta):
@@ -184,14 +191,30 @@ class LeafProfile:
             keep &= ~((np.abs(s_mid)[:, None] < 1.0) & (eta_mid[None, :] > 1.0))
         return keep
 
-    def map(self, s, eta):
+    def _x(self, s):
         a = np.abs(s)
         xl = 0.5 * self.L * _towards(np.clip(a, 0, 1), CORNER_GRADING)
         xb = 0.5 * self.L + self.block_length * (1.0 - _towards(1.0 - np.clip(a - 1, 0, 1), CORNER_GRADING))
-        x = np.sign(s) * np.where(a <= 1.0, xl, xb)
+        return np.sign(s) * np.where(a <= 1.0, xl, xb)
+
+    def _y(self, eta):
         yi = 0.5 * self.t * _towards(np.clip(eta, 0, 1), CORNER_GRADING)
         yo = 0.5 * self.t + 0.5 * (self.H - self.t) * (1.0 - _towards(1.0 - np.clip(eta - 1.0, 0, 1), CORNER_GRADING))
-        return x, np.where(eta <= 1.0, yi, yo)
+        return np.where(eta <= 1.0, yi, yo)
+
+    def map(self, s, eta, lattice):
+        """Physical ``(x, y)``: graded vertices, straight-sided (rectangular) elements."""
+        return _between(s, lattice[0], self._x(lattice[0])), _between(eta, lattice[1], self._y(lattice[1]))
+
+
+def _between(u, vertices, values):
+    """Piecewise-linear map through ``values`` at the lattice ``vertices``.
+
+    Grading is applied to the vertices only; mid-nodes land at the midpoints of straight
+    edges, so every straight-sided element is affine along that direction and the quadratic
+    elements keep representing all quadratic fields (pure bending and tension exactly).
+    """
+    return np.interp(u, vertices, values)
 
 
 def _mids(v):
@@ -221,7 +244,7 @@ def section_mesh(profile, level=1, counts=Counts()):
     s, eta, _ = profile.lattice(counts.at(level))
     keep = _cell_mask(profile, s, eta, MeshQuad1)
     mesh = _quadratic(MeshQuad1, MeshQuad2, (s, eta), keep)
-    x, y = profile.map(*mesh.doflocs)
+    x, y = profile.map(*mesh.doflocs, (s, eta))
     return replace(mesh, doflocs=np.vstack([x, y]))
 
 
@@ -232,6 +255,6 @@ def solid_mesh(profile, width, level=1, counts=Counts()):
     zeta = np.linspace(0.0, 1.0, n.width + 1)
     keep = _cell_mask(profile, s, eta, MeshHex1, zeta)
     mesh = _quadratic(MeshHex1, MeshHex2, (s, eta, zeta), keep)
-    x, y = profile.map(mesh.doflocs[0], mesh.doflocs[1])
-    z = _width_map(mesh.doflocs[2], 0.5 * width, 0.5 * profile.t, counts.width)
+    x, y = profile.map(mesh.doflocs[0], mesh.doflocs[1], (s, eta))
+    z = _between(mesh.doflocs[2], zeta, _width_map(zeta, 0.5 * width, 0.5 * profile.t, counts.width))
     return replace(mesh, doflocs=np.vstack([x, y, z]))

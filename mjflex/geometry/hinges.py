@@ -117,6 +117,14 @@ def _method(method, wide):
         )
 
 
+def _fe_module():
+    try:
+        from . import fe
+    except ImportError as err:  # scikit-fem is an optional dependency
+        raise ImportError(f"method='fe' needs scikit-fem ({err}); install it: pip install 'mjflex[fe]'") from err
+    return fe
+
+
 def _from_factors(C_beam, factors):
     return np.diag(factors / C_beam)
 
@@ -186,8 +194,7 @@ def notch_hinge_stiffness(
         wide = b >= WIDE_RATIO * t if wide is None else wide
         return np.diag(1.0 / _beam_compliance(lambda x: notch_hinge_thickness(x, R, t), R, b, E, nu, wide))
     if method == "fe":
-        from . import fe
-
+        fe = _fe_module()
         profile = fe.notch_profile(R, t, block_length)
         C = fe.element_compliance(profile, b, E, nu, level=fe_level, counts=fe.NOTCH_COUNTS)
         return np.diag(1.0 / np.diag(C))
@@ -263,8 +270,7 @@ def leaf_spring_stiffness(
     H = LEAF_BLOCK_HEIGHT * t if block_height is None else block_height
     _positive(block_height=H)
     if method == "fe":
-        from . import fe
-
+        fe = _fe_module()
         C = fe.element_compliance(fe.leaf_profile(L, t, H), b, E, nu, level=fe_level, counts=fe.LEAF_COUNTS)
         return np.diag(1.0 / np.diag(C))
     if not math.isclose(H, LEAF_BLOCK_HEIGHT * t, rel_tol=1e-9):
