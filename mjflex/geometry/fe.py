@@ -222,12 +222,34 @@ def plain_segment_compliance(length, height, width, E, nu, model="solid"):
     return np.diag(c)
 
 
-def element_compliance(profile, width, E, nu, *, model="solid", level=1, counts=Counts()):
+def element_compliance(profile, width, E, nu, *, model="solid", level=1, counts=None):
     """Compliance (6x6) at the centre of the flexure of ``profile`` between rigid bodies at its ends.
 
     ``C_element = A (C_c - C_bar,c) A^T + C_segment`` (module docstring). Entries a 2-D model
     does not give are NaN.
+
+    Parameters
+    ----------
+    profile : NotchProfile or LeafProfile
+        The flexure and its blocks (:func:`notch_profile`, :func:`leaf_profile`) [m].
+    width : float
+        Width ``b`` along ``z`` [m].
+    E, nu : float
+        Young's modulus [Pa] and Poisson ratio.
+    model : {"solid", "plane_stress", "plane_strain"}
+    level : int
+        Mesh level: every element count of ``counts`` times ``2**(level - 1)``.
+    counts : Counts, optional
+        Element counts at level 1 (default ``Counts()``; the tables use ``NOTCH_COUNTS`` and
+        ``LEAF_COUNTS``).
+
+    Returns
+    -------
+    C : ndarray, shape (6, 6)
+        Compliance at the centre, rows ``[rot_x, rot_y, rot_z, x, y, z]``, flexure frame
+        [rad/(N m), m/N]; diagonal up to round-off.
     """
+    counts = Counts() if counts is None else counts
     mesh_of = (lambda p: solid_mesh(p, width, level, counts)) if model == "solid" else (
         lambda p: section_mesh(p, level, counts))  # fmt: skip
     x_end = profile.x_end

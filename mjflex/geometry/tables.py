@@ -25,6 +25,8 @@ from scipy.interpolate import RectBivariateSpline
 
 #: Height of a leaf spring's blocks, in leaf thicknesses, for which the leaf table holds.
 LEAF_BLOCK_HEIGHT = 10.0
+#: The diagonal entries, in order.
+ENTRIES = ("rot_x", "rot_y", "rot_z", "x", "y", "z")
 #: Names of the table files (package data).
 TABLE_FILES = {"notch": "notch_hinge.json", "leaf": "leaf_spring.json"}
 
