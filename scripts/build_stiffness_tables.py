@@ -37,7 +37,7 @@ NUS = [0.2, 0.325, 0.45]
 GRIDS = {
     "notch": {"t_over_R": list(np.geomspace(0.05, 1.0, 9)), "b_over_R": list(np.geomspace(0.25, 10.0, 6)),
               "nu": NUS},
-    "leaf": {"L_over_t": list(np.geomspace(1.0, 64.0, 7)), "b_over_t": list(np.geomspace(1.0, 40.0, 4)), "nu": NUS},
+    "leaf": {"L_over_t": list(np.geomspace(1.0, 64.0, 7)), "b_over_t": list(np.geomspace(1.0, 40.0, 7)), "nu": NUS},
 }  # fmt: skip
 #: Meshes of the tables (level 1 of these counts).
 COUNTS = {"notch": fe.NOTCH_COUNTS, "leaf": fe.LEAF_COUNTS}
@@ -70,12 +70,29 @@ def _task(args):
     return factors(*args)
 
 
-def run_grid(kind, jobs):
+def _stored_factors(path, kind):
+    """``{(r1, r2, nu): factors}`` of a previous table on the same mesh (for --reuse), else empty."""
+    if not path or not os.path.exists(path):
+        return {}
+    with open(path) as fh:
+        old = json.load(fh)
+    if old["mesh"] != COUNTS[kind].__dict__:
+        return {}
+    a, b, c = (old["axes"][k] for k in old["axis_names"])
+    f = old["factors"]
+    return {(x, y, z): f[i][j][k] for i, x in enumerate(a) for j, y in enumerate(b) for k, z in enumerate(c)}
+
+
+def run_grid(kind, jobs, reuse=None):
     axes = GRIDS[kind]
     names = list(axes)
     points = [(kind, a, b, n) for a in axes[names[0]] for b in axes[names[1]] for n in axes[names[2]]]
+    stored = _stored_factors(reuse, kind)
+    todo = [p for p in points if p[1:] not in stored]
     with ProcessPoolExecutor(jobs) as pool:
-        values = list(pool.map(_task, points, chunksize=2))
+        computed = dict(zip([p[1:] for p in todo], pool.map(_task, todo, chunksize=2), strict=True))
+    print(f"{kind}: {len(todo)} FE solutions, {len(points) - len(todo)} reused from {reuse}")
+    values = [computed[p[1:]] if p[1:] in computed else stored[p[1:]] for p in points]
     shape = [len(axes[k]) for k in names] + [6]
     return np.array(values).reshape(shape)
 
@@ -130,13 +147,15 @@ def main():
     ap.add_argument("--kind", nargs="+", default=["notch", "leaf"], choices=["notch", "leaf"])
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "..", "mjflex", "geometry", "data"))
+    ap.add_argument("--reuse", action="store_true", help="reuse grid points of the existing table (same mesh)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     from mjflex.geometry import tables
 
     for kind in args.kind:
         t0 = time.perf_counter()
-        f = run_grid(kind, args.jobs)
+        path = os.path.join(args.out, TABLE_FILES[kind])
+        f = run_grid(kind, args.jobs, path if args.reuse else None)
         table = {"kind": kind, "axis_names": list(GRIDS[kind]), "axes": GRIDS[kind], "entries": ENTRIES,
                  "factors": f.tolist(), "mesh": COUNTS[kind].__dict__}  # fmt: skip
         table["grid_wall_time_s"] = time.perf_counter() - t0
@@ -157,12 +176,11 @@ def main():
             validation_wall_time_s=time.perf_counter() - t1,
             command=f"python scripts/build_stiffness_tables.py --kind {kind} --jobs {args.jobs}",
         )
-        path = os.path.join(args.out, TABLE_FILES[kind])
         with open(path, "w") as fh:
             json.dump(table, fh, indent=None, separators=(",", ":"))
             fh.write("\n")
         tables.load_table.cache_clear()
-        print(f"\n{kind}: {f.shape[0] * f.shape[1] * f.shape[2]} FE solutions in {table['grid_wall_time_s']:.0f} s, "
+        print(f"\n{kind}: grid of {f.shape[0] * f.shape[1] * f.shape[2]} in {table['grid_wall_time_s']:.0f} s, "
               f"validation {table['validation_wall_time_s']:.0f} s -> {os.path.normpath(path)}")  # fmt: skip
         print(f"{'entry':>6} {'interp %':>9} {'mesh %':>8} {'band %':>8}")
         for e in ENTRIES:
