@@ -166,3 +166,18 @@ def test_fe_corrects_the_beam_model_where_it_should():
     assert 1.0 < K_tab[2] / K_beam[2] < 1 / (1 - NU**2)
     # the blocks restrain the warping of the short neck: torsion far stiffer than Saint-Venant's
     assert K_tab[0] > 3 * K_beam[0]
+
+
+@pytest.mark.parametrize(
+    "kind, function", [("notch", hinges.notch_hinge_stiffness), ("leaf", hinges.leaf_spring_stiffness)]
+)
+def test_docstring_bands_cover_the_stored_bands(kind, function):
+    """The error bands printed in the docstrings are the stored ones (rounded, never smaller)."""
+    import re
+
+    stated = dict(re.findall(r"``(rot_[xyz]|[xyz])``\s+([0-9.]+) %", function.__doc__))
+    band = tables.error_bands(kind)
+    assert set(stated) == set(tables.ENTRIES)
+    for entry, value in stated.items():
+        assert 100 * band[entry]["total"] <= float(value) + 0.005, entry
+        assert float(value) < 1.2 * 100 * band[entry]["total"] + 0.01, entry  # and not far above
