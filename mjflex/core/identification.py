@@ -263,7 +263,7 @@ def _check_excitation(z, method, variables, n_params):
         idle = [n for n, e in zip(names, excited, strict=True) if not e]
         warnings.warn(
             f"the samples do not excite {', '.join(idle)} (RMS below {EXCITATION_RTOL:g} of the largest of "
-            "its kind): their stiffness and terms are not determined. Pass variables= with only the excited "
+            "its kind): the stiffness and terms that involve only them are not determined. Pass variables= with only the excited "
             "coordinates (indices 0..5 of [rotation; translation]) and add the missing stiffness separately, "
             "or add samples that move along them.",
             FitWarning,
@@ -435,7 +435,7 @@ def _symmetric(values, variables):
 def _warn_conditioning(rank, cond, n_params, names, A):
     if rank < n_params:
         zero = [n for n, c in zip(names, np.linalg.norm(A, axis=0) == 0, strict=True) if c]
-        detail = f" (no sample moves {', '.join(zero[:8])}{'...' if len(zero) > 8 else ''})" if zero else ""
+        detail = f" ({', '.join(zero[:8])}{'...' if len(zero) > 8 else ''} act on no sample)" if zero else ""
         warnings.warn(
             f"the samples determine only {rank} of {n_params} unknowns{detail}: the minimum-norm solution is "
             "returned (undetermined combinations set to zero). Add samples along more directions, restrict "
