@@ -263,9 +263,9 @@ def _check_excitation(z, method, variables, n_params):
         idle = [n for n, e in zip(names, excited, strict=True) if not e]
         warnings.warn(
             f"the samples do not excite {', '.join(idle)} (RMS below {EXCITATION_RTOL:g} of the largest of "
-            "its kind): the stiffness and terms that involve only them are not determined. Pass variables= with only the excited "
-            "coordinates (indices 0..5 of [rotation; translation]) and add the missing stiffness separately, "
-            "or add samples that move along them.",
+            "its kind): the stiffness and terms that involve only them are not determined. Pass variables= "
+            "with only the excited coordinates (indices 0..5 of [rotation; translation]) and add the missing "
+            "stiffness separately, or add samples that move along them.",
             FitWarning,
             stacklevel=3,
         )
