@@ -198,10 +198,10 @@ def test_known_stiffness_fits_only_the_terms_and_ridge_matches_the_augmented_sys
     lam = 0.3
     fit_r = mjflex.fit_potential(R, p, noisy, order=4, variables=(2, 3, 4), ridge=lam)
     plain = mjflex.fit_potential(R, p, noisy, order=4, variables=(2, 3, 4))
-    A = _design(R, p, plain) * np.tile(plain.weights, len(R))[:, None]
+    A = np.kron(np.eye(len(R)), plain.weights) @ _design(R, p, plain)
     D = np.linalg.norm(A, axis=0)
     aug = np.vstack([A / D, lam * np.eye(len(D))])
-    x, *_ = np.linalg.lstsq(aug, np.concatenate([(noisy * plain.weights).reshape(-1), np.zeros(len(D))]), rcond=None)
+    x, *_ = np.linalg.lstsq(aug, np.concatenate([(noisy @ plain.weights.T).reshape(-1), np.zeros(len(D))]), rcond=None)
     np.testing.assert_allclose(fit_r.parameters, x / D, rtol=1e-8, atol=1e-12 * np.abs(x / D).max())
     assert np.linalg.norm(fit_r.parameters * D) < np.linalg.norm(plain.parameters * D)
     assert fit_r.relative_residual > plain.relative_residual

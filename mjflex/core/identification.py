@@ -20,10 +20,20 @@ in the coefficients (polynomials constant on the unit dual quaternions) is remov
 standard monomials (:func:`mjflex.core.polynomial.polynomial_basis`). The fit is therefore unique
 whenever the samples excite every direction.
 
-Scaling: moments and forces have different units, so each equation is multiplied by a weight
-(``weights``, default the inverse RMS of the measured moments and forces), and the columns of the
-weighted design matrix are scaled to unit norm before the SVD; ``condition`` is the condition number
-of that equilibrated matrix, and ``ridge`` acts on it (dimensionless).
+Scaling: moments and forces have different units, so each sample's six equations are multiplied
+by a weight matrix (``weights``; default diagonal, the inverse RMS of the measured moments and of
+the measured forces), and the columns of the weighted design matrix are scaled to unit norm before
+the SVD; ``condition`` is the condition number of that equilibrated matrix, and ``ridge`` acts on it
+(dimensionless). Two choices of ``weights`` have a meaning of their own:
+
+* ``1 / noise standard deviation`` per component, or the inverse Cholesky factor ``C^-1`` of the
+  noise covariance ``C C^T``: the fit is then the maximum-likelihood estimate, and with
+  ``absolute_weights=True`` its covariance is exact;
+* compliance weighting, the inverse Cholesky factor of a stiffness estimate ``K0 = C C^T`` (e.g.
+  from :mod:`mjflex.geometry`): the residual norm ``r^T K0^-1 r`` measures each wrench error by
+  the displacement it would cause. Fit this way when some directions are much stiffer than others
+  (a leaf spring's axial direction), where small pose errors mean large forces but small
+  deflection errors.
 """
 
 import warnings
@@ -91,8 +101,8 @@ class PotentialFit:
         Its singular values, descending.
     dof : float
         Degrees of freedom of the residual (``6 n`` minus the effective number of parameters).
-    weights : ndarray, shape (6,)
-        Weights of the wrench components.
+    weights : ndarray, shape (6, 6)
+        The weight matrix applied to each sample's wrench residual (diagonal unless a matrix was given).
     coordinate_range : ndarray, shape (2, 6) or (2, 8)
         Smallest and largest value of each coordinate ``z`` over the samples: the range where
         the potential was fitted.
@@ -327,9 +337,10 @@ def fit_potential(
         Fit these terms instead of the general polynomial (e.g. a sparse model).
     K : array_like, shape (6, 6), optional
         Known stiffness at rest (e.g. from :mod:`mjflex.geometry`): then only the terms are fitted.
-    weights : array_like, shape (6,), optional
-        Weight of each wrench component [1/(N m), 1/N]; ideally ``1 / noise standard deviation``.
-        Default: inverse RMS of the measured moments and of the measured forces.
+    weights : array_like, shape (6,) or (6, 6), optional
+        Weight of each wrench component [1/(N m), 1/N], ideally ``1 / noise standard deviation``,
+        or a matrix applied to each residual (a whitening matrix, or compliance weighting: module
+        docstring). Default: inverse RMS of the measured moments and of the measured forces.
     absolute_weights : bool
         The weights are exactly ``1 / noise standard deviation``: the covariance then uses
         ``s^2 = 1`` instead of the residual variance.
@@ -371,7 +382,7 @@ def fit_potential(
     else:
         exponents = PolynomialTerms(method, exponents, np.zeros(len(np.asarray(exponents)))).exponents
     Wb = _rotate(W, R, transpose=True) if wrench_frame == "a" else W
-    w = _default_weights(Wb) if weights is None else _weights(weights)
+    w = np.diag(_default_weights(Wb)) if weights is None else _weights(weights)
 
     k_rows, k_factors, k_names = _stiffness_monomials(method, list(variables))
     if K is not None:
@@ -392,34 +403,39 @@ def fit_potential(
     _check_excitation(z, method, variables, n_params)
 
     A, _ = design_matrix(R, p, method, rows, np.concatenate([k_factors, np.ones(len(exponents))]))
-    Aw = (A * w[None, :, None]).reshape(-1, n_params)
-    theta, cov, r, rank, s, cond, dof = _solve(Aw, (Wb * w).reshape(-1), ridge, absolute_weights)
+    Aw = np.einsum("ij,njp->nip", w, A).reshape(-1, n_params)
+    yw = (Wb @ w.T).reshape(-1)
+    theta, cov, r, rank, s, cond, dof = _solve(Aw, yw, ridge, absolute_weights)
     _warn_conditioning(rank, cond, n_params, k_names + list(monomial_names(exponents, method)), Aw)
 
     nk = len(k_names)
     K_fit = K if K is not None else _symmetric(theta[:nk], variables)
     terms = PolynomialTerms(method, exponents, theta[nk:])
     _warn_indefinite(K_fit)
-    res = (r / np.tile(w, len(R))).reshape(-1, 6)
+    res = Wb - A @ theta
     if wrench_frame == "a":
         res = _rotate(res, R)
     return PotentialFit(
         method=method, K=K_fit, terms=terms,
         parameter_names=tuple(k_names) + terms.names, parameters=theta, covariance=cov,
         residuals=res, rms_residual=np.sqrt(np.mean(res**2, axis=0)),
-        relative_residual=float(np.linalg.norm(r) / max(np.linalg.norm(Wb * w), 1e-300)),
+        relative_residual=float(np.linalg.norm(r) / max(np.linalg.norm(yw), 1e-300)),
         condition=float(cond), rank=rank, singular_values=s, dof=float(dof), weights=w,
         coordinate_range=np.stack([z.min(axis=0), z.max(axis=0)]),
     )  # fmt: skip
 
 
 def _weights(weights):
-    w = as_array(weights, "weights", (6,))
-    if w.shape != (6,) or np.any(w <= 0):
-        raise ValueError(
-            f"weights must be 6 positive numbers (one per wrench component, ideally 1 / noise std); got {weights!r}"
-        )
-    return np.array(w, dtype=float)
+    """The (6, 6) weight matrix of a vector of 6 positive weights or an invertible matrix."""
+    w = as_array(weights, "weights", ())
+    if w.shape == (6,) and np.all(w > 0):
+        return np.diag(w)
+    if w.shape == (6, 6) and np.linalg.matrix_rank(w) == 6:
+        return np.array(w, dtype=float)
+    raise ValueError(
+        "weights must be 6 positive numbers (one per wrench component, ideally 1 / noise std) or an invertible "
+        f"(6, 6) matrix (a whitening or compliance weighting, e.g. inv(cholesky(K0))); got shape {w.shape}: {weights!r}"
+    )
 
 
 def _symmetric(values, variables):
