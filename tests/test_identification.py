@@ -207,6 +207,23 @@ def test_known_stiffness_fits_only_the_terms_and_ridge_matches_the_augmented_sys
     assert fit_r.relative_residual > plain.relative_residual
 
 
+def test_matrix_weights_whiten_each_sample():
+    """A (6, 6) weight matrix (here compliance weighting by a coupled K0) solves the whitened problem."""
+    rng = np.random.default_rng(25)
+    K, terms = _model("dualquat", 4, rng, (2, 3, 4))
+    R, p = _samples(rng, 50, (2, 3, 4))
+    W = _wrench_b(R, p, K, "dualquat", terms)
+    noisy = W + 0.02 * np.sqrt(np.mean(W**2, axis=0)) * rng.normal(size=W.shape)
+    Wm = np.linalg.inv(np.linalg.cholesky(random_spd(rng, cond=30.0, scales=K_SCALES)))
+    fit = mjflex.fit_potential(R, p, noisy, method="dualquat", order=4, variables=(2, 3, 4), weights=Wm)
+    A = np.kron(np.eye(len(R)), Wm) @ _design(R, p, fit)
+    x, *_ = np.linalg.lstsq(A / np.linalg.norm(A, axis=0), (noisy @ Wm.T).reshape(-1), rcond=None)
+    np.testing.assert_allclose(fit.parameters, x / np.linalg.norm(A, axis=0), rtol=1e-8)
+    np.testing.assert_array_equal(fit.weights, Wm)
+    diag = mjflex.fit_potential(R, p, noisy, method="dualquat", order=4, variables=(2, 3, 4), weights=np.ones(6))
+    np.testing.assert_array_equal(diag.weights, np.eye(6))
+
+
 def _design(R, p, fit):
     """Columns of the fit's unknowns via single-parameter potentials (wrench_on_b)."""
     cols = []

@@ -2,7 +2,7 @@
 
 Terms are a table ``exps`` (rows of exponents, 6 or more columns) with coefficients ``coefs``;
 an element uses rows ``lo:hi``. ``pw`` is a work array of shape ``(8, top + 1)`` holding the
-powers ``z_k^p`` of the element's coordinates and ``grad`` a work array of 8 entries: callers
+powers ``z_k^p`` of the element's coordinates and ``grad`` a work array of 16 entries: callers
 allocate both once, so nothing is allocated per element. Without terms (``hi <= lo``) the kernels
 return exactly what the quadratic kernels of :mod:`._kernels` return (they call them).
 
@@ -65,28 +65,34 @@ def fill_powers(method, e1, e2, aux, pw):
 
 @njit(**_JIT)
 def terms_eval(nvar, exps, coefs, lo, hi, pw, grad, want_grad):
-    """Value of the terms ``lo:hi``; their gradient ``dU/dz`` into ``grad[:nvar]`` if ``want_grad``."""
+    """Value of the terms ``lo:hi``; their gradient ``dU/dz`` into ``grad[:nvar]`` if ``want_grad``.
+
+    ``grad`` has ``2 * 8`` entries: the second half holds the suffix products of one term, so that
+    each term's gradient costs ``O(nvar)`` (prefix times suffix, no division by a coordinate).
+    """
     if want_grad:
         for k in range(nvar):
             grad[k] = 0.0
     value = 0.0
     for m in range(lo, hi):
         c = coefs[m]
-        v = c
-        for k in range(nvar):
-            v *= pw[k, exps[m, k]]
-        value += v
         if not want_grad:
+            v = c
+            for k in range(nvar):
+                v *= pw[k, exps[m, k]]
+            value += v
             continue
+        suffix = 1.0
+        for k in range(nvar - 1, -1, -1):
+            grad[8 + k] = suffix
+            suffix *= pw[k, exps[m, k]]
+        value += c * suffix
+        prefix = c
         for k in range(nvar):
             ek = exps[m, k]
-            if ek == 0:
-                continue
-            d = c * ek * pw[k, ek - 1]
-            for j in range(nvar):
-                if j != k:
-                    d *= pw[j, exps[m, j]]
-            grad[k] += d
+            if ek > 0:
+                grad[k] += prefix * ek * pw[k, ek - 1] * grad[8 + k]
+            prefix *= pw[k, ek]
     return value
 
 
@@ -145,7 +151,7 @@ def spatial_wrench_terms(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_
 def work_arrays(exps):
     """``(pw, grad)`` work arrays for the terms ``exps``."""
     top = int(exps.max(initial=0)) if exps.size else 0
-    return np.empty((8, max(top, 1) + 1)), np.empty(8)
+    return np.empty((8, max(top, 1) + 1)), np.empty(16)
 
 
 @njit(**_JIT)
