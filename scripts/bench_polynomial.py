@@ -50,7 +50,16 @@ def main():
     print_table(
         rows, f"Polynomial terms: compiled batch kernel, {args.n} elements; ratios to the twist quadratic kernel"
     )
-    write_json(args.json, {"n_elements": args.n, "rows": rows, "terms": sizes})
+    print("\ncost per term and element (median batch minus the quadratic batch of the same method, / n / terms):")
+    per_term = {}
+    for name, m in sizes.items():
+        base = rows[f"{name.split(':')[0]}: quadratic"]["median_s"]
+        per_term[name] = (rows[name]["median_s"] - base) / args.n / m
+        print(f"  {name:<45} {per_term[name] * 1e9:6.1f} ns")
+    quad = {k: rows[f"{k}: quadratic"]["median_s"] / args.n for k in ("twist", "dualquat")}
+    print(f"quadratic wrench per element: twist {quad['twist'] * 1e9:.0f} ns, dualquat {quad['dualquat'] * 1e9:.0f} ns")
+    write_json(args.json, {"n_elements": args.n, "rows": rows, "terms": sizes, "seconds_per_term": per_term,
+                           "quadratic_seconds_per_element": quad})  # fmt: skip
 
 
 if __name__ == "__main__":

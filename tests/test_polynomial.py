@@ -11,7 +11,7 @@ import pytest
 import mjflex
 from mjflex.core.identification import design_matrix
 from mjflex.core.polynomial import VARIABLES, coordinate_indices, no_terms, polynomial_basis
-from tests.helpers import gradient_wrt_b, hat, random_rotation, random_spd, rot_exp
+from tests.helpers import gradient_wrt_b, hat, lambda_tilde, random_rotation, random_spd, rot_exp
 
 METHODS = ["twist", "dualquat"]
 
@@ -215,15 +215,6 @@ def test_other_element_frames_give_a_polynomial_of_the_same_order(method):
 # --------------------------------------------------------------------------- the wrench maps of the paper
 
 
-def _lambda_tilde(q):
-    """Eq. 116, columns (sigma, xi, s', x')."""
-    s, xi, sd, xd = q[0], q[1:4], q[4], q[5:]
-    L = np.zeros((6, 8))
-    L[:3, 0], L[:3, 1:4], L[:3, 4], L[:3, 5:] = -xi, s * np.eye(3) - hat(xi), -xd, sd * np.eye(3) - hat(xd)
-    L[3:, 4], L[3:, 5:] = -xi, s * np.eye(3) - hat(xi)
-    return L
-
-
 def _random_poses(rng, n, angle_max=3.1, trans=0.5):
     R = np.stack([random_rotation(rng, a) for a in rng.uniform(0, angle_max, n)])
     return R, trans * rng.normal(size=(n, 3))
@@ -238,7 +229,7 @@ def test_dualquat_wrench_map_is_eq_116_with_a_two_dimensional_workless_null_spac
     W, _ = design_matrix(R, p, "dualquat", np.eye(8, dtype=int))
     Nw = mjflex.workless_generalized_forces(q)
     for i in range(len(q)):
-        L = _lambda_tilde(q[i])
+        L = lambda_tilde(q[i])
         np.testing.assert_allclose(W[i], -0.5 * L, rtol=0, atol=1e-15)
         assert np.linalg.matrix_rank(L) == 6
         np.testing.assert_allclose(L @ Nw[i].T, 0.0, atol=1e-15)

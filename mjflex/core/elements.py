@@ -15,6 +15,13 @@ Both agree to second order at rest, where ``K`` is the stiffness of the element 
 (``K = [[K_o, K_c], [K_c^T, K_t]]``, eq. 40). The damping ``B`` acts on the rate of the same
 coordinates (eqs 58-67, 96-104).
 
+Higher-order potentials
+-----------------------
+``potential`` and ``wrench_on_b`` take ``terms=``, polynomial terms added to the quadratic energy
+(paper secs 4.8 and 5.8; :mod:`mjflex.core.polynomial`, fitted by
+:func:`mjflex.core.identification.fit_potential`). Without terms they run the quadratic kernels
+unchanged.
+
 Sign convention
 ---------------
 :func:`wrench_on_b` returns the wrench **the element exerts on body B**,
