@@ -11,7 +11,8 @@ Reference ("measured") data: a clamped leaf spring of length L = 40 mm and thick
 random tip loads in the plane of bending that rotate the tip by up to ~100 degrees. One element
 between the clamp and the tip body, frames at the leaf's centre, is fitted to those (pose, wrench)
 samples with :func:`mjflex.fit_potential`: orders N = 2, 4, 6 in twist and dual-quaternion
-coordinates, restricted to the plane (``variables=(2, 3, 4)``), compliance-weighted by the beam
+coordinates, restricted to the plane (``variables=(2, 3, 4)``) and to terms that respect the leaf's
+mirror symmetry (``symmetries=[(1, -1, 1)]``), compliance-weighted by the beam
 stiffness (``--weights compliance``) or with the default RMS weights (``--weights rms``). The linear
 beam stiffness of :func:`mjflex.geometry.leaf_spring_stiffness` is the unfitted baseline, and
 "beam K + N" keeps it as the stiffness at rest and fits only the terms (``K=`` of ``fit_potential``).
@@ -41,6 +42,7 @@ from mjflex.geometry.rod import LeafChain
 
 L, WIDTH, E, NU = 0.040, 0.008, 200e9, 0.3  # [m, m, Pa]; t = L / slenderness
 PLANE = (2, 3, 4)  # [theta_z; x; y] within [rotation; translation]
+MIRROR = [(1, -1, 1)]  # the leaf is symmetric about its x-z plane (y -> -y)
 ORDERS = (2, 4, 6)
 FIXED_K_ORDERS = (4, 6)  # terms fitted on top of the beam stiffness (fit_potential(..., K=K_beam))
 BINS_DEG = (15, 45, 80)
@@ -161,7 +163,7 @@ def fit_models(R, p, W, K_beam, weighting):
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", mjflex.FitWarning)
                 fit = mjflex.fit_potential(R, p, W, method=method, order=N, variables=PLANE, wrench_frame="a",
-                                           weights=weights)  # fmt: skip
+                                           weights=weights, symmetries=MIRROR)  # fmt: skip
             for w in caught:
                 print(f"  {method} N = {N}: {w.message}")
             out[(method, f"N = {N}")] = (fit.K, fit.terms, fit)
@@ -169,7 +171,7 @@ def fit_models(R, p, W, K_beam, weighting):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", mjflex.FitWarning)
                 fit = mjflex.fit_potential(R, p, W, method=method, order=N, variables=PLANE, wrench_frame="a",
-                                           weights=weights, K=K_beam)  # fmt: skip
+                                           weights=weights, K=K_beam, symmetries=MIRROR)  # fmt: skip
             out[(method, f"beam K + N = {N}")] = (fit.K, fit.terms, fit)
     return out
 

@@ -320,3 +320,25 @@ def test_basis_coordinates_of_planar_dual_quaternions():
     assert coordinate_indices("dualquat", (2, 3, 4)) == (0, 3, 5, 6)
     assert coordinate_indices("dualquat", (0, 3)) == (0, 1, 4, 5)  # xi_1 and x'_1: s' moves
     assert coordinate_indices("twist", (5, 1)) == (1, 5)
+
+
+@pytest.mark.parametrize("method", ["twist", "dualquat"])
+def test_symmetric_fit_has_fewer_unknowns_and_recovers_a_symmetric_potential(method):
+    """Mirror plane x-z: K couples only coordinates of equal parity; the symmetric model is recovered."""
+    rng = np.random.default_rng(26)
+    sym = [(1, -1, 1)]
+    K = random_spd(rng, cond=10.0, scales=K_SCALES)
+    signs = np.array([-1, 1, -1, 1, -1, 1])
+    K = K * (np.outer(signs, signs) > 0)  # the invariant part (still positive definite: block diagonal)
+    e = polynomial_basis(method, 4, symmetries=sym)
+    zr = SCALES if method == "twist" else np.array([1.0, *SCALES[:3] / 2, 2e-5, *SCALES[3:] / 2])
+    U0 = 0.5 * np.sum(np.diag(K) * SCALES**2) / 6
+    terms = mjflex.PolynomialTerms(method, e, rng.uniform(0.1, 0.5, len(e)) * U0 / np.prod(zr**e, axis=1))
+    R, p = _samples(rng, 150)
+    W = _wrench_b(R, p, K, method, terms)
+    fit = mjflex.fit_potential(R, p, W, method=method, order=4, symmetries=sym)
+    full = mjflex.fit_potential(R, p, W, method=method, order=4)
+    assert len(fit.parameters) < 0.6 * len(full.parameters)
+    assert "K[0,3]" in full.parameter_names and "K[0,3]" not in fit.parameter_names
+    np.testing.assert_allclose(fit.K, K, rtol=0, atol=1e-9 * np.abs(K).max())
+    assert np.abs(fit.terms.coefficients - terms.coefficients).max() <= 1e-9 * np.abs(terms.coefficients).max()

@@ -382,3 +382,27 @@ def test_terms_round_trip_through_json(method):
     np.testing.assert_array_equal(back.coefficients, t.coefficients)
     assert back.method == method and back.order == 4
     assert mjflex.PolynomialTerms.from_dict(no_terms(method).to_dict()).order == 2
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("m", [(1, -1, 1), (1, -1, -1)])
+def test_symmetric_basis_keeps_exactly_the_invariant_terms(method, m):
+    """A mirror plane or half turn diag(m) maps X_ab to M X_ab M: kept terms are invariant, dropped ones odd."""
+    rng = np.random.default_rng(13)
+    R, p = _random_poses(rng, 30, angle_max=2.5)
+    M = np.diag(np.asarray(m, dtype=float))
+    R_m, p_m = M @ R @ M, p @ M
+    full = polynomial_basis(method, 4)
+    kept = polynomial_basis(method, 4, symmetries=[m])
+    assert 0 < len(kept) < len(full)
+    _, V = design_matrix(R, p, method, full)
+    _, V_m = design_matrix(R_m, p_m, method, full)
+    invariant = {tuple(e) for e in kept}
+    for k, e in enumerate(full):
+        expected = V[:, k] if tuple(e) in invariant else -V[:, k]
+        np.testing.assert_allclose(V_m[:, k], expected, rtol=1e-12, atol=1e-14 * np.abs(V[:, k]).max())
+
+
+def test_symmetries_are_checked():
+    with pytest.raises(ValueError, match=r"3 signs \(\+1 or -1\)"):
+        polynomial_basis("twist", 4, symmetries=[(1, 0, 1)])

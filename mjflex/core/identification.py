@@ -50,6 +50,7 @@ from .polynomial import (
     _variables,
     monomial_names,
     polynomial_basis,
+    symmetry_signs,
 )
 from .stiffness import stiffness_in_frame
 from .transforms import dual_quaternion_from_transform, transform_from_twist, twist_from_transform
@@ -189,13 +190,19 @@ def _samples(R_ab, p_ab, wrench):
     return np.ascontiguousarray(R), np.ascontiguousarray(p), np.ascontiguousarray(W)
 
 
-def _stiffness_monomials(method, variables):
-    """Exponent rows, factors and names of the upper-triangle entries of ``K`` over ``variables``."""
+def _stiffness_monomials(method, variables, symmetries=None):
+    """Exponent rows, factors and names of the upper-triangle entries of ``K`` over ``variables``.
+
+    With ``symmetries``, only the entries that couple coordinates of equal sign under each of them.
+    """
     nvar = len(VARIABLES[method])
     zi = variables if method == "twist" else [_DQ_DISPLACEMENT[i] for i in variables]
+    signs = symmetry_signs("twist", symmetries)
     rows, factors, names = [], [], []
     for a, i in enumerate(variables):
         for j in variables[a:]:
+            if np.any(signs[:, i] != signs[:, j]):
+                continue
             e = np.zeros(nvar, dtype=np.int64)
             e[zi[a]] += 1
             e[zi[variables.index(j)]] += 1
@@ -311,8 +318,8 @@ def _solve(A, y, ridge, absolute):
 
 
 def fit_potential(
-    R_ab, p_ab, wrench, *, method="twist", order=None, variables=None, exponents=None, K=None,
-    weights=None, absolute_weights=False, ridge=0.0, wrench_frame="b",
+    R_ab, p_ab, wrench, *, method="twist", order=None, variables=None, symmetries=None, exponents=None,
+    K=None, weights=None, absolute_weights=False, ridge=0.0, wrench_frame="b",
 ):  # fmt: skip
     """Fit a polynomial potential to measured (pose, wrench) samples by linear least squares.
 
@@ -333,6 +340,10 @@ def fit_potential(
     variables : sequence of int, optional
         Displacement coordinates (indices 0..5 of ``[rotation; translation]``) that ``K`` and the
         terms may involve (default all), e.g. ``(2, 3, 4)`` for samples in the x-y plane.
+    symmetries : sequence of 3-sequences of +-1, optional
+        Symmetries of the flexure in the element frame (mirror planes, half turns; see
+        :func:`~mjflex.core.polynomial.symmetry_signs`): ``K`` and the terms are restricted to the
+        invariant ones, e.g. ``[(1, -1, 1)]`` for a leaf along x that bends in the x-y plane.
     exponents : array_like of int, shape (M, 6) or (M, 8), optional
         Fit these terms instead of the general polynomial (e.g. a sparse model).
     K : array_like, shape (6, 6), optional
@@ -378,13 +389,13 @@ def fit_potential(
     if exponents is None:
         if order is None:
             raise ValueError("pass order= (the order N of the polynomial) or exponents= (the terms to fit)")
-        exponents = polynomial_basis(method, order, variables)
+        exponents = polynomial_basis(method, order, variables, symmetries)
     else:
         exponents = PolynomialTerms(method, exponents, np.zeros(len(np.asarray(exponents)))).exponents
     Wb = _rotate(W, R, transpose=True) if wrench_frame == "a" else W
     w = np.diag(_default_weights(Wb)) if weights is None else _weights(weights)
 
-    k_rows, k_factors, k_names = _stiffness_monomials(method, list(variables))
+    k_rows, k_factors, k_names = _stiffness_monomials(method, list(variables), symmetries)
     if K is not None:
         K = check_psd_matrix(K, "K", 6, what="stiffness")
         Wb = Wb - model_wrench(R, p, K, method)
@@ -409,7 +420,7 @@ def fit_potential(
     _warn_conditioning(rank, cond, n_params, k_names + list(monomial_names(exponents, method)), Aw)
 
     nk = len(k_names)
-    K_fit = K if K is not None else _symmetric(theta[:nk], variables)
+    K_fit = K if K is not None else _symmetric(theta[:nk], k_names)
     terms = PolynomialTerms(method, exponents, theta[nk:])
     _warn_indefinite(K_fit)
     res = Wb - A @ theta
@@ -438,13 +449,12 @@ def _weights(weights):
     )
 
 
-def _symmetric(values, variables):
+def _symmetric(values, names):
+    """K from its upper-triangle entries named ``"K[i,j]"``."""
     K = np.zeros((6, 6))
-    k = 0
-    for a, i in enumerate(variables):
-        for j in variables[a:]:
-            K[i, j] = K[j, i] = values[k]
-            k += 1
+    for v, name in zip(values, names, strict=True):
+        i, j = (int(c) for c in name[2:-1].split(","))
+        K[i, j] = K[j, i] = v
     return K
 
 
@@ -516,7 +526,7 @@ def potential_in_frame(K, terms, R_F, p_F, *, seed=0):
     K_new = stiffness_in_frame(K, R_F, p_F)
     method, order = terms.method, terms.order
     basis = polynomial_basis(method, order)
-    k_rows, k_factors, _ = _stiffness_monomials(method, list(range(6)))
+    k_rows, k_factors, k_names = _stiffness_monomials(method, list(range(6)))
     rows = np.concatenate([k_rows, basis])
     rng = np.random.default_rng(seed)
     xi_new = rng.uniform(-0.8, 0.8, size=(3 * len(rows) + 20, 6))
@@ -533,4 +543,4 @@ def potential_in_frame(K, terms, R_F, p_F, *, seed=0):
     if err > 1e-9:
         raise RuntimeError(f"interpolation of the transformed terms left a relative residual {err:.3g}")
     nk = len(k_rows)
-    return K_new + _symmetric(theta[:nk], list(range(6))), PolynomialTerms(method, basis, theta[nk:])
+    return K_new + _symmetric(theta[:nk], k_names), PolynomialTerms(method, basis, theta[nk:])

@@ -319,7 +319,30 @@ def coordinate_indices(method: str, variables=None) -> tuple[int, ...]:
     return tuple(sorted(z))
 
 
-def polynomial_basis(method: str, order: int, variables=None) -> np.ndarray:
+def symmetry_signs(method: str, symmetries) -> np.ndarray:
+    """Signs that the coordinates ``z`` take under each symmetry of the flexure, shape (S, 6) or (S, 8).
+
+    A symmetry ``m = (m_x, m_y, m_z)`` (entries +-1) says that the flexure is unchanged by the map
+    ``x -> diag(m) x`` of the element frame: a reflection (``det = -1``; ``(1, -1, 1)`` is the
+    mirror plane x-z) or a half turn (``det = +1``; ``(1, -1, -1)`` turns about x). It maps a
+    displacement ``X_ab`` to ``M X_ab M`` (``M = diag(m)``), so rotation coordinates (``tau``,
+    ``xi``) change by ``det(M) m``, translation coordinates (``t``, ``x'``) by ``m``, ``sigma``
+    not at all and ``s' = -xi . x' / sigma`` by ``det(M)``.
+    """
+    rows = []
+    for m in [] if symmetries is None else symmetries:
+        m = np.asarray(m, dtype=float)
+        if m.shape != (3,) or not np.all(np.abs(m) == 1.0):
+            raise ValueError(
+                f"each symmetry must be 3 signs (+1 or -1) of the element frame's axes, e.g. (1, -1, 1) for the "
+                f"mirror plane x-z or (1, -1, -1) for a half turn about x; got {m.tolist()!r}"
+            )
+        det = float(np.prod(m))
+        rows.append(np.concatenate([det * m, m]) if method == "twist" else np.array([1.0, *(det * m), det, *m]))
+    return np.array(rows).reshape(len(rows), len(VARIABLES[method]))
+
+
+def polynomial_basis(method: str, order: int, variables=None, symmetries=None) -> np.ndarray:
     """Exponents of the terms of a general polynomial potential of order ``N``.
 
     Parameters
@@ -331,6 +354,9 @@ def polynomial_basis(method: str, order: int, variables=None) -> np.ndarray:
     variables : sequence of int, optional
         Indices ``0..5`` of the displacement coordinates ``[rotation; translation]`` the potential
         depends on (default all six), e.g. ``(2, 3, 4)`` for motion in the x-y plane.
+    symmetries : sequence of 3-sequences of +-1, optional
+        Symmetries of the flexure (:func:`symmetry_signs`): only terms invariant under all of them
+        are returned, e.g. ``[(1, -1, 1)]`` for a leaf spring along x bending in the x-y plane.
 
     Returns
     -------
@@ -352,6 +378,7 @@ def polynomial_basis(method: str, order: int, variables=None) -> np.ndarray:
     nvar = len(VARIABLES[method])
     allowed = coordinate_indices(method, variables)
     first_xi = next((k for k in allowed if 1 <= k <= 3), None)
+    signs = symmetry_signs(method, symmetries)
     rows = []
     if code == 0 or order > 2:
         low = 3 if code == 0 else 2
@@ -362,6 +389,8 @@ def polynomial_basis(method: str, order: int, variables=None) -> np.ndarray:
                 e = np.bincount(combo, minlength=nvar)
                 if code == 1 and not _dualquat_term(e, first_xi):
                     continue
+                if np.any(np.prod(signs**e, axis=1) < 0):
+                    continue  # changes sign under a symmetry of the flexure
                 rows.append(e)
     return np.array(rows, dtype=np.int64).reshape(len(rows), nvar)
 
