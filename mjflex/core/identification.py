@@ -345,7 +345,8 @@ def fit_potential(
         :func:`~mjflex.core.polynomial.symmetry_signs`): ``K`` and the terms are restricted to the
         invariant ones, e.g. ``[(1, -1, 1)]`` for a leaf along x that bends in the x-y plane.
     exponents : array_like of int, shape (M, 6) or (M, 8), optional
-        Fit these terms instead of the general polynomial (e.g. a sparse model).
+        Fit these terms instead of the general polynomial (e.g. a sparse model); used as given
+        (``symmetries`` then only restrict ``K``).
     K : array_like, shape (6, 6), optional
         Known stiffness at rest (e.g. from :mod:`mjflex.geometry`): then only the terms are fitted.
     weights : array_like, shape (6,) or (6, 6), optional
@@ -386,24 +387,14 @@ def fit_potential(
     if not (np.isscalar(ridge) and np.isfinite(ridge) and ridge >= 0):
         raise ValueError(f"ridge must be a finite number >= 0; got {ridge!r}")
     variables = _variables(variables, method)
-    if exponents is None:
-        if order is None:
-            raise ValueError("pass order= (the order N of the polynomial) or exponents= (the terms to fit)")
-        exponents = polynomial_basis(method, order, variables, symmetries)
-    else:
-        exponents = PolynomialTerms(method, exponents, np.zeros(len(np.asarray(exponents)))).exponents
+    exponents, k_rows, k_factors, k_names = _unknowns(method, order, variables, symmetries, exponents, K is None)
     Wb = _rotate(W, R, transpose=True) if wrench_frame == "a" else W
     w = np.diag(_default_weights(Wb)) if weights is None else _weights(weights)
-
-    k_rows, k_factors, k_names = _stiffness_monomials(method, list(variables), symmetries)
     if K is not None:
         K = check_psd_matrix(K, "K", 6, what="stiffness")
         Wb = Wb - model_wrench(R, p, K, method)
-        k_rows, k_factors, k_names = k_rows[:0], k_factors[:0], []
     rows = np.concatenate([k_rows, exponents])
     n_params = len(rows)
-    if n_params == 0:
-        raise ValueError("nothing to fit: K is given and the basis has no terms (order 2); pass a higher order.")
     if 6 * len(R) < n_params:
         raise ValueError(
             f"too few samples: {len(R)} samples give {6 * len(R)} equations for {n_params} unknowns; pass at least "
@@ -434,6 +425,22 @@ def fit_potential(
         condition=float(cond), rank=rank, singular_values=s, dof=float(dof), weights=w,
         coordinate_range=np.stack([z.min(axis=0), z.max(axis=0)]),
     )  # fmt: skip
+
+
+def _unknowns(method, order, variables, symmetries, exponents, fit_K):
+    """The terms' exponents and the K entries to fit: ``(exponents, k_rows, k_factors, k_names)``."""
+    if exponents is None:
+        if order is None:
+            raise ValueError("pass order= (the order N of the polynomial) or exponents= (the terms to fit)")
+        exponents = polynomial_basis(method, order, variables, symmetries)
+    else:
+        exponents = PolynomialTerms(method, exponents, np.zeros(len(np.asarray(exponents)))).exponents
+    k_rows, k_factors, k_names = _stiffness_monomials(method, list(variables), symmetries)
+    if not fit_K:
+        k_rows, k_factors, k_names = k_rows[:0], k_factors[:0], []
+    if len(k_rows) + len(exponents) == 0:
+        raise ValueError("nothing to fit: K is given and the basis has no terms (order 2); pass a higher order.")
+    return exponents, k_rows, k_factors, k_names
 
 
 def _weights(weights):
