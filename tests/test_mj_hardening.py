@@ -1,6 +1,5 @@
 """Nothing lost silently: sleeping trees, composed models, near-miss names, bad input, tolerances, divergence."""
 
-import ctypes
 import json
 import warnings
 
@@ -10,24 +9,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import mjflex
-from mjflex.mj import _callback
+from tests.helpers import c_output
 from tests.models import B_DEMO, K_DEMO, two_body_spec
 from tests.test_mj_model_errors import K6, _model
 
-
-@pytest.fixture(autouse=True)
-def _clean_callback():
-    mujoco.set_mjcb_passive(None)
-    yield
-    _callback.uninstall_all()
-    mujoco.set_mjcb_passive(None)
-
-
-def _c_output(capfd):
-    """What C code printed (MuJoCo's warnings go to stderr), once its stdio buffers are flushed."""
-    ctypes.CDLL(None).fflush(None)
-    captured = capfd.readouterr()
-    return captured.out + captured.err
+pytestmark = pytest.mark.usefixtures("clean_callback")
 
 
 # ------------------------------------------------------------------ 3. sleeping
@@ -248,7 +234,7 @@ def test_divergence_with_auto_reset_names_element_time_and_step(capfd):
     with mjflex.Flexures(model), warnings.catch_warnings():
         for _ in range(10):
             mujoco.mj_step(model, data)  # no exception: MuJoCo's auto-reset is on
-    out = _c_output(capfd)
+    out = c_output(capfd)
     assert "WARNING: mjflex: flexure 'link' of model 'two_body' diverged at time 1.5 s (step 3)" in out
     assert "WARNING: Nan, Inf or huge value in QACC" in out  # then MuJoCo's own handling: reset
     assert data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number >= 1 and data.time < 10 * 0.5

@@ -7,14 +7,18 @@ adds the generalized forces to ``qfrc_passive`` and/or writes wrenches, energies
 the registry that :mod:`mjflex.mj._callback` maintains; it runs inside ``mj_passive`` without
 the GIL or the Python bindings.
 
-Element tables (built once by :class:`mjflex.Flexures`):
+Element tables (built once by :mod:`._tables`), their columns named once below (``columns``):
 
-* ``ints`` (n, NI) int64: site and body ids, method, switches, fast-path dof address of each
-  body (-1 when the body is not a free-jointed child of the world), and the range of its dof
-  chain in ``chain``;
-* ``floats`` (n, NF) float64: K and B (row-major 6x6) and the rest offset ``X_ab0`` (R, p) of
-  frame b seen from frame a at ``qpos0`` (round-off of the model file, absorbed so that the
-  reference configuration is exactly unstressed).
+* ``ints`` (n, NI) int64, ``INT_COLUMNS``: site and body ids, method, switches, fast-path dof
+  address of each body (-1 when the body is not a free-jointed child of the world), and the
+  range of its dof chain in ``chain``;
+* ``floats`` (n, NF) float64, ``FLOAT_COLUMNS``: K and B (row-major 6x6), the rest offset
+  ``X_ab0`` (R, p) of frame b seen from frame a at ``qpos0`` (round-off of the model file,
+  absorbed so that the reference configuration is exactly unstressed), and the inverse mass
+  and inertia used by the divergence check.
+
+The registry that :func:`dispatch` reads (``HEADER_WORDS``, ``SLOT_WORDS``) is described in
+:mod:`mjflex.mj._callback`, with the rules the native callback follows.
 """
 
 import math
