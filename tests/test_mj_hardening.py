@@ -85,23 +85,42 @@ def test_attached_specs_keep_their_elements_under_prefix_and_suffix():
 
 DM_CONTROL_XML = """
 <mujoco model="arena">
+  <default>
+    <default class="/"/>
+    <default class="arm/"/>
+  </default>
   <worldbody>
-    <body name="arm/A"><freejoint name="arm/ja"/><geom size=".05" name="arm/ga"/>
-      <site name="arm/hinge.a" pos=".05 0 0"/></body>
-    <body name="arm/B" pos=".1 0 0"><freejoint name="arm/jb"/><geom size=".05" name="arm/gb"/>
-      <site name="arm/hinge.b" pos="-.05 0 0"/></body>
+    <body name="arm/">
+      <body name="arm/A">
+        <geom name="arm//unnamed_geom_0" class="arm/" size="0.050000000000000003"/>
+        <site name="arm/hinge.a" class="arm/" pos="0.050000000000000003 0 0"/>
+      </body>
+      <body name="arm/B" pos="0.10000000000000001 0 0">
+        <joint name="arm//unnamed_joint_0" class="arm/" type="hinge" pos="-0.050000000000000003 0 0" axis="0 0 1"/>
+        <geom name="arm//unnamed_geom_1" class="arm/" size="0.050000000000000003"/>
+        <site name="arm/hinge.b" class="arm/" pos="-0.050000000000000003 0 0"/>
+      </body>
+    </body>
   </worldbody>
-  <custom><text name="arm/mjflex:hinge" data='{"mjflex": 1, "K": [1, 1, 1, 1000, 1000, 1000]}'/></custom>
+  <custom>
+    <text name="arm/mjflex:hinge" data="{&quot;mjflex&quot;: 1, &quot;K&quot;: [1, 1, 1, 1000, 1000, 1000]}"/>
+  </custom>
 </mujoco>
 """
 
 
 def test_dm_control_spelling():
-    """dm_control's mjcf rejects '/' in names: it accepts sites 'hinge.a', 'hinge.b' and scopes
-    every name of an attached model with 'arm/' (what this file is: checked with dm_control
-    1.0.50, whose mjcf writes this XML under MuJoCo 4.0)."""
-    flex = mjflex.Flexures(mujoco.MjModel.from_xml_string(DM_CONTROL_XML))
+    """dm_control's mjcf rejects '/' in names but accepts sites 'hinge.a', 'hinge.b', and scopes
+    every name of an attached model with 'arm/'. The XML above is what dm_control 1.0.50 wrote
+    (``arena.attach(arm); arena.to_xml_string()``) for a model 'arm' with those sites and the
+    record 'mjflex:hinge'; its own Physics does not load under MuJoCo 4.0, mujoco does."""
+    model = mujoco.MjModel.from_xml_string(DM_CONTROL_XML)
+    flex = mjflex.Flexures(model)
     assert flex.names == ("arm/hinge",)
+    data = mujoco.MjData(model)
+    data.qpos[0] = 0.1
+    mujoco.mj_forward(model, data)
+    assert np.isclose(flex.wrenches(data)[0, 2], -0.1, rtol=1e-9)  # the hinge's K_rz = 1 N m/rad acts
     assert [mujoco.mj_id2name(flex.model, mujoco.mjtObj.mjOBJ_SITE, s) for s in flex.site_ids[0]] == [
         "arm/hinge.a",
         "arm/hinge.b",
