@@ -69,7 +69,8 @@ def _progress_bar(enabled, total):
         return None
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, unit="variant", desc="mjflex.sweep", smoothing=0.1)
+    fmt = "{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.0f} variants [{elapsed}<{remaining}]"
+    return tqdm(total=total, desc="mjflex.sweep", smoothing=0.1, bar_format=fmt)
 
 
 def _check_args(duration, samples, threads, chunk_size, observe):

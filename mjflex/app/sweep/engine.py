@@ -208,26 +208,45 @@ def _bad_state_text(model, data, counts):
     return f"MuJoCo: {text}"
 
 
+def _most_loaded(sim, row):
+    """``(element, energy)``: the flexure holding the most elastic energy in state ``row``, or ``("", nan)``."""
+    if not len(sim.flex):
+        return "", math.nan
+    d = mujoco.MjData(sim.model)
+    mujoco.mj_setState(sim.model, d, row, _STATE)
+    mujoco.mj_kinematics(sim.model, d)
+    energies = sim.flex.potential_energies(d)
+    e = int(np.argmax(energies))
+    return sim.flex.names[e], float(energies[e])
+
+
 def replay(sim: _Sim, row: np.ndarray, nstep: int, reported: str = "") -> None:
     """Step ``sim`` from state ``row`` in this thread until it fails; record why, where and when.
 
-    ``reported`` is the error MuJoCo's ``Batch`` reported for it, if any (used if the replay
+    A flexure that reports a non-finite wrench is named as the element. When MuJoCo's checks
+    fire first (a huge or non-finite ``qpos``/``qvel``/``qacc``, the usual sign of a time
+    step too large for the stiffest mode), the element named is the flexure that held the
+    most elastic energy at the start of the failing step, the last finite state, and the
+    message says so. ``reported`` is the error ``Batch`` reported, if any (kept if the replay
     does not fail).
     """
     m, d = sim.model, mujoco.MjData(sim.model)
     mujoco.mj_setState(m, d, row, _STATE)
-    t0, counts = d.time, _warning_counts(d)
+    t0, counts, last = d.time, _warning_counts(d), row.copy()
     for _ in range(nstep):
         t = d.time
+        mujoco.mj_getState(m, d, last, _STATE)
         try:
             mujoco.mj_step(m, d)
         except mujoco.FatalError as exc:
             text = str(exc)
             return sim.diverge(f"{text} (step starting at t = {t:.6g} s)", _element(text), t)
-        if (_warning_counts(d) > counts).any():
-            return sim.diverge(f"{_bad_state_text(m, d, counts)} at t = {t:.6g} s", "", t)
-        if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
-            return sim.diverge(f"the state became non-finite at t = {t:.6g} s", "", t)
+        bad = (_warning_counts(d) > counts).any()
+        if bad or not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
+            what = _bad_state_text(m, d, counts) if bad else "the state became non-finite"
+            element, energy = _most_loaded(sim, last)
+            held = f"; flexure '{element}' held the most elastic energy ({energy:.3g} J) before it" if element else ""
+            return sim.diverge(f"{what} in the step starting at t = {t:.6g} s{held}", element, t)
     sim.diverge(
         f"diverged between t = {t0:.6g} and {d.time:.6g} s ({reported or 'MuJoCo bad-state warning'}), but a replay "
         "of that interval in one thread did not reproduce it",
@@ -275,36 +294,41 @@ def _run_batch(plan, sims, progress):
             progress(len(alive))
 
 
+def _observe_copy(plan, sim, data, scratch, row):
+    """Observe a copy of ``data``'s integration state, so ``observe`` cannot perturb the run."""
+    mujoco.mj_getState(sim.model, data, row, _STATE)
+    mujoco.mj_setState(sim.model, scratch, row, _STATE)
+    sim.observe(plan.observe, scratch)
+
+
+def _steps_ok(sim, data, nstep):
+    """Step ``data`` ``nstep`` times; False if MuJoCo raised, warned of a bad state or it is non-finite."""
+    counts = _warning_counts(data)
+    try:
+        for _ in range(nstep):
+            mujoco.mj_step(sim.model, data)
+    except mujoco.FatalError:
+        return False
+    return not (_warning_counts(data) > counts).any() and np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()
+
+
 def _run_loop(plan, sims, progress):
     """The fallback when ``Batch`` cannot run (a Python physics callback is installed)."""
     for sim in sims:
         m, d = sim.model, mujoco.MjData(sim.model)
-        scratch = mujoco.MjData(m)
+        scratch, row = mujoco.MjData(m), np.empty(mujoco.mj_stateSize(m, _STATE))
         if sim.key >= 0:
             mujoco.mj_resetDataKeyframe(m, d, sim.key)
         mujoco.mj_forward(m, d)
-        row = np.empty(mujoco.mj_stateSize(m, _STATE))
-
-        def observe():
-            mujoco.mj_getState(m, d, row, _STATE)
-            mujoco.mj_setState(m, scratch, row, _STATE)
-            sim.observe(plan.observe, scratch)
-
         if plan.samples is not None:
-            observe()
+            _observe_copy(plan, sim, d, scratch, row)
         for _ in range(sim.blocks):
             if not sim.alive:
                 break
-            before, counts = np.empty_like(row), _warning_counts(d)
+            before = np.empty_like(row)
             mujoco.mj_getState(m, d, before, _STATE)
-            try:
-                for _ in range(sim.block):
-                    mujoco.mj_step(m, d)
-                ok = not (_warning_counts(d) > counts).any() and np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()
-            except mujoco.FatalError:
-                ok = False
-            if ok:
-                observe()
+            if _steps_ok(sim, d, sim.block):
+                _observe_copy(plan, sim, d, scratch, row)
             else:
                 replay(sim, before, sim.block)
             if progress:
