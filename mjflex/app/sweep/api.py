@@ -92,12 +92,13 @@ def _check_args(duration, samples, threads, chunk_size, observe):
 def _run_executor(executor, plan, grid, chunk_size, bar):
     chunks = _chunks(len(grid), executor, chunk_size)
     futures = {executor.submit(engine.run_chunk, plan, [(i, grid.rows[i]) for i in c]): c for c in chunks}
-    outcomes, parts = [None] * len(grid), 0
+    outcomes, stats = [None] * len(grid), {"parts": 0, "stepping": set()}
     for future in cf.as_completed(futures):
         chunk = futures[future]
         try:
-            done, n = future.result()
-            parts += n
+            done, got = future.result()
+            stats["parts"] += got["parts"]
+            stats["stepping"] |= got["stepping"]
         except Exception as exc:  # the worker itself failed (e.g. the process died): flag its variants
             message = f"the worker running variants {chunk.start}..{chunk.stop - 1} failed: {engine._exc_text(exc)}"
             done = [engine.Outcome(i, "failed", message) for i in chunk]
@@ -105,7 +106,7 @@ def _run_executor(executor, plan, grid, chunk_size, bar):
             outcomes[o.index] = o
         if bar is not None:
             bar.update(len(chunk))
-    return outcomes, len(chunks), parts
+    return outcomes, len(chunks), stats
 
 
 def sweep(
@@ -196,18 +197,19 @@ def sweep(
     try:
         if in_process:
             tick = None if bar is None else (lambda k: bar.update(k / blocks))
-            outcomes, parts = engine.run_chunk(plan, list(enumerate(g.rows)), tick)
+            outcomes, stats = engine.run_chunk(plan, list(enumerate(g.rows)), tick)
             chunks = 1
         else:
-            outcomes, chunks, parts = _run_executor(executor, plan, g, chunk_size, bar)
+            outcomes, chunks, stats = _run_executor(executor, plan, g, chunk_size, bar)
     finally:
         if bar is not None:
             bar.close()
     times = None if samples is None else np.linspace(0.0, duration, samples)
     attrs = {
         "recipe": recipe.describe(), "duration_s": float(duration), "samples": samples or 0,
-        "executor": "this process (mujoco.batch.Batch)" if in_process else type(executor).__name__,
-        "threads": plan.threads, "chunks": chunks, "registry_parts": parts,
+        "executor": "this process" if in_process else type(executor).__name__,
+        "stepping": ", ".join(sorted(stats["stepping"])) or "none (duration 0)",
+        "threads": plan.threads, "chunks": chunks, "registry_parts": stats["parts"],
         "wall_time_s": time.perf_counter() - start, "mujoco_version": mujoco.__version__,
     }  # fmt: skip
     ds = assemble(g, outcomes, schema, times, attrs)

@@ -108,6 +108,8 @@ def plot(ds, path):
             ax2.plot(bad, np.zeros_like(bad), "x", ms=10, mew=2, color=line.get_color())
     ax2.set(xscale="log", xlabel="leaf-spring stiffness scale", ylabel="peak stroke [mm]",
             title="peak stroke (x on the axis: diverged, no result)")  # fmt: skip
+    ax2.set_xticks(ds["leaf_scale"].values, [f"{v:g}" for v in ds["leaf_scale"].values])
+    ax2.minorticks_off()
     ax2.legend(fontsize=8)
     fig.suptitle(f"ARCADE sweep: {ds.sizes['leaf_scale']} x {ds.sizes['beta']} variants, "
                  f"{ds.attrs['duration_s'] * 1e3:g} ms of the paper's run each")  # fmt: skip

@@ -38,6 +38,7 @@ _LAYOUT = ("nq", "nv", "nu", "na", "nbody", "njnt", "ngeom", "nsite", "ncam", "n
            "nflexedge", "nflexelem", "nmocap", "nsensor", "nsensordata", "ntendon", "nwrap", "neq", "nuserdata",
            "npluginstate", "nhistory", "narena", "nM", "nB", "nC", "nD", "ntree", "nbvh", "nbvhdynamic", "nJmom",
            "nJten", "nplastic")  # fmt: skip
+BATCH, LOOP = "mujoco.batch.Batch", "loop"  # how a group of variants was stepped
 _ROOM = threading.Condition()  # guards installing providers into this process's registry
 _HELD = [0]  # providers this module has installed in this process
 
@@ -346,7 +347,7 @@ def _build(plan, rows):
     return sims
 
 
-def _run_part(plan, rows, progress):
+def _run_part(plan, rows, progress, stepping):
     built = _build(plan, rows)
     sims = [s for s in built if isinstance(s, _Sim)]
     groups = {}
@@ -358,8 +359,10 @@ def _run_part(plan, rows, progress):
                 _observe_initial(plan, group, progress)
             elif _batch_usable():
                 _run_batch(plan, group, progress)
+                stepping.add(BATCH)
             else:
                 _run_loop(plan, group, progress)
+                stepping.add(LOOP)
     return [s.outcome if isinstance(s, _Sim) else s for s in built]
 
 
@@ -376,11 +379,12 @@ def _observe_initial(plan, sims, progress):
 def run_chunk(plan: Plan, rows, progress=None):
     """Run variants ``rows`` (a list of ``(index, params)``) in this process.
 
-    Returns ``(outcomes, parts)``: one :class:`Outcome` per row, in order, and the number of
-    parts the chunk was split into to fit the flexure registry. ``progress(n)``, if given, is
-    called as blocks of simulation finish (``n`` variants advanced by one block).
+    Returns ``(outcomes, stats)``: one :class:`Outcome` per row, in order, and
+    ``{"parts": number of parts the chunk was split into to fit the flexure registry,
+    "stepping": set of BATCH / LOOP}``. ``progress(n)``, if given, is called as blocks of
+    simulation finish (``n`` variants advanced by one block).
     """
-    outcomes, parts, start = [], 0, 0
+    outcomes, parts, start, stepping = [], 0, 0, set()
     while start < len(rows):
         part = rows[start : start + max(1, registry_room())]
         ticks = [0.0]
@@ -389,9 +393,9 @@ def run_chunk(plan: Plan, rows, progress=None):
             ticks[0] += n
             progress(n)
 
-        outcomes += _run_part(plan, part, tick if progress else None)
+        outcomes += _run_part(plan, part, tick if progress else None, stepping)
         if progress:  # variants that diverged or failed early: their remaining blocks
             progress(len(part) * (1 if plan.samples is None else plan.samples - 1) - ticks[0])
         start += len(part)
         parts += 1
-    return outcomes, parts
+    return outcomes, {"parts": parts, "stepping": stepping}
