@@ -18,6 +18,6 @@ line ``python -m mjflex sweep``).
 """
 
 from .api import sweep
-from .recipe import Recipe
+from .recipe import Recipe, edit_flexure, flexure_matrices
 
-__all__ = ["Recipe", "sweep"]
+__all__ = ["Recipe", "edit_flexure", "flexure_matrices", "sweep"]
