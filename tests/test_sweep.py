@@ -65,7 +65,8 @@ def assert_matches_loop(ds, grid=GRID):
 
 @pytest.fixture(scope="module")
 def in_process():
-    return mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, threads=2, progress=False, samples=SAMPLES)
+    with pytest.warns(RuntimeWarning, match="2 diverged of 8 variants"):
+        return mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, threads=2, progress=False, samples=SAMPLES)
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +113,8 @@ def test_divergence_flagged_whichever_thread_ran_it():
     # many diverging variants among stable ones, on 1 and 2 Batch threads: in a thread MuJoCo
     # started, a flexure can only warn; in the caller's thread the Batch reports an error
     rows = [{"k_scale": 1e4 if i % 2 else 1.0 + i, "b_scale": 1.0} for i in range(12)]
-    results = [mjflex.sweep(RECIPE, rows, 0.001, hinge_state, threads=t, progress=False) for t in (1, 2)]
+    with pytest.warns(RuntimeWarning, match="6 diverged of 12 variants"):
+        results = [mjflex.sweep(RECIPE, rows, 0.001, hinge_state, threads=t, progress=False) for t in (1, 2)]
     for ds in results:
         np.testing.assert_array_equal(ds["status"], ["ok", "diverged"] * 6)
         assert np.isnan(ds["qpos"].sel(variant=ds["status"] == "diverged")).all()
@@ -120,8 +122,9 @@ def test_divergence_flagged_whichever_thread_ran_it():
 
 
 def test_process_pool_bit_identical(in_process, pool):
-    ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=pool, progress=False, samples=SAMPLES,
-                      chunk_size=3)  # fmt: skip
+    with pytest.warns(RuntimeWarning, match="diverged"):
+        ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=pool, progress=False, samples=SAMPLES,
+                          chunk_size=3)  # fmt: skip
     assert ds.attrs["chunks"] == 3 and ds.attrs["executor"] == "ProcessPoolExecutor"
     xr.testing.assert_identical(ds.drop_attrs(), in_process.drop_attrs())
 
@@ -132,7 +135,8 @@ def test_dask_bit_identical(in_process):
         distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
         distributed.Client(cluster) as client,
     ):
-        ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=client, progress=False, samples=SAMPLES)
+        with pytest.warns(RuntimeWarning, match="diverged"):
+            ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=client, progress=False, samples=SAMPLES)
     assert ds.attrs["executor"] == "ClientExecutor" and ds.attrs["chunks"] == 4  # 8 variants: 2 tasks per worker
     xr.testing.assert_identical(ds.drop_attrs(), in_process.drop_attrs())
 
@@ -161,7 +165,8 @@ def test_python_dispatcher_falls_back_to_a_loop(in_process, monkeypatch):
     # which Batch refuses: the sweep then steps each variant in a loop, with the same results
     assert not engine.registry._PROVIDERS
     monkeypatch.setitem(engine.registry._STATE["native"], "available", False)
-    ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, progress=False, samples=SAMPLES)
+    with pytest.warns(RuntimeWarning, match="diverged"):
+        ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, progress=False, samples=SAMPLES)
     assert ds.attrs["stepping"] == "loop"
     xr.testing.assert_identical(ds.drop_attrs(), in_process.drop_attrs())
     assert in_process.attrs["stepping"] == "mujoco.batch.Batch"
@@ -172,7 +177,8 @@ def bad_stiffness(spec, k):
 
 
 def test_invalid_variant_fails_alone_and_duration_zero_observes_initial_state():
-    ds = mjflex.sweep(mjflex.Recipe(MODEL, bad_stiffness), [{"k": 0.3}, {"k": -1.0}], 0.0, energy, progress=False)
+    with pytest.warns(RuntimeWarning, match="1 failed of 2 variants"):
+        ds = mjflex.sweep(mjflex.Recipe(MODEL, bad_stiffness), [{"k": 0.3}, {"k": -1.0}], 0.0, energy, progress=False)
     np.testing.assert_array_equal(ds["status"], ["ok", "failed"])
     assert "hinge" in str(ds["error"].values[1]) and np.isnan(ds["energy"].values[1])
     assert ds["energy"].values[0] == 0.0  # at rest in qpos0
