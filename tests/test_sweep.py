@@ -210,3 +210,17 @@ def test_recipe_pickles_and_import_mjflex_stays_light():
     assert pickle.loads(pickle.dumps(RECIPE)) == RECIPE
     code = "import sys, mjflex; assert 'xarray' not in sys.modules and 'mujoco.batch' not in sys.modules; mjflex.sweep"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_command_line_sweep_on_arcade(tmp_path, capsys):
+    from mjflex.app.cli import main
+
+    main(["sweep", "--leaf-scale", "1,2", "--beta", "0", "--duration", "2e-4", "--samples", "3", "--quiet",
+          "--out", str(tmp_path)])  # fmt: skip
+    out = capsys.readouterr().out
+    assert "first natural frequency [Hz] by leaf scale: x1: 10.59" in out  # scripts/modes.py: 10.6 Hz
+    ds = xr.load_dataset(tmp_path / "sweep_arcade.nc")
+    assert dict(ds.sizes) == {"leaf_scale": 2, "beta": 1, "time": 3} and (ds["status"] == "ok").all()
+    assert (tmp_path / "sweep_arcade.png").stat().st_size > 10_000 and (tmp_path / "sweep_arcade.json").exists()
+    with pytest.raises(SystemExit):
+        main(["sweep", "--duration", "1.5e-5", "--quiet", "--out", str(tmp_path)])  # not whole steps

@@ -4,7 +4,8 @@ The paper's run (105 rad/s spin plus 5 m/s of the cylinder along the axis, keyfr
 ``paper_run``) is simulated for each leaf-spring stiffness scale and Rayleigh damping factor
 ``beta`` (``B = beta K`` for every flexure). The observed quantity is the stroke: the axial
 position of the cylinder relative to the base, in the base's frame. Variants whose damping is
-too stiff for the explicit time step diverge, and the sweep flags them.
+too stiff for the explicit time step diverge, and the sweep flags them. A second sweep with
+duration 0 gives the guide's first (undamped) natural frequency for each leaf stiffness.
 """
 
 import json
@@ -40,6 +41,15 @@ def arcade_stroke(model, flex, data):
         "stroke": float((R.T @ (data.xpos[cylinder] - data.xpos[base]))[2]),
         "elastic_energy": flex.potential_energy(data),
     }
+
+
+def first_frequency(model, flex, data):
+    """The lowest non-rigid natural frequency [Hz], linearized about ``qpos0`` (``data`` unused)."""
+    from ...mj.linearize import normal_modes
+    from ..analysis import RIGID_TOL_HZ
+
+    freq, _ = normal_modes(model, flex)
+    return {"first_frequency": float(freq[freq >= RIGID_TOL_HZ][0])}
 
 
 def arcade_recipe() -> Recipe:
@@ -84,14 +94,14 @@ def peak_stroke(ds):
     return abs(s - s.isel(time=0)).max("time", skipna=False)
 
 
-def plot(ds, path):
-    """Stroke history at the reference damping and peak stroke vs leaf scale for every beta."""
+def plot(ds, modes, path):
+    """Stroke history at the reference damping, peak stroke vs leaf scale for every beta, first frequency."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
     betas = ds["beta"].values
     ok_beta = [b for b in betas if (ds["status"].sel(beta=b) == "ok").all()]
     ref = ok_beta[len(ok_beta) // 2] if ok_beta else betas[0]
@@ -108,8 +118,12 @@ def plot(ds, path):
             ax2.plot(bad, np.zeros_like(bad), "x", ms=10, mew=2, color=line.get_color())
     ax2.set(xscale="log", xlabel="leaf-spring stiffness scale", ylabel="peak stroke [mm]",
             title="peak stroke (x on the axis: diverged, no result)")  # fmt: skip
-    ax2.set_xticks(ds["leaf_scale"].values, [f"{v:g}" for v in ds["leaf_scale"].values])
-    ax2.minorticks_off()
+    ax3.plot(modes["leaf_scale"], modes["first_frequency"], "o-", color="k")
+    ax3.set(xscale="log", xlabel="leaf-spring stiffness scale", ylabel="frequency [Hz]",
+            title="first natural frequency (linearized at rest)")  # fmt: skip
+    for ax in (ax2, ax3):
+        ax.set_xticks(ds["leaf_scale"].values, [f"{v:g}" for v in ds["leaf_scale"].values])
+        ax.minorticks_off()
     ax2.legend(fontsize=8)
     fig.suptitle(f"ARCADE sweep: {ds.sizes['leaf_scale']} x {ds.sizes['beta']} variants, "
                  f"{ds.attrs['duration_s'] * 1e3:g} ms of the paper's run each")  # fmt: skip
@@ -117,8 +131,8 @@ def plot(ds, path):
     plt.close(fig)
 
 
-def summary(ds) -> dict:
-    """Per-variant peak stroke and status, and the run's attributes (for JSON)."""
+def summary(ds, modes) -> dict:
+    """Per-variant peak stroke and status, first frequencies, and the run's attributes (for JSON)."""
     peak = peak_stroke(ds)
     rows = []
     for scale in ds["leaf_scale"].values:
@@ -127,7 +141,10 @@ def summary(ds) -> dict:
             p = float(peak.sel(leaf_scale=scale, beta=b))
             rows.append({"leaf_scale": float(scale), "beta": float(b), "status": str(v["status"].values),
                          "peak_stroke_m": None if np.isnan(p) else p, "error": str(v["error"].values)})  # fmt: skip
-    return {"attrs": {k: v for k, v in ds.attrs.items()}, "variants": rows}
+    freq = {
+        f"{s:g}": float(f) for s, f in zip(modes["leaf_scale"].values, modes["first_frequency"].values, strict=True)
+    }
+    return {"attrs": dict(ds.attrs), "variants": rows, "first_frequency_hz": freq}
 
 
 def run(args):
@@ -136,21 +153,26 @@ def run(args):
 
     os.makedirs(args.out, exist_ok=True)
     executor, close = make_executor(args.executor, args.workers)
+    recipe = arcade_recipe()
     try:
-        ds = sweep(arcade_recipe(), {"leaf_scale": args.leaf_scale, "beta": args.beta}, args.duration,
-                   arcade_stroke, executor=executor, threads=args.threads, progress=not args.quiet,
-                   samples=args.samples)  # fmt: skip
+        ds = sweep(recipe, {"leaf_scale": args.leaf_scale, "beta": args.beta}, args.duration, arcade_stroke,
+                   executor=executor, threads=args.threads, progress=not args.quiet, samples=args.samples)  # fmt: skip
+        modes = sweep(recipe, {"leaf_scale": args.leaf_scale}, 0.0, first_frequency, executor=executor,
+                      threads=args.threads, progress=False)  # fmt: skip
     finally:
         close()
     stem = os.path.join(args.out, "sweep_arcade")
     ds.to_netcdf(stem + ".nc")
-    plot(ds, stem + ".png")
+    plot(ds, modes, stem + ".png")
+    info = summary(ds, modes)
     with open(stem + ".json", "w") as f:
-        json.dump(summary(ds), f, indent=2)
+        json.dump(info, f, indent=2)
+    print("first natural frequency [Hz] by leaf scale:", ", ".join(f"x{k}: {v:.2f}" for k, v in
+                                                               info["first_frequency_hz"].items()))  # fmt: skip
     peak = peak_stroke(ds) * 1e3
     print(f"peak stroke [mm] ({args.executor}, {ds.attrs['wall_time_s']:.2f} s wall):", file=sys.stdout)
     print(peak.to_pandas().to_string(float_format=lambda x: f"{x:.3f}", na_rep="diverged"))
-    for v in summary(ds)["variants"]:
+    for v in info["variants"]:
         if v["status"] != "ok":
             print(f"leaf x{v['leaf_scale']:g}, beta {v['beta']:g}: {v['status']}: {v['error']}")
     print(f"wrote {stem}.nc, {stem}.png, {stem}.json")
