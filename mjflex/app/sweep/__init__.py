@@ -5,8 +5,9 @@ A sweep builds every variant of a :class:`Recipe` (a model file or text plus a m
 ``observe(model, flex, data)``; the result is an ``xarray.Dataset`` over the grid with a status
 per variant. Where the variants run:
 
-* this process (default): chunks of up to 256 variants (the flexure registry's size) stepped
-  by MuJoCo's ``mujoco.batch.Batch`` on ``threads`` threads, bit-identical to a serial loop;
+* this process (default): parts of up to 256 variants stepped by MuJoCo's
+  ``mujoco.batch.Batch`` (one model per variant, ``set_models``) on ``threads`` threads,
+  bit-identical to a serial loop;
 * any ``concurrent.futures`` executor: a spawn ``ProcessPoolExecutor``, or Dask's
   ``Client.get_executor()`` (``pip install "mjflex[dask]"``) from a laptop to a cluster; the
   recipe travels, models are built on the workers.

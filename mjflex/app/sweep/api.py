@@ -60,7 +60,7 @@ def _workers(executor) -> int:
 
 def _chunks(n, executor, chunk_size):
     if chunk_size is None:
-        chunk_size = min(engine.registry.CAPACITY, max(1, math.ceil(n / (2 * _workers(executor)))))
+        chunk_size = min(engine.PART_SIZE, max(1, math.ceil(n / (2 * _workers(executor)))))
     return [range(start, min(n, start + chunk_size)) for start in range(0, n, chunk_size)]
 
 
@@ -85,8 +85,10 @@ def _check_args(duration, samples, threads, chunk_size, observe):
             raise ValueError("samples needs a duration > 0 (with duration 0 the initial state is observed once)")
     if threads is not None and not (isinstance(threads, int) and threads >= 0):
         raise ValueError(f"threads must be None or an integer >= 0 (0: all CPUs); got {threads!r}")
-    if chunk_size is not None and not (isinstance(chunk_size, int) and 1 <= chunk_size <= engine.registry.CAPACITY):
-        raise ValueError(f"chunk_size must be an integer in [1, {engine.registry.CAPACITY}]; got {chunk_size!r}")
+    if chunk_size is not None and not (
+        isinstance(chunk_size, int) and not isinstance(chunk_size, bool) and chunk_size >= 1
+    ):
+        raise ValueError(f"chunk_size must be a positive integer; got {chunk_size!r}")
 
 
 def _run_executor(executor, plan, grid, chunk_size, bar):
@@ -156,9 +158,10 @@ def sweep(
         dimension); ``samples - 1`` must divide each variant's step count. Default: once, at
         the end.
     chunk_size : int, optional
-        Variants per task sent to an executor (default: about two tasks per worker). In any
-        case a process runs at most as many variants at once as its flexure registry serves
-        (256 models): larger chunks run in parts.
+        Variants per task sent to an executor (default: about two tasks per worker, at most
+        256). In any case a process builds and steps at most 256 variants at once (fewer if
+        its flexure registry, 1024 models, has less room): larger sweeps and chunks run in
+        parts, automatically.
 
     Returns
     -------

@@ -1,8 +1,10 @@
 """One process's share of a sweep: build variants, step them (MuJoCo's ``Batch`` or a loop), observe.
 
 :func:`run_chunk` is what a worker process (or this one) runs; it is a module-level function of
-picklable arguments, so any ``concurrent.futures`` executor can call it. A chunk larger than the
-room left in this process's flexure registry is run in parts, one ``Batch`` per part.
+picklable arguments, so any ``concurrent.futures`` executor can call it. A chunk is run in
+parts of at most :data:`PART_SIZE` variants (fewer when the process's flexure registry has less
+room), one ``Batch`` per part: the models of a part are built, served, stepped, observed and
+released before the next part is built.
 
 A variant that diverges is flagged, never raised: MuJoCo's ``Batch`` reports a ``mju_error`` of
 some simulations as ``SimulationError`` (the others run on), and a divergence that only shows
@@ -39,6 +41,9 @@ _LAYOUT = ("nq", "nv", "nu", "na", "nbody", "njnt", "ngeom", "nsite", "ncam", "n
            "npluginstate", "nhistory", "narena", "nM", "nB", "nC", "nD", "ntree", "nbvh", "nbvhdynamic", "nJmom",
            "nJten", "nplastic")  # fmt: skip
 BATCH, LOOP = "mujoco.batch.Batch", "loop"  # how a group of variants was stepped
+#: Variants built and stepped at once in one process: bounds the memory held (models, data,
+#: Batch state rows) and leaves the flexure registry (``CAPACITY`` models) room for the user's own.
+PART_SIZE = 256
 _ROOM = threading.Condition()  # guards installing providers into this process's registry
 _HELD = [0]  # providers this module has installed in this process
 
@@ -100,7 +105,8 @@ def _divisor_near(n, k):
 
 def registry_room() -> int:
     """How many more models this process's flexure registry can serve now."""
-    return registry.CAPACITY - len(registry._PROVIDERS)
+    with registry._LOCK:
+        return registry.CAPACITY - len(registry._IN_SLOT)
 
 
 @contextlib.contextmanager
@@ -111,7 +117,7 @@ def installed(flexes):
         while registry_room() < len(flexes):
             if not _HELD[0]:
                 raise RuntimeError(
-                    f"mjflex serves at most {registry.CAPACITY} models per process and {len(registry._PROVIDERS)} "
+                    f"mjflex serves at most {registry.CAPACITY} models per process and {len(registry._IN_SLOT)} "
                     f"are installed outside this sweep; cannot install {len(flexes)}. Uninstall unused providers "
                     "or pass a smaller chunk_size."
                 )
@@ -241,7 +247,8 @@ def replay(sim: _Sim, row: np.ndarray, nstep: int, reported: str = "") -> None:
             mujoco.mj_step(m, d)
         except mujoco.FatalError as exc:
             text = str(exc)
-            return sim.diverge(f"{text} (step starting at t = {t:.6g} s)", _element(text), t)
+            return sim.diverge(text if "flexure '" in text else f"{text} (step starting at t = {t:.6g} s)",
+                               _element(text), t)  # fmt: skip
         bad = (_warning_counts(d) > counts).any()
         if bad or not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
             what = _bad_state_text(m, d, counts) if bad else "the state became non-finite"
@@ -380,13 +387,13 @@ def run_chunk(plan: Plan, rows, progress=None):
     """Run variants ``rows`` (a list of ``(index, params)``) in this process.
 
     Returns ``(outcomes, stats)``: one :class:`Outcome` per row, in order, and
-    ``{"parts": number of parts the chunk was split into to fit the flexure registry,
+    ``{"parts": number of parts the chunk was run in (see :data:`PART_SIZE`),
     "stepping": set of BATCH / LOOP}``. ``progress(n)``, if given, is called as blocks of
     simulation finish (``n`` variants advanced by one block).
     """
     outcomes, parts, start, stepping = [], 0, 0, set()
     while start < len(rows):
-        part = rows[start : start + max(1, registry_room())]
+        part = rows[start : start + max(1, min(PART_SIZE, registry_room()))]
         ticks = [0.0]
 
         def tick(n, ticks=ticks):
