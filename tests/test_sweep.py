@@ -10,7 +10,7 @@ import multiprocessing
 import pickle
 import subprocess
 import sys
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import mujoco
 import numpy as np
@@ -127,6 +127,15 @@ def test_process_pool_bit_identical(in_process, pool):
         ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=pool, progress=False, samples=SAMPLES,
                           chunk_size=3)  # fmt: skip
     assert ds.attrs["chunks"] == 3 and ds.attrs["executor"] == "ProcessPoolExecutor"
+    xr.testing.assert_identical(ds.drop_attrs(), in_process.drop_attrs())
+
+
+def test_thread_pool_runs_chunks_concurrently_in_one_process(in_process):
+    # 8 one-variant chunks on 3 threads, each a 2-thread Batch: the registry is shared
+    with ThreadPoolExecutor(3) as executor, pytest.warns(RuntimeWarning, match="diverged"):
+        ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=executor, threads=2, progress=False,
+                          samples=SAMPLES, chunk_size=1)  # fmt: skip
+    assert ds.attrs["chunks"] == 8
     xr.testing.assert_identical(ds.drop_attrs(), in_process.drop_attrs())
 
 

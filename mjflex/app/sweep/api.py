@@ -193,7 +193,7 @@ def sweep(
     plan = engine.Plan(recipe, observe, float(duration), samples, (threads if threads is not None else 0)
                        if in_process else (threads or 1))  # fmt: skip
     schema = _probe(plan, g)
-    if not in_process:
+    if not (in_process or isinstance(executor, cf.ThreadPoolExecutor)):  # these cross a process boundary
         recipe.check_picklable(observe, cloud=type(executor).__module__.startswith("distributed"))
     bar = _progress_bar(progress, len(g))
     blocks = 1 if samples is None else samples - 1
