@@ -14,13 +14,7 @@ from tests.models import B_DEMO, K_DEMO, two_body_spec
 PLAIN_XML = '<mujoco><worldbody><body><freejoint/><geom size=".1"/></body></worldbody></mujoco>'
 
 
-@pytest.fixture(autouse=True)
-def _clean_callback():
-    """Every test starts and ends without a passive callback."""
-    mujoco.set_mjcb_passive(None)
-    yield
-    _callback.uninstall_all()
-    mujoco.set_mjcb_passive(None)
+pytestmark = pytest.mark.usefixtures("clean_callback")
 
 
 def _run(model, steps, flex=None, seed=0):
@@ -323,3 +317,27 @@ def test_diverging_rollout_threads_warn_instead_of_ending_the_process(chained):
         "WARNING: mjflex: flexure 'link' of model 'two_body' diverged at time 0 s (step 0)"
         in result.stdout + result.stderr
     )
+
+
+def test_layout_error_falls_back_to_the_python_dispatcher(monkeypatch):
+    """When mjData's layout cannot be verified, the Python dispatcher gives the same forces."""
+    from mjflex.mj._layout import LayoutError
+
+    model = two_body_spec(B=B_DEMO).compile()
+    flex = mjflex.Flexures(model)
+    with flex:
+        native = _run(model, 200)
+
+    def unverifiable():
+        raise LayoutError("mjData.cvel is not at byte offset 0 in this MuJoCo build")
+
+    monkeypatch.setattr(_callback, "verified_offsets", unverifiable)
+    monkeypatch.setitem(_callback._STATE, "native", {})  # forget that the layout was verified
+    with pytest.warns(RuntimeWarning, match=r"using the Python passive callback \(mjData.cvel is not at"):
+        flex.install()
+    try:
+        assert mujoco.get_mjcb_passive() is _callback._python_dispatcher and flex.installed
+        assert np.array_equal(_run(model, 200), native)
+    finally:
+        flex.uninstall()
+    assert mujoco.get_mjcb_passive() is None

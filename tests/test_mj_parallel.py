@@ -2,7 +2,6 @@
 
 import concurrent.futures
 import copy
-import ctypes
 import multiprocessing
 import pickle
 import threading
@@ -14,17 +13,13 @@ from mujoco import batch as mjbatch
 
 import mjflex
 from mjflex.mj import _callback
+from tests.helpers import c_output
 from tests.models import B_DEMO, two_body_spec
 
 STEPS = 200
 
 
-@pytest.fixture(autouse=True)
-def _clean_callback():
-    mujoco.set_mjcb_passive(None)
-    yield
-    _callback.uninstall_all()
-    mujoco.set_mjcb_passive(None)
+pytestmark = pytest.mark.usefixtures("clean_callback")
 
 
 def _qvel(model, seed):
@@ -52,13 +47,6 @@ def _diverge(flex):
     except mujoco.FatalError as exc:
         return str(exc)
     return "no error"
-
-
-def c_output(capfd):
-    """What C code printed (MuJoCo's warnings go to stderr), once its stdio buffers are flushed."""
-    ctypes.CDLL(None).fflush(None)
-    captured = capfd.readouterr()
-    return captured.out + captured.err
 
 
 def _model(**kwargs):

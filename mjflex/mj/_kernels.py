@@ -7,14 +7,18 @@ adds the generalized forces to ``qfrc_passive`` and/or writes wrenches, energies
 the registry that :mod:`mjflex.mj._callback` maintains; it runs inside ``mj_passive`` without
 the GIL or the Python bindings.
 
-Element tables (built once by :class:`mjflex.Flexures`):
+Element tables (built once by :mod:`._tables`), their columns named once below (``columns``):
 
-* ``ints`` (n, NI) int64: site and body ids, method, switches, fast-path dof address of each
-  body (-1 when the body is not a free-jointed child of the world), and the range of its dof
-  chain in ``chain``;
-* ``floats`` (n, NF) float64: K and B (row-major 6x6) and the rest offset ``X_ab0`` (R, p) of
-  frame b seen from frame a at ``qpos0`` (round-off of the model file, absorbed so that the
-  reference configuration is exactly unstressed).
+* ``ints`` (n, NI) int64, ``INT_COLUMNS``: site and body ids, method, switches, fast-path dof
+  address of each body (-1 when the body is not a free-jointed child of the world), and the
+  range of its dof chain in ``chain``;
+* ``floats`` (n, NF) float64, ``FLOAT_COLUMNS``: K and B (row-major 6x6), the rest offset
+  ``X_ab0`` (R, p) of frame b seen from frame a at ``qpos0`` (round-off of the model file,
+  absorbed so that the reference configuration is exactly unstressed), and the inverse mass
+  and inertia used by the divergence check.
+
+The registry that :func:`dispatch` reads (``HEADER_WORDS``, ``SLOT_WORDS``) is described in
+:mod:`mjflex.mj._callback`, with the rules the native callback follows.
 """
 
 import math
@@ -27,6 +31,7 @@ from numba.extending import intrinsic
 from ..core._kernels import (
     _cross,
     _lin,
+    load3,
     relative_position,
     relative_quat,
     spatial_potential,
@@ -145,11 +150,6 @@ def _row9(a, i):
 
 
 @njit(**_JIT)
-def _row3(a, i):
-    return (a[i, 0], a[i, 1], a[i, 2])
-
-
-@njit(**_JIT)
 def _tuple36(a, i, at):
     """Row-major 6x6 matrix stored in ``a[i, at:at + 36]``, as a 36-tuple."""
     return (
@@ -192,7 +192,7 @@ def _frame_b(ints, floats, e, R, p):
 def _point_velocity(cvel, subtree_com, rootid, body, p):
     """World angular velocity of ``body`` and linear velocity of its point ``p``."""
     w = (cvel[body, 0], cvel[body, 1], cvel[body, 2])
-    c = _row3(subtree_com, rootid[body])
+    c = load3(subtree_com, rootid[body])
     v = (cvel[body, 3], cvel[body, 4], cvel[body, 5])
     return w, _lin(1.0, v, 1.0, _cross(w, (p[0] - c[0], p[1] - c[1], p[2] - c[2])))
 
@@ -202,7 +202,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
     """Add ``sign * (m about p, f)`` on ``body`` to generalized forces (``J^T`` of the wrench)."""
     if free_adr >= 0:
         # free joint: dofs are the world velocity of the body origin, then the body-frame angular velocity
-        o = _row3(xpos, body)
+        o = load3(xpos, body)
         mo = _lin(1.0, m, 1.0, _cross((p[0] - o[0], p[1] - o[1], p[2] - o[2]), f))
         for k in range(3):
             qfrc[free_adr + k] += sign * f[k]
@@ -210,7 +210,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
                 xmat[body, k] * mo[0] + xmat[body, 3 + k] * mo[1] + xmat[body, 6 + k] * mo[2]
             )
         return
-    c = _row3(subtree_com, rootid[body])
+    c = load3(subtree_com, rootid[body])
     mc = _lin(1.0, m, 1.0, _cross((p[0] - c[0], p[1] - c[1], p[2] - c[2]), f))
     for k in range(c0, c1):
         j = chain[k]
@@ -243,8 +243,8 @@ def flexure_loop(
             if mode & (ENERGY | POWER):
                 out1[e] = 0.0
             continue
-        Ra, pa = _row9(site_xmat, ints[e, SITE_A]), _row3(site_xpos, ints[e, SITE_A])
-        Rb, pb = _frame_b(ints, floats, e, _row9(site_xmat, ints[e, SITE_B]), _row3(site_xpos, ints[e, SITE_B]))
+        Ra, pa = _row9(site_xmat, ints[e, SITE_A]), load3(site_xpos, ints[e, SITE_A])
+        Rb, pb = _frame_b(ints, floats, e, _row9(site_xmat, ints[e, SITE_B]), load3(site_xpos, ints[e, SITE_B]))
         method = ints[e, METHOD]
         if mode & COORDS:
             w, x, y, z = relative_quat(Ra, Rb)

@@ -13,7 +13,9 @@ from ._tables import ModelError
 
 __all__ = ["Flexures", "ModelError"]
 
-_SLEEPY = (mujoco.mjtSleepPolicy.mjSLEEP_ALLOWED, mujoco.mjtSleepPolicy.mjSLEEP_INIT)
+_SLEEP = mujoco.mjtSleepPolicy
+_SLEEPY = {int(_SLEEP.mjSLEEP_ALLOWED), int(_SLEEP.mjSLEEP_INIT)}  # the user's explicit choices
+_AUTO = {int(_SLEEP.mjSLEEP_AUTO), int(_SLEEP.mjSLEEP_AUTO_ALLOWED)}  # the compiler's
 
 #: dtype of :meth:`Flexures.table`: one row per element.
 TABLE_DTYPE = np.dtype(
@@ -121,9 +123,9 @@ class Flexures:
         """Keep trees joined to another tree awake (see the class notes); returns what stays sleepy."""
         sleepy = {}
         for tree, element in self._tables.joined_trees.items():
-            policy = model.tree_sleep_policy[tree]
-            if policy in (mujoco.mjtSleepPolicy.mjSLEEP_AUTO, mujoco.mjtSleepPolicy.mjSLEEP_AUTO_ALLOWED):
-                model.tree_sleep_policy[tree] = mujoco.mjtSleepPolicy.mjSLEEP_AUTO_NEVER
+            policy = int(model.tree_sleep_policy[tree])
+            if policy in _AUTO:
+                model.tree_sleep_policy[tree] = int(_SLEEP.mjSLEEP_AUTO_NEVER)
             elif policy in _SLEEPY:
                 sleepy[tree] = element
         return sleepy
@@ -149,17 +151,18 @@ class Flexures:
             model is not self.model and self._fingerprints.get(self.model._address) == digest
         ):  # unchanged, or a byte-identical copy of flex.model
             return
+        fix = (
+            "An element is unstressed at the pose its sites had when the Flexures was built (mjflex has no "
+            "pre-stress), and a provider serves only copies of its model: build a new mjflex.Flexures(model) "
+            "after editing site, body or record data"
+        )
         try:
             other = _tables.derive(model)
         except ModelError as exc:
-            raise ModelError(f"{what}: {exc}") from None
+            raise ModelError(f"{what} changed since this Flexures was built: {exc} {fix}") from None
         diff = _tables.difference(self._tables, other, self.model, model)
         if diff is not None:
-            raise ModelError(
-                f"{what}: {diff} since this Flexures was built. An element is unstressed at the pose its "
-                "sites had then (mjflex has no pre-stress), and a provider serves only copies of its model: "
-                "build a new mjflex.Flexures(model) after editing site, body or record data"
-            )
+            raise ModelError(f"{what}: {diff} since this Flexures was built. {fix}")
         self._fingerprints[model._address] = digest
 
     # ------------------------------------------------------------------ installation
