@@ -11,6 +11,7 @@ duration 0 gives the guide's first (undamped) natural frequency for each leaf st
 import json
 import os
 import sys
+import warnings
 
 import numpy as np
 
@@ -154,6 +155,7 @@ def run(args):
     os.makedirs(args.out, exist_ok=True)
     executor, close = make_executor(args.executor, args.workers)
     recipe = arcade_recipe()
+    warnings.filterwarnings("ignore", message="mjflex.sweep: ", category=RuntimeWarning)  # listed below instead
     try:
         ds = sweep(recipe, {"leaf_scale": args.leaf_scale, "beta": args.beta}, args.duration, arcade_stroke,
                    executor=executor, threads=args.threads, progress=not args.quiet, samples=args.samples)  # fmt: skip
