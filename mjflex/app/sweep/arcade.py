@@ -155,12 +155,14 @@ def run(args):
     os.makedirs(args.out, exist_ok=True)
     executor, close = make_executor(args.executor, args.workers)
     recipe = arcade_recipe()
-    warnings.filterwarnings("ignore", message="mjflex.sweep: ", category=RuntimeWarning)  # listed below instead
     try:
-        ds = sweep(recipe, {"leaf_scale": args.leaf_scale, "beta": args.beta}, args.duration, arcade_stroke,
-                   executor=executor, threads=args.threads, progress=not args.quiet, samples=args.samples)  # fmt: skip
-        modes = sweep(recipe, {"leaf_scale": args.leaf_scale}, 0.0, first_frequency, executor=executor,
-                      threads=args.threads, progress=False)  # fmt: skip
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="mjflex.sweep: ", category=RuntimeWarning)  # listed below instead
+            grid = {"leaf_scale": args.leaf_scale, "beta": args.beta}
+            ds = sweep(recipe, grid, args.duration, arcade_stroke, executor=executor, threads=args.threads,
+                       progress=not args.quiet, samples=args.samples)  # fmt: skip
+            modes = sweep(recipe, {"leaf_scale": args.leaf_scale}, 0.0, first_frequency, executor=executor,
+                          threads=args.threads, progress=False)  # fmt: skip
     finally:
         close()
     stem = os.path.join(args.out, "sweep_arcade")
