@@ -81,6 +81,7 @@ def main(argv=None):
         return ds["stroke"].values
 
     cases = ["serial", *executors]
+    load_before = os.getloadavg()[0]
     reference = run("serial", args.duration)
     for name in cases[1:]:  # warm up the workers (imports, compilation) and check the results
         np.testing.assert_array_equal(run(name, args.duration), reference, err_msg=name)
@@ -97,9 +98,11 @@ def main(argv=None):
         executors["dask"].close()
         cluster.close()
 
+    load = (load_before, os.getloadavg()[0])
     n, steps = len(rows), round(args.duration / 1e-5)
     print(f"\nARCADE sweep: {n} variants x {args.duration * 1e3:g} ms ({steps} RK4 steps each), {args.workers} "
-          f"threads/processes, {args.repeat} interleaved repeats, {os.cpu_count()} CPUs (shared: noisy)")  # fmt: skip
+          f"threads/processes, {args.repeat} interleaved repeats, {os.cpu_count()} CPUs (shared: noisy; 1-min load "
+          f"average {load[0]:.1f} before, {load[1]:.1f} after)")  # fmt: skip
     print(f"{'case':<8} {'wall median':>12} {'vs serial (median, min-max)':>30} {'overhead/variant':>18}")
     result = {}
     for name in cases:
@@ -115,7 +118,8 @@ def main(argv=None):
               f"({r['ratio_min']:.2f}-{r['ratio_max']:.2f}) {r['overhead_per_variant_s'] * 1e3:>14.1f} ms")  # fmt: skip
     print("all cases bit-identical to the serial loop: yes (checked)")
     write_json(args.json, {"variants": n, "duration_s": args.duration, "steps": steps, "workers": args.workers,
-                           "repeat": args.repeat, "cases": result, "bit_identical": True})  # fmt: skip
+                           "repeat": args.repeat, "cases": result, "bit_identical": True,
+                           "load_average_before_after": load})  # fmt: skip
 
 
 if __name__ == "__main__":
