@@ -280,3 +280,10 @@ def test_table_labels_every_per_element_result():
     assert np.array_equal(table["power"], flex.dissipation_powers(data))
     row = table[table["name"] == "flex3"][0]
     assert row["energy"] > 0 and row["power"] > 0 and row["method"] == "twist"
+
+
+def test_large_but_allowed_entries_are_still_checked_for_symmetry():
+    K = np.diag([1e270] * 6)
+    K[0, 1] = 1e269  # sqrt(K_00 K_11) overflows float64: the scale must be formed without it
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': .*K is not symmetric: K\[0, 1\] = 1e\+269"):
+        mjflex.Flexures(_model(K=K.tolist()))

@@ -14,7 +14,7 @@ from mujoco import batch as mjbatch
 import mjflex
 from mjflex.mj import _callback
 from tests.helpers import c_output
-from tests.models import B_DEMO, two_body_spec
+from tests.models import B_DEMO, K_DEMO, two_body_spec
 
 STEPS = 200
 
@@ -187,3 +187,21 @@ def test_capacity_is_a_clear_error():
     assert not flex.installed and not _callback._IN_SLOT and mujoco.get_mjcb_passive() is None
     with flex.serve(flex.models[1:4]):  # fewer copies: fine
         assert flex.installed
+
+
+def test_batch_of_models_with_different_elements():
+    """A stiffness sweep in one Batch: each model has its own records, hence its own provider."""
+    import contextlib
+
+    models = [two_body_spec(K=s * K_DEMO, B=B_DEMO, integrator="Euler").compile() for s in (1.0, 2.0, 4.0)]
+    providers = [mjflex.Flexures(m) for m in models]
+    qvels = [_qvel(models[0], seed) for seed in range(3)]
+    serial = np.array([_simulate(p, q) for p, q in zip(providers, qvels, strict=True)])
+    batch = _batch(models[0], qvels)
+    batch.set_models(models)  # each simulation steps a provider's own model: nothing to serve
+    with contextlib.ExitStack() as stack:
+        for p in providers:
+            stack.enter_context(p)
+        batch.step(nstep=STEPS)
+    assert np.array_equal(batch.qpos, serial)
+    assert np.abs(serial[0] - serial[2]).max() > 1e-3

@@ -94,7 +94,8 @@ def check_psd_matrix(M, name: str, n: int, *, what: str) -> np.ndarray:
     """
     M = as_array(M, name, (n, n))
     diag = np.abs(np.diagonal(M, axis1=-2, axis2=-1))
-    scale = np.sqrt(diag[..., :, None] * diag[..., None, :])
+    root = np.sqrt(diag)  # sqrt(M_ii) sqrt(M_jj): no overflow of the product for entries up to 1e308
+    scale = root[..., :, None] * root[..., None, :]
     asym = np.abs(M - np.swapaxes(M, -1, -2)) / np.maximum(scale, np.finfo(float).tiny)
     bad = asym > SYMMETRY_RTOL
     if bad.any():
