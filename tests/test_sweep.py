@@ -142,12 +142,13 @@ def test_thread_pool_runs_chunks_concurrently_in_one_process(in_process):
 def test_dask_bit_identical(in_process):
     distributed = pytest.importorskip("distributed", reason="Dask is optional: pip install 'mjflex[dask]'")
     with (
-        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+        # one worker process (its start-up dominates this test) with 2 threads: chunks run concurrently there
+        distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cluster,
         distributed.Client(cluster) as client,
     ):
         with pytest.warns(RuntimeWarning, match="diverged"):
             ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, executor=client, progress=False, samples=SAMPLES)
-    assert ds.attrs["executor"] == "ClientExecutor" and ds.attrs["chunks"] == 4  # 8 variants: 2 tasks per worker
+    assert ds.attrs["executor"] == "ClientExecutor" and ds.attrs["chunks"] == 4  # 8 variants: 2 tasks per thread
     xr.testing.assert_identical(ds.drop_attrs(), in_process.drop_attrs())
 
 
