@@ -115,3 +115,12 @@ def lambda_tilde(q):
     L[:3, 0], L[:3, 1:4], L[:3, 4], L[:3, 5:] = -xi, s * np.eye(3) - hat(xi), -xd, sd * np.eye(3) - hat(xd)
     L[3:, 4], L[3:, 5:] = -xi, s * np.eye(3) - hat(xi)
     return L
+
+
+def c_output(capfd):
+    """What C code printed (MuJoCo's warnings go to stderr), once its stdio buffers are flushed."""
+    import ctypes
+
+    ctypes.CDLL(None).fflush(None)
+    captured = capfd.readouterr()
+    return captured.out + captured.err
