@@ -21,7 +21,7 @@ K_DEMO = np.array(
 B_DEMO = 0.02 * K_DEMO
 
 
-def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timestep=1e-3, gravity=False):
+def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timestep=1e-3, gravity=False, terms=None):
     """Bodies A and B on free joints joined at their midpoint by one flexure named ``link``."""
     spec = mujoco.MjSpec()
     spec.modelname = "two_body"
@@ -38,11 +38,12 @@ def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timeste
         body.explicitinertial = True
         body.add_freejoint()
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.03, 0, 0], contype=0, conaffinity=0, mass=0, density=0)
-    mjflex.add_flexure(spec, "link", "A", "B", pos=[0.1, 0.02, 0.5], quat=[0.8, 0.0, 0.6, 0.0], K=K, B=B, method=method)
+    mjflex.add_flexure(spec, "link", "A", "B", pos=[0.1, 0.02, 0.5], quat=[0.8, 0.0, 0.6, 0.0], K=K, B=B, method=method,
+                       terms=terms)  # fmt: skip
     return spec
 
 
-def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4", timestep=1e-3):
+def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4", timestep=1e-3, terms=None):
     """A chain hanging from the world: hinge, slide+hinge, ball joints; flexures between neighbours."""
     spec = mujoco.MjSpec()
     spec.modelname = "chain"
@@ -66,7 +67,7 @@ def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4",
     for i in range(1, n):
         xpos = poses[0][poses[2].index(f"link{i}")]
         mjflex.add_flexure(spec, f"flex{i}", f"link{i - 1}", f"link{i}", pos=xpos + [0.005, 0.002, 0.0],
-                           quat=[1, 0.1, 0.2, 0.0], K=K, B=B, method=method, poses=poses)  # fmt: skip
+                           quat=[1, 0.1, 0.2, 0.0], K=K, B=B, method=method, poses=poses, terms=terms)  # fmt: skip
     return spec
 
 
@@ -75,3 +76,19 @@ def set_initial_motion(model, data, seed=0, scale=1.0):
     rng = np.random.default_rng(seed)
     data.qvel[:] = scale * rng.normal(size=model.nv)
     mujoco.mj_forward(model, data)
+
+
+def demo_terms(method, order=4, seed=0):
+    """Polynomial terms that change K_DEMO's energy by ~10-20 % at 0.2 rad / 2 cm (random signs).
+
+    Each term is at most ``0.3 / sqrt(M)`` of the quadratic energy ``U0`` there, so their sum is ~0.2 ``U0``
+    (for dual quaternions with ``s'`` taken as 0.01, beyond what these motions reach: its terms stay small,
+    and so the dynamics tests stay stable).
+    """
+    rng = np.random.default_rng(seed)
+    e = mjflex.polynomial_basis(method, order)
+    rot, trans = 0.2, 0.02
+    z = [rot] * 3 + [trans] * 3 if method == "twist" else [1.0, *[rot / 2] * 3, 0.01, *[trans / 2] * 3]
+    U0 = 0.5 * (0.6 * rot**2 + 100.0 * trans**2)
+    r = rng.uniform(-1.0, 1.0, len(e)) * 0.3 / np.sqrt(len(e))
+    return mjflex.PolynomialTerms(method, e, r * U0 / np.prod(np.array(z) ** e, axis=1))
