@@ -1,9 +1,10 @@
 """Compiled kernels of polynomial potentials (numba ``nopython``; no mujoco).
 
 Terms are a table ``exps`` (rows of exponents, 6 or more columns) with coefficients ``coefs``;
-an element uses rows ``lo:hi``. ``pw`` is a work array of shape ``(8, top + 1)`` holding the
-powers ``z_k^p`` of the element's coordinates and ``grad`` a work array of 16 entries: callers
-allocate both once, so nothing is allocated per element. Without terms (``hi <= lo``) the kernels
+an element uses rows ``lo:hi``, whose largest exponent is ``top``. ``pw`` is a work array of
+shape ``(8, >= top + 1)`` holding the powers ``z_k^p`` of the element's coordinates and ``grad``
+a work array of 16 entries: callers allocate both once (the MuJoCo loop on its stack), so
+nothing is allocated per element. Without terms (``hi <= lo``) the kernels
 return exactly what the quadratic kernels of :mod:`._kernels` return (they call them).
 
 Wrench of the terms (see :mod:`mjflex.core.polynomial`): ``-Gamma g`` (twist) or
@@ -39,27 +40,27 @@ _Z3 = (0.0, 0.0, 0.0)
 
 
 @njit(**_JIT)
-def _set_powers(pw, k, x):
+def _set_powers(pw, k, x, top):
     v = 1.0
     pw[k, 0] = 1.0
-    for p in range(1, pw.shape[1]):
+    for p in range(1, top + 1):
         v *= x
         pw[k, p] = v
 
 
 @njit(**_JIT)
-def fill_powers(method, e1, e2, aux, pw):
-    """Powers of the coordinates ``z`` into ``pw``; returns the number of coordinates."""
+def fill_powers(method, e1, e2, aux, pw, top):
+    """Powers ``0..top`` of the coordinates ``z`` into ``pw``; returns the number of coordinates."""
     if method == TWIST:
         for k in range(3):
-            _set_powers(pw, k, e1[k])
-            _set_powers(pw, 3 + k, e2[k])
+            _set_powers(pw, k, e1[k], top)
+            _set_powers(pw, 3 + k, e2[k], top)
         return 6
-    _set_powers(pw, 0, aux[0])
-    _set_powers(pw, 4, aux[1])
+    _set_powers(pw, 0, aux[0], top)
+    _set_powers(pw, 4, aux[1], top)
     for k in range(3):
-        _set_powers(pw, 1 + k, e1[k])
-        _set_powers(pw, 5 + k, e2[k])
+        _set_powers(pw, 1 + k, e1[k], top)
+        _set_powers(pw, 5 + k, e2[k], top)
     return 8
 
 
@@ -113,20 +114,20 @@ def _terms_wrench_b(method, e1, e2, aux, y1, y2, grad):
 
 
 @njit(**_JIT)
-def spatial_potential_terms(method, R_WA, p_WA, R_WB, p_WB, K, exps, coefs, lo, hi, pw, grad):
-    """Elastic energy of one element with polynomial terms [J]."""
+def spatial_potential_terms(method, R_WA, p_WA, R_WB, p_WB, K, exps, coefs, lo, hi, top, pw, grad):
+    """Elastic energy of one element with polynomial terms [J]; ``top``: largest exponent of its terms."""
     if hi <= lo:
         return spatial_potential(method, R_WA, p_WA, R_WB, p_WB, K)
     e1, e2, aux = _coords(method, R_WA, p_WA, R_WB, p_WB)
     y1, y2 = _mat6_vec(K, e1, e2)
     scale = 0.5 if method == TWIST else 2.0
-    nvar = fill_powers(method, e1, e2, aux, pw)
+    nvar = fill_powers(method, e1, e2, aux, pw, top)
     return scale * (_dot(e1, y1) + _dot(e2, y2)) + terms_eval(nvar, exps, coefs, lo, hi, pw, grad, False)
 
 
 @njit(**_JIT)
 def spatial_wrench_terms(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB,
-                         exps, coefs, lo, hi, pw, grad):  # fmt: skip
+                         exps, coefs, lo, hi, top, pw, grad):  # fmt: skip
     """Wrench of one element with polynomial terms on body B, and its dissipated power.
 
     As :func:`._kernels.spatial_wrench` (which it returns unchanged without terms).
@@ -136,7 +137,7 @@ def spatial_wrench_terms(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_
     e1, e2, aux, y1, y2, power = generalized_forces(
         method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB
     )
-    nvar = fill_powers(method, e1, e2, aux, pw)
+    nvar = fill_powers(method, e1, e2, aux, pw, top)
     terms_eval(nvar, exps, coefs, lo, hi, pw, grad, True)
     m, f, scale = _terms_wrench_b(method, e1, e2, aux, y1, y2, grad)
     if method != TWIST:
@@ -157,13 +158,13 @@ def work_arrays(exps):
 @njit(**_JIT)
 def spatial_wrench_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB,
                                exps, coefs, pw, grad, out, power):  # fmt: skip
-    hi = coefs.shape[0]
+    hi, top = coefs.shape[0], pw.shape[1] - 1
     for i in range(out.shape[0]):
         m, f, power[i] = spatial_wrench_terms(
             method, load9(R_WA, _i(R_WA, i)), load3(p_WA, _i(p_WA, i)), load9(R_WB, _i(R_WB, i)),
             load3(p_WB, _i(p_WB, i)), load36(K, _i(K, i)), load36(B, _i(B, i)), viscous,
             load3(w_WA, _i(w_WA, i)), load3(v_WA, _i(v_WA, i)), load3(w_WB, _i(w_WB, i)), load3(v_WB, _i(v_WB, i)),
-            exps, coefs, 0, hi, pw, grad,
+            exps, coefs, 0, hi, top, pw, grad,
         )  # fmt: skip
         for j in range(3):
             out[i, j] = m[j]
@@ -172,11 +173,11 @@ def spatial_wrench_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_
 
 @njit(**_JIT)
 def spatial_potential_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, exps, coefs, pw, grad, out):
-    hi = coefs.shape[0]
+    hi, top = coefs.shape[0], pw.shape[1] - 1
     for i in range(out.shape[0]):
         out[i] = spatial_potential_terms(
             method, load9(R_WA, _i(R_WA, i)), load3(p_WA, _i(p_WA, i)), load9(R_WB, _i(R_WB, i)),
-            load3(p_WB, _i(p_WB, i)), load36(K, _i(K, i)), exps, coefs, 0, hi, pw, grad,
+            load3(p_WB, _i(p_WB, i)), load36(K, _i(K, i)), exps, coefs, 0, hi, top, pw, grad,
         )  # fmt: skip
 
 
@@ -189,7 +190,7 @@ def design_batch(method, R_ab, p_ab, exps, factors, pw, grad, wrench_out, value_
     """
     for i in range(R_ab.shape[0]):
         e1, e2, aux = _coords(method, _I9, _Z3, load9(R_ab, i), load3(p_ab, i))
-        nvar = fill_powers(method, e1, e2, aux, pw)
+        nvar = fill_powers(method, e1, e2, aux, pw, pw.shape[1] - 1)
         for m in range(exps.shape[0]):
             value_out[i, m] = terms_eval(nvar, exps, factors, m, m + 1, pw, grad, True)
             mm, ff, scale = _terms_wrench_b(method, e1, e2, aux, _Z3, _Z3, grad)

@@ -265,7 +265,7 @@ def flexure_loop(
     finite twist. Disabled elements give zeros. Polynomial terms (rows ``terms_lo:terms_hi`` of
     ``exps``, ``coefs``) are elastic: switched off with the springs like ``K``.
     """
-    pw_all = carray(stack_doubles(_PW_SIZE), (TERM_COLUMNS, POWER_COLUMNS), np.float64)
+    pw = carray(stack_doubles(_PW_SIZE), (TERM_COLUMNS, POWER_COLUMNS), np.float64)
     grad = carray(stack_doubles(_GRAD_SIZE), (_GRAD_SIZE,), np.float64)
     for e in range(ints.shape[0]):
         if ints[e, ENABLED] == 0:
@@ -284,9 +284,9 @@ def flexure_loop(
             continue
         K = _tuple36(floats, e, K_AT) if spring_on else _ZERO36
         lo, hi = ints[e, TERMS_LO], ints[e, TERMS_HI] if spring_on else ints[e, TERMS_LO]
-        pw = pw_all[:, : ints[e, TERMS_TOP] + 1]
+        top = ints[e, TERMS_TOP]
         if mode & ENERGY:
-            out1[e] = spatial_potential_terms(method, Ra, pa, Rb, pb, K, exps, coefs, lo, hi, pw, grad)
+            out1[e] = spatial_potential_terms(method, Ra, pa, Rb, pb, K, exps, coefs, lo, hi, top, pw, grad)
             continue
         viscous = damper_on and ints[e, VISCOUS] != 0
         wa, va, wb, vb = _ZERO3, _ZERO3, _ZERO3, _ZERO3
@@ -295,7 +295,7 @@ def flexure_loop(
             wb, vb = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_B], pb)
         B = _tuple36(floats, e, B_AT) if viscous else _ZERO36
         m, f, power = spatial_wrench_terms(method, Ra, pa, Rb, pb, K, B, viscous, wa, va, wb, vb,
-                                           exps, coefs, lo, hi, pw, grad)  # fmt: skip
+                                           exps, coefs, lo, hi, top, pw, grad)  # fmt: skip
         if not math.isfinite(m[0] + m[1] + m[2] + f[0] + f[1] + f[2] + power):
             return e
         if (
