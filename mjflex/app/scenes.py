@@ -47,7 +47,7 @@ BUSHING_K = np.array([
 ])  # fmt: skip
 
 
-def bushing_spec(*, K=BUSHING_K, beta=2e-4, timestep=2e-5, spin=(6.0, -4.0, 9.0), velocity=(0.6, -0.4, 0.8)):
+def bushing_spec(*, K=BUSHING_K, beta=2e-4, timestep=2e-5, spin=(90.0, -60.0, 135.0), velocity=(3.0, -2.0, 4.0)):
     """One 1.2 kg block on a bushing to the world, launched into a large combined rotation and translation.
 
     The keyframe ``launch`` gives the block an angular velocity ``spin`` [rad/s] and a velocity
@@ -105,7 +105,8 @@ def cantilever_spec(beam=None, n=10, *, tip_speed=0.0, timestep=2e-6, beta=0.0):
     """The beam as a chain of ``n`` elements at the centres of ``n`` equal segments.
 
     Element ``seg{k}`` (at ``x = (k + 1/2) L/n``) carries the exact Timoshenko stiffness of its
-    segment (:func:`mjflex.geometry.leaf_spring_stiffness`), so the chain's linear static tip
+    segment (:func:`mjflex.geometry.leaf_spring_stiffness` with the beam modulus ``E``, not the
+    plate modulus of wide flexures, as in beam theory), so the chain's linear static tip
     deflection is the beam's for any ``n``; the mass is lumped into rigid bodies ``link1`` ...
     ``link{n}`` between the element points (the half segment at the clamp belongs to the
     world). Body ``link{n}`` carries the tip site ``tip``. Keyframe ``kick``: the tip body
@@ -122,7 +123,7 @@ def cantilever_spec(beam=None, n=10, *, tip_speed=0.0, timestep=2e-6, beta=0.0):
                          beam.density)  # fmt: skip
         if k == n:
             body.add_site(name="tip", pos=[0.5 * (x1 - x0), 0, 0])
-    K = leaf_spring_stiffness(seg, beam.t, beam.b, beam.E, beam.nu, allow_out_of_range=True)
+    K = leaf_spring_stiffness(seg, beam.t, beam.b, beam.E, beam.nu, wide=False, allow_out_of_range=True)
     poses = reference_body_poses(spec)
     for k in range(n):
         add_flexure(spec, f"seg{k}", "world" if k == 0 else f"link{k}", f"link{k + 1}", pos=[edges[k], 0, 0], K=K,
@@ -132,6 +133,37 @@ def cantilever_spec(beam=None, n=10, *, tip_speed=0.0, timestep=2e-6, beta=0.0):
     qvel[model.jnt_dofadr[model.body(f"link{n}").jntadr[0]] + 1] = tip_speed
     spec.add_key(name="kick", qpos=model.qpos0, qvel=qvel)
     return spec
+
+
+def cantilever_flexcomp_spec(beam=None, n=10, *, timestep=2e-6):
+    """The same beam as MuJoCo 4.0's 1-D ``flexcomp`` rod (discrete elastic rod, box section).
+
+    ``n + 2`` points at ``x = -L/n, 0, L/n, ..., L``; the first two are pinned (``<pin id="0
+    1"/>`` clamps the first edge, so the rod is clamped at ``x = 0``); inextensible edges
+    (``<edge equality="true"/>``, as stiff as the step allows), Young's modulus and Poisson
+    ratio of the beam, box section ``t x b`` (thin side in the bending plane x-y), lumped mass
+    ``rho A L / n`` per free point.
+    The tip is body ``rod_{n + 1}`` (a point mass, no orientation). Not a variant of the
+    element chain: a flexcomp rod cannot join two moving bodies without equality constraints,
+    and its vertices carry no orientation, so only the tip position is compared.
+    """
+    beam = beam or Beam()
+    seg = beam.L / n
+    points = " ".join(f"{(k - 1) * seg:.17g} 0 0" for k in range(n + 2))
+    mass = beam.mass_per_length * seg * (n + 2)  # flexcomp divides by the number of points, pinned included
+    xml = f"""<mujoco model="cantilever_flexcomp">
+  <option timestep="{timestep}" gravity="0 0 0" integrator="RK4"/>
+  <worldbody>
+    <flexcomp name="rod" type="direct" dim="1" point="{points}" mass="{mass:.17g}">
+      <elasticity young="{beam.E:.17g}" poisson="{beam.nu:.17g}" section="box"
+                  sectionsize="{0.5 * beam.t:.17g} {0.5 * beam.b:.17g}"/>
+      <edge equality="true" solref="{2 * timestep:.17g} 1" solimp="0.95 0.99 0.001 0.5 2"/>
+      <contact contype="0" conaffinity="0"/>
+      <pin id="0 1"/>
+    </flexcomp>
+  </worldbody>
+</mujoco>"""
+    return mujoco.MjSpec.from_string(xml)
 
 
 # ------------------------------------------------------------------------------------------ parallelogram
@@ -164,4 +196,4 @@ def parallelogram_spec(*, speed=0.05, timestep=1e-5):
     return spec
 
 
-__all__ = ["BUSHING_K", "Beam", "bushing_spec", "cantilever_spec", "parallelogram_spec"]
+__all__ = ["BUSHING_K", "Beam", "bushing_spec", "cantilever_flexcomp_spec", "cantilever_spec", "parallelogram_spec"]

@@ -156,13 +156,13 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
         )
     variant_model = compile_spec(spec)
     body_map = identity_body_map(variant_model)
-    details = {"match": match, "welds": len(flex), "nv": int(variant_model.nv)}
+    details = {"match": match, "welds": len(flex), "nv": int(variant_model.nv), "constraints": "spring"}
     return Variant(
         name or f"weld({match})",
         variant_model,
         "\n".join(lines),
         body_map,
-        PoseFit(variant_model, body_map),
+        PoseFit(variant_model, body_map, constraints=False),
         details,
         spec,
     )
@@ -286,9 +286,8 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
         "stiffness and damping; couplings dropped: "
         + ", ".join(f"{d.element} {d.coupling:.2g}" for d in dirs if d.coupling > 1e-9)
     ]
-    variant = assemble(
-        spec, model, links, closer=closer, name=name or "bushing", report=report, details={"kind": "bushing"}
-    )
+    details = {"kind": "bushing", "constraints": "spring"}
+    variant = assemble(spec, model, links, closer=closer, name=name or "bushing", report=report, details=details)
     if closers:
         variant = _weld_loops(variant, flex, closers, loop_welds)
     return variant
@@ -300,7 +299,7 @@ def _weld_loops(variant, flex, closers, match):
     lines = matched_welds(spec, flex, closers, match)
     model = compile_spec(spec)
     variant.model = model
-    variant.state_from = PoseFit(model, variant.body_map)
+    variant.state_from = PoseFit(model, variant.body_map, constraints=False)
     variant.report += "\nloops closed by matched soft welds:\n" + "\n".join(lines)
     variant.details["loop_welds"] = closers
     return variant

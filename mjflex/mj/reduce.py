@@ -106,7 +106,7 @@ def _constrained_error(lam, rows, target, n_rigid):
     return float(np.max(np.abs(f - target) / target, initial=0.0))
 
 
-def _choose_rigid(dirs, shares, freq, modes, mask, reducible, freq_tol, max_joints):
+def _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, freq_tol, max_joints):
     """Which principal directions to hold rigid (n_el, 6), which elements stay reducible, and the error.
 
     Candidates are ordered by their largest modal strain-energy share; the longest prefix whose
@@ -121,7 +121,7 @@ def _choose_rigid(dirs, shares, freq, modes, mask, reducible, freq_tol, max_join
     score = shares.max(axis=2, initial=0.0)
     active = np.array(reducible, dtype=bool)
     while True:
-        cand = [(e, i) for e in np.nonzero(active)[0] for i in range(6) if np.isfinite(score[e, i])]
+        cand = [(e, i) for e in np.nonzero(active)[0] for i in range(6) if allowed[e, i] and np.isfinite(score[e, i])]
         cand.sort(key=lambda c: score[c])
         rows = np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))
         lo, hi = 0, len(cand)
@@ -139,6 +139,43 @@ def _choose_rigid(dirs, shares, freq, modes, mask, reducible, freq_tol, max_join
             error = _constrained_error(lam, rows[:lo], target, n_rigid)
             return rigid, active, error
         active &= ~too_many
+
+
+def scene_shares(model, flex, dirs, scene):
+    """Largest strain energy of each principal direction along a simulated scene, over the largest total (n_el, 6).
+
+    ``scene = (initial, duration)``: ``initial`` is a keyframe name or index, or ``(qpos,
+    qvel)``; the full model runs for ``duration`` s with its own integrator and step. A
+    direction that stores a noticeable part of the scene's strain energy (a notch stretched by
+    the stroke of a closed-loop mechanism, or by centrifugal loads) must stay compliant even
+    if no retained normal mode uses it: linear modes cannot see second-order stiffening.
+    """
+    initial, duration = scene
+    data = mujoco.MjData(model)
+    if isinstance(initial, str | int):
+        key = initial if isinstance(initial, int) else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, initial)
+        if not 0 <= key < model.nkey:
+            raise ValueError(f"scene: no keyframe {initial!r} in the model (it has {model.nkey})")
+        mujoco.mj_resetDataKeyframe(model, data, key)
+    else:
+        data.qpos[:], data.qvel[:] = initial
+    if not duration > 0:
+        raise ValueError(f"scene: the duration must be positive [s]; got {duration!r}")
+    T = np.stack([d.T for d in dirs])
+    k = np.stack([d.k for d in dirs])
+    steps = max(1, round(duration / model.opt.timestep))
+    peak, total = np.zeros((len(dirs), 6)), 0.0
+    with flex:
+        for i in range(steps):
+            mujoco.mj_step(model, data)
+            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.isfinite(data.qvel).all():
+                raise ValueError(f"scene: the full model diverged at t = {data.time:.3g} s; fix the scene or its step")
+            if i % 10 == 0 or i == steps - 1:
+                mujoco.mj_forward(model, data)
+                delta = np.einsum("eij,ej->ei", T, flex.displacements(data))
+                peak = np.maximum(peak, 0.5 * k * delta**2)
+                total = max(total, flex.potential_energy(data))
+    return peak / max(total, 1e-300)
 
 
 def _drop_damping(ratios, freq_sel, duration, tol):
@@ -222,7 +259,7 @@ class _Plan:
     details: dict
 
 
-def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints):
+def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene):
     spec = source_spec(source)
     model = compile_spec(spec)
     flex = Flexures(model)
@@ -234,7 +271,13 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints):
     reasons = _candidates(model, flex, dirs)
     shares = energy_shares(dirs, freq, modes, mask)
     reducible = [r is None for r in reasons]
-    rigid, active, predicted = _choose_rigid(dirs, shares, freq, modes, mask, reducible, freq_tol, max_joints)
+    used = scene_shares(model, flex, dirs, scene) if scene is not None else np.zeros((len(dirs), 6))
+    order = np.argsort(used, axis=None, kind="stable")
+    allowed = np.zeros(used.size, dtype=bool)
+    allowed[order[np.cumsum(used.ravel()[order]) <= 2.0 * freq_tol]] = True  # smallest first, within the budget
+    allowed = allowed.reshape(used.shape)
+    rigid, active, predicted = _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, freq_tol,
+                                             max_joints)  # fmt: skip
     for e in np.nonzero(~active & np.array(reducible))[0]:
         reasons[e] = f"more than {max_joints} compliant directions matter below {keep_below_hz:g} Hz"
     keep = [set(range(6)) if reasons[e] else {i for i in range(6) if not rigid[e, i]} for e in range(len(dirs))]
@@ -245,13 +288,21 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints):
         f"(frequency tolerance {100 * freq_tol:g} %, damping tolerance {viscous_tol:g})",
         *(_element_line(d, rigid[e], reasons[e], peak[e], drop[e]) for e, d in enumerate(dirs)),
     ]
+    if scene is not None:
+        held = [f"{d.element} {d.labels[i]} {100 * used[e, i]:.2g} %" for e, d in enumerate(dirs) for i in range(6)
+                if not allowed[e, i] and rigid is not None]  # fmt: skip
+        report.insert(1, f"scene {scene[0]!r} for {scene[1]:g} s: {len(held)} directions stay compliant because "
+                         f"holding them rigid would remove more than {200 * freq_tol:g} % of its peak strain energy "
+                         f"(largest first: {', '.join(sorted(held, key=lambda h: -float(h.split()[-2]))[:6])}"
+                         f"{' ...' if len(held) > 6 else ''})")  # fmt: skip
     details = {
         "keep_below_hz": keep_below_hz, "freq_tol": freq_tol, "viscous_tol": viscous_tol, "modes_kept": int(mask.sum()),
         "damping_removed_max": dropped, "predicted_error": predicted,
         "elements": {d.element: {"soft": [d.labels[i] for i in sorted(keep[e])], "kept": reasons[e] is not None,
                                  "reason": reasons[e], "damping_dropped": bool(drop[e]),
                                  "local_hz": dict(zip(d.labels, np.round(d.local_hz, 3).tolist(), strict=True)),
-                                 "max_share": dict(zip(d.labels, peak[e].tolist(), strict=True))}
+                                 "max_share": dict(zip(d.labels, peak[e].tolist(), strict=True)),
+                                 "scene_share": dict(zip(d.labels, used[e].tolist(), strict=True))}
                      for e, d in enumerate(dirs)},
     }  # fmt: skip
     return _Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details)
@@ -272,7 +323,7 @@ def _build(plan, loops, name):
 
     arm = 0.1 * max(float(plan.model.stat.extent), 1e-3)
     closer = _Closer(loops, plan.flex, plan.dirs, plan.drop, arm)
-    details = dict(plan.details, loops=loops)
+    details = dict(plan.details, loops=loops, constraints="project")
     return assemble(plan.spec, plan.model, links, closer=closer, pre=kept_records, name=name, report=plan.report,
                     details=details)  # fmt: skip
 
@@ -309,8 +360,8 @@ def closure_singularity(variant, count, amplitude=1e-3):
     return worst
 
 
-def reduce(source, keep_below_hz=2000.0, *, freq_tol=0.01, viscous_tol=1e-3, duration=None, loops="auto",
-           max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
+def reduce(source, keep_below_hz=2000.0, *, scene=None, freq_tol=0.01, viscous_tol=1e-3, duration=None,
+           loops="auto", max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
     """A cheaper model of ``source`` that keeps its normal modes below ``keep_below_hz``.
 
     Parameters
@@ -319,6 +370,11 @@ def reduce(source, keep_below_hz=2000.0, *, freq_tol=0.01, viscous_tol=1e-3, dur
         The full model (see :func:`mjflex.mj.variant.source_spec`); it is not modified.
     keep_below_hz : float
         Upper end of the band to resolve [Hz]: modes of the full model below it are kept.
+    scene : tuple, optional
+        ``(initial, duration)``: a keyframe name or index (or ``(qpos, qvel)``) and a duration
+        [s]. The full model is simulated over it (:func:`scene_shares`); directions may be
+        held rigid only while their summed share of its peak strain energy stays within
+        ``2 freq_tol`` (smallest first).
     freq_tol : float
         Relative frequency change allowed to each kept mode (module docstring).
     viscous_tol : float
@@ -348,7 +404,7 @@ def reduce(source, keep_below_hz=2000.0, *, freq_tol=0.01, viscous_tol=1e-3, dur
         raise ValueError(f"loops={loops!r}: use one of {LOOP_MODES}")
     if not (0 < freq_tol < 0.5 and viscous_tol >= 0 and max_joints >= 1):
         raise ValueError("need 0 < freq_tol < 0.5, viscous_tol >= 0 and max_joints >= 1")
-    plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints)
+    plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene)
     name = name or f"reduced({keep_below_hz:g} Hz)"
     variant = _build(plan, "constraint" if loops == "auto" else loops, name)
     if loops == "auto" and variant.model.neq:
@@ -385,4 +441,4 @@ def _verify(variant, freq, mask):
     )
 
 
-__all__ = ["closure_singularity", "reduce"]
+__all__ = ["closure_singularity", "reduce", "scene_shares"]

@@ -190,7 +190,8 @@ class PoseFit:
     residuals (world-frame rotation vector and position of each frame origin; Jacobians from
     ``mj_jac``; integrated with ``mj_integratePos`` so that ball and free joints stay on their
     manifolds) from ``qpos0``, and ``qvel`` by least squares on the frame velocities. The
-    variant's own equality constraints (e.g. loop closures) are imposed exactly on both.
+    variant's own equality constraints (e.g. loop closures) are imposed exactly on both
+    (unless ``constraints=False``).
 
     Both fits are weighted by the source bodies' spatial inertias (about their frame
     origins): the velocity fit then keeps the source's generalized momentum, ``sum_S J_S^T
@@ -206,10 +207,14 @@ class PoseFit:
         The variant.
     body_map : dict
         As in :class:`Variant`.
+    constraints : bool
+        Impose the variant's equality constraints (rigid loop closures); False for variants
+        whose equalities are soft springs (matched welds), which the fit must not freeze.
     """
 
-    def __init__(self, model, body_map, *, iterations=30, tol=1e-13):
+    def __init__(self, model, body_map, *, constraints=True, iterations=30, tol=1e-13):
         self.model = model
+        self.constraints = constraints
         ids = {n: i for i, n in enumerate(body_names(model))}
         self._pairs = []
         for source_name, (variant_name, X_VS) in body_map.items():
@@ -248,6 +253,11 @@ class PoseFit:
             mujoco.mj_jac(m, d, J[6 * k + 3 : 6 * k + 6], J[6 * k : 6 * k + 3], X[:3, 3], vid)
         return r, J
 
+    def _equalities(self):
+        if not self.constraints:
+            return np.zeros(0), np.zeros((0, self.model.nv))
+        return equality_rows(self.model, self._data)
+
     @staticmethod
     def _weighted_solve(J, W, rhs, G=None, g=None):
         """argmin ``(J x - rhs)^T W (J x - rhs)`` subject to ``G x = g`` (least squares where redundant)."""
@@ -270,12 +280,12 @@ class PoseFit:
         W = scipy.linalg.block_diag(*[t[4] for t in targets])
         for _ in range(self.iterations):
             r, J = self._residual_jacobian(targets)
-            e, G = equality_rows(self.model, self._data)
+            e, G = self._equalities()
             if max(np.abs(r).max(), np.abs(e).max(initial=0.0)) < self.tol:
                 break
             mujoco.mj_integratePos(m, d.qpos, self._weighted_solve(J, W, r, G, -e), 1.0)
         r, J = self._residual_jacobian(targets)
-        e, G = equality_rows(self.model, self._data)
+        e, G = self._equalities()
         self.last_residual = float(max(np.abs(r).max(), np.abs(e).max(initial=0.0)))
         qvel = self._weighted_solve(J, W, np.concatenate([t[3] for t in targets]), G, np.zeros(len(G)))
         return d.qpos.copy(), qvel
