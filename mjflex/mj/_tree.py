@@ -139,6 +139,7 @@ class TreeXml:
         self.parent_of = {c: p for p in self.root.iter() for c in p}
         self.bodies = {b.get("name"): b for b in self.worldbody.iter("body") if b.get("name")}
         self._drop_keyframes()
+        self._exact_inertias()
         for t in self.root.iter("text"):  # the file writes records as CDATA, which ElementTree does not keep
             if t.text and t.text.strip():
                 t.set("data", t.text)
@@ -150,6 +151,25 @@ class TreeXml:
             self.root.remove(key)
         for size in self.root.findall("size"):
             size.attrib.pop("nkey", None)
+
+    def _exact_inertias(self):
+        """Write every named body's compiled inertia with all its digits.
+
+        ``MjSpec.to_xml`` writes geom sizes and poses with 6 significant digits, which would
+        change the inertias derived from geoms by ~1e-6; explicit inertials keep the physics
+        of the variant's bodies identical to the source's.
+        """
+        for compiler in self.root.findall("compiler"):
+            if compiler.get("inertiafromgeom") == "true":
+                compiler.set("inertiafromgeom", "auto")
+        m = self.model
+        for name, el in self.bodies.items():
+            i = self.index[name]
+            for old in el.findall("inertial"):
+                el.remove(old)
+            attrs = {"pos": _fmt(m.body_ipos[i]), "quat": _fmt(m.body_iquat[i]), "mass": _fmt(m.body_mass[i]),
+                     "diaginertia": _fmt(m.body_inertia[i])}  # fmt: skip
+            el.insert(0, ET.Element("inertial", attrs))
 
     def pose(self, body):
         """Reference pose ``(R_WB, p_WB)`` of a source body (the world for ``"world"``)."""

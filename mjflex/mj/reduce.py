@@ -54,7 +54,7 @@ from .linearize import normal_modes
 from .provider import Flexures
 from .variant import Variant, body_names, compile_spec, equality_rows, source_spec
 
-COUPLING_TOL = 1e-3  # largest normalized off-diagonal stiffness for independent joint springs
+COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directions that become joint springs
 #: Largest :func:`closure_singularity` (at 1e-3 amplitude) for which loops="auto" closes loops by
 #: constraints. The ratio grows in proportion to the amplitude for a regular mechanism, so 0.1 means
 #: that at 1e-2 rad or m the loop constraints, not the flexures, would decide the motion.
@@ -78,8 +78,6 @@ def _candidates(model, flex, directions):
             out.append("planar element (its out-of-plane directions are free)")
         elif bad:
             out.append(f"body {bad[0]!r} is not a free body of the world")
-        elif d.coupling > COUPLING_TOL:
-            out.append(f"its principal directions are coupled ({d.coupling:.1e} > {COUPLING_TOL:g})")
         else:
             out.append(None)
     return out
@@ -280,6 +278,12 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
                                              max_joints)  # fmt: skip
     for e in np.nonzero(~active & np.array(reducible))[0]:
         reasons[e] = f"more than {max_joints} compliant directions matter below {keep_below_hz:g} Hz"
+    for e in np.nonzero(active)[0]:  # joint springs are independent: the compliant directions must not couple
+        soft = np.nonzero(~rigid[e])[0]
+        K = dirs[e].K_P[np.ix_(soft, soft)]
+        c = np.abs(K - np.diag(np.diag(K))) / np.sqrt(np.outer(np.diag(K), np.diag(K)) + 1e-300)
+        if len(soft) > 1 and c.max() > COUPLING_TOL:
+            reasons[e] = f"its compliant directions are coupled ({c.max():.1e} > {COUPLING_TOL:g})"
     keep = [set(range(6)) if reasons[e] else {i for i in range(6) if not rigid[e, i]} for e in range(len(dirs))]
     drop, dropped = _drop_damping(damping_ratios(dirs, freq, modes, mask, keep), freq[mask], duration, viscous_tol)
     peak = shares.max(axis=2, initial=0.0)
