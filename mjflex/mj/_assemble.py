@@ -9,7 +9,6 @@ that stays an mjflex element, and how loops are closed; :func:`assemble` returns
 import mujoco
 import numpy as np
 
-from . import schema
 from ._tree import TreeXml, merged_body_map, spanning_forest
 from .variant import PoseFit, Variant, body_names, compile_spec
 
@@ -32,8 +31,8 @@ def hinge_closure(tree, link, joint, arm):
 
 
 def rigid_closure(tree, link):
-    """A hard weld between the element's two sites."""
-    a, b = schema.site_names(link.element)
+    """A hard weld between the element's two sites (its record is dropped)."""
+    a, b = tree.drop_element(link.element, link.sites)
     tree.add("equality", "weld", name=f"{link.element}:loop", site1=a, site2=b, solref=_fmt(HARD_SOLREF),
              solimp=_fmt(HARD_SOLIMP))  # fmt: skip
 
@@ -77,7 +76,7 @@ def assemble(source_spec, source_model, links, *, closer, name, report, details,
     edges, closers, roots = spanning_forest(links, masses)
     for parent, child, link in edges:
         tree.nest(parent, child, link.joints, link.element)
-        tree.drop_element(link.element)
+        tree.drop_element(link.element, link.sites)
     loop_lines = [closer(tree, link) for link in closers]
     if pre is not None:
         pre(tree)

@@ -42,6 +42,8 @@ class Directions:
     element : str
     body_a, body_b : int
         Body ids in the source model.
+    sites : tuple of str
+        Names of the element's sites a and b.
     T : ndarray (6, 6)
         Element twist (element axes, about the element origin) to principal coordinates.
     k, b : ndarray (6,)
@@ -66,6 +68,7 @@ class Directions:
     element: str
     body_a: int
     body_b: int
+    sites: tuple
     T: np.ndarray
     k: np.ndarray
     b: np.ndarray
@@ -136,9 +139,8 @@ def element_directions(model, flex) -> list[Directions]:
     Minv = np.linalg.inv(M) if model.nv else M
     extent = max(float(model.stat.extent), 1e-3)
     out = []
-    for rec in flex.records:
-        sa = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, schema.site_names(rec.name)[0])
-        sb = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, schema.site_names(rec.name)[1])
+    for rec, (sa, sb) in zip(flex.records, flex.site_ids, strict=True):
+        sa, sb = int(sa), int(sb)
         K = schema.embed_planar(rec.K) if rec.planar else rec.K
         B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
         R_WE, p_WE = data.site_xmat[sa].reshape(3, 3).copy(), data.site_xpos[sa].copy()
@@ -163,8 +165,9 @@ def element_directions(model, flex) -> list[Directions]:
         J = T @ _relative_jacobian(model, data, ba, bb, p_WE, R_WE)
         inv_inertia = np.einsum("ij,jk,ik->i", J, Minv, J)
         local = np.sqrt(np.maximum(k, 0.0) * inv_inertia) / (2.0 * np.pi)
-        out.append(Directions(rec.name, ba, bb, T, k, np.diag(B_P).copy(), coupling, labels, axes, centre_world, J,
-                              local, K_P, B_P))  # fmt: skip
+        names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i) for i in (sa, sb))
+        out.append(Directions(rec.name, ba, bb, names, T, k, np.diag(B_P).copy(), coupling, labels, axes,
+                              centre_world, J, local, K_P, B_P))  # fmt: skip
     return out
 
 

@@ -46,6 +46,7 @@ class Link:
     element: str
     body_a: str
     body_b: str
+    sites: tuple = ()  # names of the element's sites a and b
     joints: list = field(default_factory=list)
     info: dict = field(default_factory=dict)  # free for the caller (e.g. its principal directions)
 
@@ -55,6 +56,11 @@ class Link:
 
 def _fmt(v):
     return " ".join(f"{float(x):.17g}" for x in np.atleast_1d(v))
+
+
+def retired_sites(element):
+    """Names given to the sites of an element replaced by joints or constraints: ``E:a``, ``E:b``."""
+    return f"{element}:a", f"{element}:b"
 
 
 def free_world_bodies(model) -> set[str]:
@@ -226,10 +232,19 @@ class TreeXml:
                     return custom, t
         raise KeyError(f"no text record for flexure {element!r}")
 
-    def drop_element(self, element):
-        """Remove the element's record (its sites stay: they cost nothing and mark the frame)."""
+    def drop_element(self, element, sites=()):
+        """Remove the element's record; its sites stay, renamed by :func:`retired_sites` (they mark the frame).
+
+        Returns the sites' new names (the provider warns about ``E/a``, ``E/b`` sites without a record).
+        """
         custom, t = self.text(element)
         custom.remove(t)
+        new = retired_sites(element)
+        for old, name in zip(sites, new, strict=False):
+            for site in self.root.iter("site"):
+                if site.get("name") == old:
+                    site.set("name", name)
+        return new
 
     def rewrite_element(self, element, data):
         _, t = self.text(element)

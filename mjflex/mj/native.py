@@ -38,7 +38,7 @@ import numpy as np
 from . import schema
 from ._assemble import assemble, hinge_closure
 from ._directions import element_directions
-from ._tree import WORLD, Joint, Link, free_world_bodies
+from ._tree import WORLD, Joint, Link, free_world_bodies, retired_sites
 from .provider import Flexures
 from .variant import PoseFit, Variant, body_names, compile_spec, identity_body_map, source_spec
 
@@ -79,10 +79,18 @@ def weld_targets(record, match):
     return float(k_t), float(k_r), beta
 
 
-def _add_weld(spec, element, solref, solimp, torquescale=1.0):
-    a, b = schema.site_names(element)
+def _retire(spec, flex, element):
+    """Drop an element's record and rename its sites (:func:`retired_sites`); returns their new names."""
+    spec.delete(spec.text(schema.PREFIX + element))
+    new = retired_sites(element)
+    for site_id, name in zip(flex.site_ids[flex.index(element)], new, strict=True):
+        spec.site(mujoco.mj_id2name(flex.model, mujoco.mjtObj.mjOBJ_SITE, int(site_id))).name = name
+    return new
+
+
+def _add_weld(spec, element, sites, solref, solimp, torquescale=1.0):
     weld = spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_SITE, name=f"{element}:weld",
-                             name1=a, name2=b, solref=solref, solimp=solimp)  # fmt: skip
+                             name1=sites[0], name2=sites[1], solref=solref, solimp=solimp)  # fmt: skip
     weld.data[TORQUESCALE] = torquescale
     return weld
 
@@ -104,8 +112,7 @@ def matched_welds(spec, flex, elements, match):
     solimp = [WELD_IMPEDANCE, WELD_IMPEDANCE, 0.001, 0.5, 2.0]
     welds, lines = {}, []
     for name in elements:
-        spec.delete(spec.text(schema.PREFIX + name))
-        welds[name] = _add_weld(spec, name, [-1.0, 0.0], solimp)
+        welds[name] = _add_weld(spec, name, _retire(spec, flex, name), [-1.0, 0.0], solimp)
     model = compile_spec(spec)
     inverse = _weld_inverse_inertias(model)
     eq_ids = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_EQUALITY, i): i for i in range(model.neq)}
@@ -141,8 +148,7 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
     spec, model, flex = _source(source)
     if match == "rigid":
         for n in flex.names:
-            spec.delete(spec.text(schema.PREFIX + n))
-            _add_weld(spec, n, [2.0 * model.opt.timestep, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0])
+            _add_weld(spec, n, _retire(spec, flex, n), [2.0 * model.opt.timestep, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0])
         lines = [
             f"{len(flex)} elements replaced by stiff welds (solref = (2 h, 1) = ({2 * model.opt.timestep:g}, 1)): "
             "the bodies move as one up to the constraint softness, which the solver sets, not the flexures"
@@ -176,7 +182,7 @@ def _links(model, dirs, choose):
         joints = [
             Joint(d.kind(i), d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]), float(d.b[i])) for i in idx
         ]
-        out.append(Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), joints=joints))
+        out.append(Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites, joints=joints))
     return out
 
 
@@ -202,7 +208,7 @@ class _TendonSprings:
         if len(link.joints) != 1 or link.joints[0].kind != "hinge":
             return f"{link.element}: closes a loop with a non-hinge joint; kept as an mjflex element (not native)"
         hinge_closure(tree, link, link.joints[0], self.arm)
-        tree.drop_element(link.element)
+        tree.drop_element(link.element, link.sites)
         self.pending.append(link)
         return None
 

@@ -226,7 +226,6 @@ class _Closer:
         rec, d = self.flex.records[e], self.dirs[e]
         if self.loops == "constraint" and not link.joints:
             rigid_closure(tree, link)
-            tree.drop_element(link.element)
             return f"{link.element}: closes a loop as a hard weld"
         if self.loops == "constraint" and len(link.joints) == 1 and link.joints[0].kind == "hinge":
             hinge_closure(tree, link, link.joints[0], self.arm)
@@ -315,7 +314,7 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
 def _build(plan, loops, name):
     names = body_names(plan.model)
     links = [
-        Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)),
+        Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites,
              joints=_joints(d, sorted(plan.keep[e]), not plan.drop[e]))
         for e, d in enumerate(plan.dirs) if plan.reasons[e] is None
     ]  # fmt: skip
