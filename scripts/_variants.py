@@ -135,7 +135,7 @@ def step_costs(cases, baseline, h, *, steps=20, repeat=11):
         if c.flex is not None:
             c.flex.install()
     try:
-        rows = compare(funcs, baseline, repeat=repeat)
+        rows = compare(funcs, baseline, repeat=repeat, target=0.05)
     finally:
         for c in cases:
             if c.flex is not None:

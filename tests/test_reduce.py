@@ -6,6 +6,7 @@ import pytest
 
 import mjflex
 from mjflex.app.scenes import cantilever_spec, parallelogram_spec
+from mjflex.mj._planar import in_plane_modes
 from mjflex.mj.linearize import normal_modes
 from mjflex.mj.variant import equality_rows
 from tests.models import two_body_spec
@@ -115,6 +116,49 @@ def test_cantilever_keeps_its_first_modes_and_drops_the_stiff_ones():
     np.testing.assert_allclose(f_red[: len(kept)], kept, rtol=0.01)  # the promised freq_tol
     assert f_red.max() < f_full.max()  # stiff directions held rigid: the highest mode drops
     assert variant.model.nv < full.nv
+
+
+def test_planar_scene_becomes_a_planar_model():
+    spec = cantilever_spec(n=4)
+    full = spec.compile()
+    variant = mjflex.reduce(spec, 3000.0, plane="auto", scene=("kick", 1e-3))
+    m = variant.model
+    assert variant.details["plane"] == pytest.approx([0.0, 0.0, 1.0])
+    joints = [m.jnt_type[j] for j in range(m.njnt)]
+    assert mujoco.mjtJoint.mjJNT_FREE not in joints and mujoco.mjtJoint.mjJNT_BALL not in joints
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    for b in range(1, m.nbody):  # every joint moves the bodies in the x-y plane only
+        jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jacBody(m, d, jacp, jacr, b)
+        assert np.abs(jacp[2]).max() < 1e-12 and np.abs(jacr[:2]).max() < 1e-12
+    f_full, modes = normal_modes(full, mjflex.Flexures(full))
+    in_plane = f_full[(f_full > 1e-2) & (f_full < 3000.0) & in_plane_modes(full, modes, np.array([0, 0, 1.0]))]
+    f_red = _elastic(normal_modes(m, None, joint_springs=True)[0])
+    assert len(in_plane) == 3 and len(in_plane) < len(_elastic(f_full[f_full < 3000.0]))  # out-of-plane ones go
+    np.testing.assert_allclose(f_red[:3], in_plane, rtol=0.01)
+
+
+def test_plane_checks_say_what_is_not_planar():
+    with pytest.raises(ValueError, match="couples in-plane and out-of-plane"):
+        mjflex.reduce(two_body_spec(), 100.0, plane=[0.0, 0.0, 1.0])
+    spec = parallelogram_spec()
+    with pytest.raises(ValueError, match="gravity"):
+        tilted = spec.copy()
+        tilted.option.gravity = [0.0, 0.0, -9.81]
+        mjflex.reduce(tilted, 100.0, plane=[0.0, 0.0, 1.0])
+    kick = (_out_of_plane_kick(), 1e-4)
+    variant = mjflex.reduce(cantilever_spec(n=3), 3000.0, plane="auto", verify=False, scene=kick)
+    assert "not planar (the scene's initial velocities leave the plane)" in variant.report
+    assert variant.details["plane"] is None
+
+
+def _out_of_plane_kick():
+    model = cantilever_spec(n=3).compile()
+    qvel = np.zeros(model.nv)
+    qvel[model.jnt_dofadr[model.body("link3").jntadr[0]] + 2] = 0.1  # the tip moves along z
+    return model.qpos0.copy(), qvel
 
 
 def test_rigid_band_merges_everything_and_damping_goes_where_negligible():

@@ -9,7 +9,7 @@ that stays an mjflex element, and how loops are closed; :func:`assemble` returns
 import mujoco
 import numpy as np
 
-from ._tree import TreeXml, merged_body_map, spanning_forest
+from ._tree import TreeXml, free_world_bodies, merged_body_map, spanning_forest
 from .variant import PoseFit, Variant, body_names, compile_spec
 
 #: Loop closures that should act as rigid: as stiff as the time step allows (MuJoCo's refsafe raises
@@ -51,7 +51,7 @@ def keyframes_converted(source_model, spec, model, state_from):
     return compile_spec(spec)
 
 
-def assemble(source_spec, source_model, links, *, closer, name, report, details, pre=None, post=None):
+def assemble(source_spec, source_model, links, *, closer, name, report, details, pre=None, post=None, plane=None):
     """Build the variant.
 
     Parameters
@@ -67,6 +67,9 @@ def assemble(source_spec, source_model, links, *, closer, name, report, details,
         For the :class:`Variant`; ``report`` is a list of lines, extended here.
     pre : callable, optional
         ``pre(tree)``: edits of the file before it is compiled (e.g. records of kept elements).
+    plane : ndarray (3,), optional
+        Normal of a planar scene: every free body that is not nested under another one moves
+        on planar joints instead of its free joint.
     post : callable, optional
         ``post(tree, model) -> list of str``: last edits that need the compiled tree (e.g.
         tendons over the loops' joints); the file is compiled again afterwards.
@@ -77,6 +80,10 @@ def assemble(source_spec, source_model, links, *, closer, name, report, details,
     for parent, child, link in edges:
         tree.nest(parent, child, link.joints, link.element)
         tree.drop_element(link.element, link.sites)
+    if plane is not None:
+        children = {child for _, child, _ in edges}
+        for body in sorted(free_world_bodies(source_model) - children):
+            tree.planar_root(body, plane)
     loop_lines = [closer(tree, link) for link in closers]
     if pre is not None:
         pre(tree)

@@ -93,8 +93,21 @@ class Directions:
         return 0.5 * (K + K.T), 0.5 * (B + B.T)
 
 
-def _principal_axes(block):
-    """Eigenvectors of a symmetric 3x3 block, ordered and signed to match the frame axes when possible."""
+def _principal_axes(block, normal=None):
+    """Eigenvectors of a symmetric 3x3 block, ordered and signed to match the frame axes when possible.
+
+    With ``normal`` (unit, block coordinates), one axis is the normal itself and the other two
+    are the eigenvectors of the block restricted to the plane normal to it (used when a scene
+    is planar, so that in-plane and out-of-plane directions never mix, even for an isotropic
+    block).
+    """
+    if normal is not None:
+        u = np.linalg.svd(np.outer(normal, normal))[0][:, 1:]  # orthonormal basis of the plane
+        _, v = np.linalg.eigh(u.T @ block @ u)
+        Q = np.column_stack([u @ v, normal])
+        order = np.argmax(np.abs(Q), axis=0)
+        Q = Q[:, np.argsort(order)] if len(set(order)) == 3 else Q
+        return Q * np.sign(Q[np.argmax(np.abs(Q), axis=0), range(3)])
     off = block - np.diag(np.diag(block))
     if np.abs(off).max() <= 1e-12 * max(np.abs(block).max(), 1e-300):
         return np.eye(3)
@@ -127,10 +140,12 @@ def _relative_jacobian(model, data, body_a, body_b, point, R_WE):
     return J
 
 
-def element_directions(model, flex) -> list[Directions]:
+def element_directions(model, flex, normal=None) -> list[Directions]:
     """:class:`Directions` of every element of ``flex`` (its model at ``qpos0``).
 
-    Planar elements (3x3) are embedded in 6x6 with zero out-of-plane stiffness.
+    Planar elements (3x3) are embedded in 6x6 with zero out-of-plane stiffness. ``normal``
+    (world, unit): the plane of a planar scene; each element's principal axes then split into
+    in-plane and out-of-plane ones (see :func:`_principal_axes`).
     """
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -147,7 +162,8 @@ def element_directions(model, flex) -> list[Directions]:
         c = _centre(K, extent)
         Ad_EC = adjoint_from_transform(np.eye(3), c, check=False)
         K_C = Ad_EC.T @ K @ Ad_EC
-        Q_o, Q_t = _principal_axes(K_C[:3, :3]), _principal_axes(K_C[3:, 3:])
+        n_E = None if normal is None else R_WE.T @ normal
+        Q_o, Q_t = _principal_axes(K_C[:3, :3], n_E), _principal_axes(K_C[3:, 3:], n_E)
         T = np.zeros((6, 6))
         T[:3, :3], T[3:, 3:] = Q_o.T, Q_t.T
         T = T @ adjoint_from_transform(np.eye(3), -c, check=False)

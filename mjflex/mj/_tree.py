@@ -215,6 +215,37 @@ class TreeXml:
             }  # fmt: skip
             el.insert(k, ET.Element("joint", attrs))
 
+    def planar_root(self, body, n):
+        """Replace the free joint of ``body`` by planar joints: two slides normal to ``n``, a hinge about it."""
+        el = self.bodies[body]
+        self._remove_free_joint(el, body)
+        R_WB, _ = self.pose(body)
+        e1 = np.linalg.svd(np.outer(n, n))[0][:, 1]
+        axes = (("x", "slide", e1), ("y", "slide", np.cross(n, e1)), ("rz", "hinge", n))
+        for k, (label, kind, axis) in enumerate(axes):
+            attrs = {"name": f"{body}:plane_{label}", "type": kind, "pos": "0 0 0", "axis": _fmt(R_WB.T @ axis),
+                     "armature": "0", "frictionloss": "0", "limited": "false"}  # fmt: skip
+            el.insert(k, ET.Element("joint", attrs))
+
+    def element_text(self, element):
+        """The current data of an element's record."""
+        _, t = self.text(element)
+        return t.get("data")
+
+    def rotate_sites(self, sites, R_EF):
+        """Turn both sites of an element by ``R_EF`` (element coordinates), keeping their origins."""
+        for name in sites:
+            sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name)
+            R_BS = np.empty(9)
+            mujoco.mju_quat2Mat(R_BS, self.model.site_quat[sid])
+            q = np.empty(4)
+            mujoco.mju_mat2Quat(q, np.ascontiguousarray(R_BS.reshape(3, 3) @ R_EF).ravel())
+            for site in self.root.iter("site"):
+                if site.get("name") == name:
+                    for key in ("quat", "euler", "axisangle", "xyaxes", "zaxis"):
+                        site.attrib.pop(key, None)
+                    site.set("quat", _fmt(q))
+
     def section(self, tag):
         found = self.root.find(tag)
         if found is None:

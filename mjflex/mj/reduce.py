@@ -13,6 +13,9 @@ and returns a :class:`~mjflex.mj.variant.Variant` in which
 * an element with more than ``max_joints`` compliant directions, coupled directions, a planar
   record or a body that is not a free body **stays** an mjflex element;
 * **damping** is dropped where it is negligible for the retained modes;
+* a **planar scene** (``plane=``, checks in :mod:`mjflex.mj._planar`) puts the free bodies on
+  planar joints, holds every out-of-plane direction rigid, drops the out-of-plane modes from
+  the band, and turns the elements that stay into 3x3 planar records;
 * **loops** (a closed chain cannot be one kinematic tree): the elements of a spanning forest
   become the trees' joints; each element left over closes a loop, either by equality
   constraints where MuJoCo can express its joint (rigid: a weld; one hinge: two ``connect``
@@ -49,6 +52,7 @@ import scipy.linalg
 from . import schema
 from ._assemble import assemble, hinge_closure, rigid_closure
 from ._directions import damping_ratios, element_directions, energy_shares
+from ._planar import in_plane_modes, out_of_plane, planar_record, plane_frame, plane_of
 from ._tree import WORLD, Joint, Link, free_world_bodies
 from .linearize import normal_modes
 from .provider import Flexures
@@ -66,7 +70,7 @@ def _rigid_floor(freq):
     return max(1e-3, 1e-7 * float(np.max(freq, initial=0.0)))
 
 
-def _candidates(model, flex, directions):
+def _candidates(model, flex, directions, planar_scene):
     """Per element: None if it can be reduced, else the reason it stays an element."""
     free = free_world_bodies(model)
     names = body_names(model)
@@ -74,8 +78,8 @@ def _candidates(model, flex, directions):
     for rec, d in zip(flex.records, directions, strict=True):
         bodies = [names[d.body_a] if d.body_a else WORLD, names[d.body_b] if d.body_b else WORLD]
         bad = [b for b in bodies if b != WORLD and b not in free]
-        if rec.planar:
-            out.append("planar element (its out-of-plane directions are free)")
+        if rec.planar and not planar_scene:
+            out.append("planar element in a non-planar scene (its out-of-plane directions are free)")
         elif bad:
             out.append(f"body {bad[0]!r} is not a free body of the world")
         else:
@@ -83,7 +87,7 @@ def _candidates(model, flex, directions):
     return out
 
 
-def _constrained_error(lam, rows, target, n_rigid):
+def _constrained_error(lam, rows, target, n_rigid, floor):
     """Largest relative change of the ``target`` frequencies [Hz] when ``rows @ eta = 0`` is imposed.
 
     In mass-normalized modal coordinates ``eta`` (``M -> I``, ``K -> diag(lam)``), so the
@@ -98,13 +102,14 @@ def _constrained_error(lam, rows, target, n_rigid):
         N = np.eye(len(lam))
     count = min(n_rigid + len(target), N.shape[1])
     w2 = scipy.linalg.eigh((N.T * lam) @ N, eigvals_only=True, subset_by_index=[0, count - 1]) if count else []
-    f = np.sqrt(np.maximum(w2, 0.0))[n_rigid:] / (2.0 * np.pi)
+    f = np.sqrt(np.maximum(w2, 0.0)) / (2.0 * np.pi)
+    f = f[f > floor][: len(target)]  # constraints may remove rigid-body modes (planar joints), never add any
     if len(f) < len(target):
         return np.inf
     return float(np.max(np.abs(f - target) / target, initial=0.0))
 
 
-def _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, freq_tol, max_joints):
+def _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol, max_joints):
     """Which principal directions to hold rigid (n_el, 6), which elements stay reducible, and the error.
 
     Candidates are ordered by their largest modal strain-energy share; the longest prefix whose
@@ -118,25 +123,42 @@ def _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, freq_tol,
     n_rigid = int(np.sum(freq <= _rigid_floor(freq)))
     score = shares.max(axis=2, initial=0.0)
     active = np.array(reducible, dtype=bool)
+    floor = _rigid_floor(freq)
+    fixed = np.array([dirs[e].J[i] @ modes for e, i in zip(*np.nonzero(forced), strict=True)]).reshape(-1, len(lam))
     while True:
-        cand = [(e, i) for e in np.nonzero(active)[0] for i in range(6) if allowed[e, i] and np.isfinite(score[e, i])]
+        cand = [(e, i) for e in np.nonzero(active)[0] for i in range(6)
+                if allowed[e, i] and not forced[e, i] and np.isfinite(score[e, i])]  # fmt: skip
         cand.sort(key=lambda c: score[c])
-        rows = np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))
+        rows = np.vstack([fixed, np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))])
+        nf = len(fixed)
         lo, hi = 0, len(cand)
         while lo < hi:  # largest n with error(n) <= freq_tol
             mid = (lo + hi + 1) // 2
-            if _constrained_error(lam, rows[:mid], target, n_rigid) <= freq_tol:
+            if _constrained_error(lam, rows[: nf + mid], target, n_rigid, floor) <= freq_tol:
                 lo = mid
             else:
                 hi = mid - 1
-        rigid = np.zeros((len(dirs), 6), dtype=bool)
+        rigid = forced.copy()
         for e, i in cand[:lo]:
             rigid[e, i] = True
         too_many = active & ((~rigid).sum(axis=1) > max_joints)
         if not too_many.any():
-            error = _constrained_error(lam, rows[:lo], target, n_rigid)
+            error = _constrained_error(lam, rows[: nf + lo], target, n_rigid, floor)
             return rigid, active, error
         active &= ~too_many
+
+
+def scene_state(model, initial):
+    """``(qpos, qvel)`` of a scene's start: a keyframe name or index, or the pair itself."""
+    if isinstance(initial, str | int):
+        key = initial if isinstance(initial, int) else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, initial)
+        if not 0 <= key < model.nkey:
+            raise ValueError(f"scene: no keyframe {initial!r} in the model (it has {model.nkey})")
+        return model.key_qpos[key].copy(), model.key_qvel[key].copy()
+    qpos, qvel = (np.asarray(x, dtype=float) for x in initial)
+    if qpos.shape != (model.nq,) or qvel.shape != (model.nv,):
+        raise ValueError(f"scene: qpos must have shape ({model.nq},) and qvel ({model.nv},)")
+    return qpos, qvel
 
 
 def scene_shares(model, flex, dirs, scene):
@@ -150,13 +172,7 @@ def scene_shares(model, flex, dirs, scene):
     """
     initial, duration = scene
     data = mujoco.MjData(model)
-    if isinstance(initial, str | int):
-        key = initial if isinstance(initial, int) else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, initial)
-        if not 0 <= key < model.nkey:
-            raise ValueError(f"scene: no keyframe {initial!r} in the model (it has {model.nkey})")
-        mujoco.mj_resetDataKeyframe(model, data, key)
-    else:
-        data.qpos[:], data.qvel[:] = initial
+    data.qpos[:], data.qvel[:] = scene_state(model, initial)
     if not duration > 0:
         raise ValueError(f"scene: the duration must be positive [s]; got {duration!r}")
     T = np.stack([d.T for d in dirs])
@@ -254,9 +270,28 @@ class _Plan:
     drop: np.ndarray
     report: list
     details: dict
+    normal: np.ndarray | None
 
 
-def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene):
+def _plane(model, flex, plane, scene):
+    """Normal of the planar scene (or None) and the report line about it."""
+    if plane is None:
+        return None, None
+    free = [model.body(b).id for b in free_world_bodies(model)]
+    state = scene_state(model, scene[0]) if scene is not None else None
+    normal, reason = plane_of(model, flex, free, plane, state)
+    if normal is None and not isinstance(plane, str):
+        raise ValueError(f"plane={plane!r}: the scene is not planar: {reason}")
+    if normal is None:
+        return None, f"not planar ({reason}): reduced in 3-D"
+    how = "its initial state checked" if state is not None else "no scene given: the initial state is not checked"
+    return normal, (
+        f"planar scene, normal {np.round(normal, 6).tolist()} ({how}): free bodies move on planar joints, "
+        "remaining elements become 3x3 planar records, out-of-plane directions and modes are dropped"
+    )
+
+
+def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, plane):
     spec = source_spec(source)
     model = compile_spec(spec)
     flex = Flexures(model)
@@ -264,8 +299,13 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         raise ValueError("the model has no mjflex elements: there is nothing to reduce")
     freq, modes = normal_modes(model, flex, joint_springs=True, constraints="project" if model.neq else "ignore")
     mask = (freq > _rigid_floor(freq)) & (freq < keep_below_hz)
-    dirs = element_directions(model, flex)
-    reasons = _candidates(model, flex, dirs)
+    normal, plane_line = _plane(model, flex, plane, scene)
+    dirs = element_directions(model, flex, normal)
+    forced = np.zeros((len(dirs), 6), dtype=bool)
+    if normal is not None:
+        forced = out_of_plane(dirs, normal)
+        mask &= in_plane_modes(model, modes, normal)
+    reasons = _candidates(model, flex, dirs, normal is not None)
     shares = energy_shares(dirs, freq, modes, mask)
     reducible = [r is None for r in reasons]
     used = scene_shares(model, flex, dirs, scene) if scene is not None else np.zeros((len(dirs), 6))
@@ -273,7 +313,7 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
     allowed = np.zeros(used.size, dtype=bool)
     allowed[order[np.cumsum(used.ravel()[order]) <= 2.0 * freq_tol]] = True  # smallest first, within the budget
     allowed = allowed.reshape(used.shape)
-    rigid, active, predicted = _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, freq_tol,
+    rigid, active, predicted = _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol,
                                              max_joints)  # fmt: skip
     for e in np.nonzero(~active & np.array(reducible))[0]:
         reasons[e] = f"more than {max_joints} compliant directions matter below {keep_below_hz:g} Hz"
@@ -283,7 +323,7 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         c = np.abs(K - np.diag(np.diag(K))) / np.sqrt(np.outer(np.diag(K), np.diag(K)) + 1e-300)
         if len(soft) > 1 and c.max() > COUPLING_TOL:
             reasons[e] = f"its compliant directions are coupled ({c.max():.1e} > {COUPLING_TOL:g})"
-    keep = [set(range(6)) if reasons[e] else {i for i in range(6) if not rigid[e, i]} for e in range(len(dirs))]
+    keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(len(dirs))]
     drop, dropped = _drop_damping(damping_ratios(dirs, freq, modes, mask, keep), freq[mask], duration, viscous_tol)
     peak = shares.max(axis=2, initial=0.0)
     report = [
@@ -291,6 +331,8 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         f"(frequency tolerance {100 * freq_tol:g} %, damping tolerance {viscous_tol:g})",
         *(_element_line(d, rigid[e], reasons[e], peak[e], drop[e]) for e, d in enumerate(dirs)),
     ]
+    if plane_line:
+        report.insert(1, plane_line)
     if scene is not None:
         held = [f"{d.element} {d.labels[i]} {100 * used[e, i]:.2g} %" for e, d in enumerate(dirs) for i in range(6)
                 if not allowed[e, i] and rigid is not None]  # fmt: skip
@@ -308,7 +350,8 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
                                  "scene_share": dict(zip(d.labels, used[e].tolist(), strict=True))}
                      for e, d in enumerate(dirs)},
     }  # fmt: skip
-    return _Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details)
+    details["plane"] = None if normal is None else normal.tolist()
+    return _Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details, normal)
 
 
 def _build(plan, loops, name):
@@ -320,15 +363,27 @@ def _build(plan, loops, name):
     ]  # fmt: skip
 
     def kept_records(tree):
+        data = mujoco.MjData(plan.model)
+        mujoco.mj_kinematics(plan.model, data)
         for e, rec in enumerate(plan.flex.records):
-            if plan.reasons[e] is not None and plan.drop[e] and rec.B is not None and np.any(rec.B):
+            if plan.normal is not None:  # every record left (kept, or closing a loop) becomes planar
+                try:
+                    current = schema.parse_text(rec.name, tree.element_text(rec.name))
+                except KeyError:
+                    continue
+                R_EF = plane_frame(data.site_xmat[plan.flex.site_ids[e, 0]].reshape(3, 3), plan.normal)
+                flat = planar_record(current, R_EF)
+                flat.viscous = flat.viscous and not plan.drop[e]
+                tree.rewrite_element(rec.name, _record_text(flat))
+                tree.rotate_sites(plan.dirs[e].sites, R_EF)
+            elif plan.reasons[e] is not None and plan.drop[e] and rec.B is not None and np.any(rec.B):
                 tree.rewrite_element(rec.name, _record_text(rec, viscous=False))
 
     arm = 0.1 * max(float(plan.model.stat.extent), 1e-3)
     closer = _Closer(loops, plan.flex, plan.dirs, plan.drop, arm)
     details = dict(plan.details, loops=loops, constraints="project")
     return assemble(plan.spec, plan.model, links, closer=closer, pre=kept_records, name=name, report=plan.report,
-                    details=details)  # fmt: skip
+                    details=details, plane=plan.normal)  # fmt: skip
 
 
 def _modes(variant):
@@ -363,7 +418,7 @@ def closure_singularity(variant, count, amplitude=1e-3):
     return worst
 
 
-def reduce(source, keep_below_hz=2000.0, *, scene=None, freq_tol=0.01, viscous_tol=1e-3, duration=None,
+def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.01, viscous_tol=1e-3, duration=None,
            loops="auto", max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
     """A cheaper model of ``source`` that keeps its normal modes below ``keep_below_hz``.
 
@@ -378,6 +433,11 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, freq_tol=0.01, viscous_t
         [s]. The full model is simulated over it (:func:`scene_shares`); directions may be
         held rigid only while their summed share of its peak strain energy stays within
         ``2 freq_tol`` (smallest first).
+    plane : "auto" or array_like (3,), optional
+        Reduce to a planar model when the scene is planar (:mod:`mjflex.mj._planar`): with a
+        normal vector the checks must pass (else ValueError saying which fails); ``"auto"``
+        takes the element frames' common z axis and falls back to 3-D, saying why, when a
+        check fails. The scene's initial state is checked when ``scene`` is given.
     freq_tol : float
         Relative frequency change allowed to each kept mode (module docstring).
     viscous_tol : float
@@ -407,7 +467,7 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, freq_tol=0.01, viscous_t
         raise ValueError(f"loops={loops!r}: use one of {LOOP_MODES}")
     if not (0 < freq_tol < 0.5 and viscous_tol >= 0 and max_joints >= 1):
         raise ValueError("need 0 < freq_tol < 0.5, viscous_tol >= 0 and max_joints >= 1")
-    plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene)
+    plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, plane)
     name = name or f"reduced({keep_below_hz:g} Hz)"
     variant = _build(plan, "constraint" if loops == "auto" else loops, name)
     if loops == "auto" and variant.model.neq:
@@ -444,4 +504,4 @@ def _verify(variant, freq, mask):
     )
 
 
-__all__ = ["closure_singularity", "reduce", "scene_shares"]
+__all__ = ["closure_singularity", "reduce", "scene_shares", "scene_state"]
