@@ -287,10 +287,10 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
         closers.append(link.element)
         return None
 
+    coupled = ", ".join(f"{d.element} {d.coupling:.2g}" for d in dirs if d.coupling > 1e-9) or "none"
     report = [
         f"{len(dirs)} elements replaced by up to six joints each (three slides, three hinges) with their principal "
-        "stiffness and damping; couplings dropped: "
-        + ", ".join(f"{d.element} {d.coupling:.2g}" for d in dirs if d.coupling > 1e-9)
+        f"stiffness and damping; couplings dropped (largest normalized off-diagonal stiffness): {coupled}"
     ]
     details = {"kind": "bushing", "constraints": "spring"}
     variant = assemble(spec, model, links, closer=closer, name=name or "bushing", report=report, details=details)

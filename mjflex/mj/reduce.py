@@ -325,6 +325,7 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
             reasons[e] = f"its compliant directions are coupled ({c.max():.1e} > {COUPLING_TOL:g})"
     keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(len(dirs))]
     drop, dropped = _drop_damping(damping_ratios(dirs, freq, modes, mask, keep), freq[mask], duration, viscous_tol)
+    drop &= np.array([bool(np.any(d.B_P)) for d in dirs], dtype=bool)  # nothing to drop without damping
     peak = shares.max(axis=2, initial=0.0)
     report = [
         f"reduced for the {int(mask.sum())} modes of the full model below {keep_below_hz:g} Hz "
