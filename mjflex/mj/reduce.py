@@ -29,13 +29,20 @@ and returns a :class:`~mjflex.mj.variant.Variant` in which
 
 How "stiff" is decided: the normal modes of the full model below ``keep_below_hz`` are
 computed, and each direction's modal strain-energy share is measured. Holding a direction
-rigid raises the square of a mode's frequency by about the share it stored there, so the
-directions are made rigid, smallest share first, while every retained mode's summed share
-stays within ``2 freq_tol``: the retained frequencies then move by about ``freq_tol`` at most.
-The local frequency of each direction (its stiffness against the apparent inertia of the two
-bodies) is reported alongside as an intuition; it is not the criterion, because a direction's
-in-situ frequency depends on the whole mechanism. The variant's own modes are computed and
-compared at the end (``details["modes"]``), so the claim is checked, not assumed.
+rigid raises the square of a mode's frequency by about the share it stored there when it acts
+in series (more when the mechanism stiffens it in parallel, as closed loops do), so the
+shares only order the candidates: the longest prefix, smallest share first, whose exact
+constrained eigenproblem (those directions held rigid in the full model's modal coordinates)
+keeps every retained frequency within ``freq_tol`` is held rigid. The local frequency of each
+direction (its stiffness against the apparent inertia of the two bodies) is reported
+alongside as an intuition; it is not the criterion, because a direction's in-situ frequency
+depends on the whole mechanism. The variant's own modes are computed and compared at the end
+(``details["modes"]``), so the claim is checked, not assumed.
+
+Linear modes cannot see what large motions need: a closed-loop mechanism at a large stroke may
+stretch directions that no low mode uses (ARCADE's paper run does, see the README). With
+``scene=(initial state, duration)`` the full model is simulated and directions that store a
+noticeable part of that scene's strain energy stay compliant (:func:`scene_shares`).
 
 Damping: the damping ratio each element adds to each retained mode (``phi^T B phi / 2 omega``)
 is measured; elements' damping is dropped, smallest first, while every retained mode loses
