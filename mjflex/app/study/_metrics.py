@@ -6,6 +6,7 @@ source model's terms.
 """
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -165,47 +166,72 @@ class Errors:
         return cls(pose=max(parts), position=pos, rotation=rot, energy=energy)
 
 
+class Linearization(NamedTuple):
+    """Natural frequencies and the fastest rate of a model linearized at rest."""
+
+    elastic: np.ndarray  # non-rigid natural frequencies [Hz], ascending
+    highest: float  # highest natural frequency [Hz] (0 without elastic modes)
+    rate: float  # largest |eigenvalue| of the first-order system with damping [1/s]
+
+
+def _jacobian(model, data, qpos, which, step):
+    """``-d qacc / d qpos`` (``which="qpos"``, along ``mj_integratePos``) or ``-d qacc / d qvel``."""
+    J = np.zeros((model.nv, model.nv))
+    for i in range(model.nv):
+        cols = []
+        for sign in (1.0, -1.0):
+            data.qpos[:] = qpos
+            data.qvel[:] = 0.0
+            if which == "qpos":
+                dq = np.zeros(model.nv)
+                dq[i] = sign * step
+                mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
+            else:
+                data.qvel[i] = sign * step
+            mujoco.mj_forward(model, data)
+            cols.append(data.qacc.copy())
+        J[:, i] = -(cols[0] - cols[1]) / (2.0 * step)
+    return J
+
+
 def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=1e-6):
-    """Natural frequencies [Hz] of a model linearized at ``qpos`` with zero velocity.
+    """Natural frequencies [Hz] and fastest rate of a model linearized at ``qpos``, at rest.
 
     Central differences of MuJoCo's ``qacc`` (``mj_forward`` with the elements installed, so
     joint springs, soft equality constraints and mjflex elements all count) along each tangent
-    direction (``mj_integratePos``) give ``A = -d qacc / d q = M^-1 K``; its eigenvalues are
-    ``omega^2``. This works for any model, with or without mjflex elements (for those alone it
-    agrees with :func:`mjflex.mj.linearize.normal_modes` to ~1e-10, tested).
+    direction (``mj_integratePos``) give ``A = -d qacc / d q = M^-1 K``, whose eigenvalues are
+    ``omega^2``; the same along ``qvel`` gives ``D = M^-1 B``. This works for any model, with or
+    without mjflex elements (for those alone it agrees with
+    :func:`mjflex.mj.linearize.normal_modes` to ~1e-10, tested).
 
     Returns
     -------
-    elastic : ndarray
-        Non-rigid natural frequencies [Hz], ascending (eigenvalues below
-        ``RIGID_EIGENVALUE_RTOL`` of the largest are rigid-body modes and dropped).
-    highest : float
-        The highest natural frequency [Hz] (0 for a model without elastic modes).
+    Linearization
+        ``elastic``: non-rigid frequencies [Hz], ascending (eigenvalues of ``A`` below
+        ``RIGID_EIGENVALUE_RTOL`` of the largest are rigid-body modes and dropped); ``highest``:
+        the highest frequency [Hz]; ``rate``: the largest ``|lambda|`` of
+        ``[[0, I], [-A, -D]]`` [1/s], which bounds explicit time steps (``|lambda| h`` below about
+        2 for Euler, 2.8 for RK4) also where damping, not stiffness, is the fastest effect.
     """
     data = mujoco.MjData(model)
     if ctrl is not None:
         data.ctrl[:] = ctrl
     if act is not None:
         data.act[:] = act
-    A = np.zeros((model.nv, model.nv))
+    if not model.nv:
+        return Linearization(np.zeros(0), 0.0, 0.0)
     with flex:
-        for i in range(model.nv):
-            cols = []
-            for sign in (1.0, -1.0):
-                dq = np.zeros(model.nv)
-                dq[i] = sign * step
-                data.qpos[:] = qpos
-                mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
-                data.qvel[:] = 0.0
-                mujoco.mj_forward(model, data)
-                cols.append(data.qacc.copy())
-            A[:, i] = -(cols[0] - cols[1]) / (2.0 * step)
-    lam = np.sort(np.linalg.eigvals(A).real) if model.nv else np.zeros(0)
-    top = float(lam[-1]) if len(lam) else 0.0
+        A = _jacobian(model, data, qpos, "qpos", step)
+        D = _jacobian(model, data, qpos, "qvel", step)
+    lam = np.sort(np.linalg.eigvals(A).real)
+    top = float(lam[-1])
+    n = model.nv
+    system = np.block([[np.zeros((n, n)), np.eye(n)], [-A, -D]])
+    rate = float(np.max(np.abs(np.linalg.eigvals(system))))
     if not top > 0:
-        return np.zeros(0), 0.0
+        return Linearization(np.zeros(0), 0.0, rate)
     elastic = lam[lam > RIGID_EIGENVALUE_RTOL * top]
-    return np.sqrt(elastic) / (2.0 * np.pi), float(np.sqrt(top) / (2.0 * np.pi))
+    return Linearization(np.sqrt(elastic) / (2.0 * np.pi), float(np.sqrt(top) / (2.0 * np.pi)), rate)
 
 
 def frequency_error(freq, ref_freq, count):

@@ -103,11 +103,14 @@ class Reference:
     def text(self) -> str:
         if self.timestep is None:
             return "no reference: every refinement diverged"
+        head = f"reference: {self.integrator.upper()} ({self.method}) at h = {self.timestep:.3g} s"
+        if self.agreement is None:
+            return f"{head}, NOT verified: no second refinement ran through to compare it with"
         state = "converged" if self.converged else "NOT converged to the requested tolerance"
         order = f", observed order {self.observed_order:.1f}" if self.observed_order else ""
         return (
-            f"reference: {self.integrator.upper()} ({self.method}) at h = {self.timestep:.3g} s, {state}: the last "
-            f"two refinements agree to {self.agreement:.2g} (pose), estimated error {self.error_estimate:.2g}{order}"
+            f"{head}, {state}: the last two refinements agree to {self.agreement:.2g} (pose), estimated error "
+            f"{self.error_estimate:.2g}{order}"
         )
 
 
@@ -130,17 +133,18 @@ class StudyResult:
     """Everything the study measured; see :func:`mjflex.app.study.study`."""
 
     model: str
-    initial_state: str
-    duration: float  # [s]
-    sample_interval: float  # [s]
-    frame: str
-    tracked: list
-    model_setting: dict  # {"integrator", "timestep", "method"} of the model file
+    initial_state: str = ""
+    duration: float = 0.0  # [s]
+    sample_interval: float = 0.0  # [s]
+    frame: str = ""
+    tracked: list = field(default_factory=list)
+    model_setting: dict = field(default_factory=dict)  # {"integrator", "timestep", "method"} of the model file
     reference: Reference | None = None
     rows: list = field(default_factory=list)
     limits: list = field(default_factory=list)
     frequencies: dict = field(default_factory=dict)  # "variant/method" -> first elastic frequencies [Hz]
     highest_frequency: float | None = None  # [Hz], of the model as given
+    fastest_rate: float | None = None  # largest |eigenvalue| of the linearized model with damping [1/s]
     variants: dict = field(default_factory=dict)  # name -> report of the variant
     targets: tuple = (0.1, 0.01, 1e-4)
     clock: str = "cpu"  # what the cost is measured with: "cpu" (thread CPU time) or "wall"
@@ -196,8 +200,8 @@ class StudyResult:
                 f"for <= {target * 100:g} % error: {row.label} ({row.cost:.3g} s per simulated s, "
                 f"error {_percent(row.pose_error, self.floor)}), {self._speedups(row)}"
             )
-        if self.rows and not any(r.status == "ok" for r in self.rows):
-            lines.append("every candidate diverged or was skipped: see the stability limits and divergences")
+        if self.rows and not any(r.status == "ok" for r in self.rows if r.source != "model"):
+            lines.append("every candidate step diverged or was skipped: see the stability limits and divergences")
         return lines
 
     def needs(self) -> list[tuple[str, str]]:
@@ -251,6 +255,7 @@ class StudyResult:
             "limits": [lim.to_dict() for lim in self.limits],
             "frequencies_hz": self.frequencies,
             "highest_frequency_hz": self.highest_frequency,
+            "fastest_rate_per_s": self.fastest_rate,
             "clock": self.clock,
             "variants": self.variants,
             "recommendation": self.recommendation(),
@@ -260,19 +265,21 @@ class StudyResult:
         }
 
     def summary_lines(self) -> list[str]:
-        lines = [
-            f"model {self.model}, initial state: {self.initial_state}",
-            f"{self.duration * 1e3:.4g} ms simulated, sampled every {self.sample_interval * 1e3:.3g} ms; poses of "
-            f"{len(self.tracked)} tracked item(s) relative to {self.frame}; cost in "
-            f"{'CPU' if self.clock == 'cpu' else 'wall'} seconds of mj_step per simulated second",
-        ]
+        lines = [f"model {self.model}" + (f", initial state: {self.initial_state}" if self.initial_state else "")]
+        if self.duration:
+            clock = "CPU" if self.clock == "cpu" else "wall"
+            lines.append(
+                f"{self.duration * 1e3:.4g} ms simulated, sampled every {self.sample_interval * 1e3:.3g} ms; poses of "
+                f"{len(self.tracked)} tracked item(s) relative to {self.frame}; cost in {clock} seconds of mj_step "
+                "per simulated second"
+            )
         if self.reference is not None:
             lines.append(self.reference.text())
         if self.highest_frequency:
             first = self.frequencies.get("full", [])[:3]
             lines.append(
                 f"first elastic frequencies {', '.join(f'{f:.4g}' for f in first)} Hz; highest "
-                f"{self.highest_frequency:.4g} Hz"
+                f"{self.highest_frequency:.4g} Hz; fastest rate with damping {self.fastest_rate:.4g} 1/s"
             )
         return lines + [f"note: {n}" for n in self.notes] + ([f"STOPPED: {self.message}"] if self.message else [])
 

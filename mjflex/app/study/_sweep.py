@@ -8,18 +8,21 @@ from tqdm.auto import tqdm
 
 from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._result import Limit, Reference, Row, StudyResult
-from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
+from ._run import INTEGRATOR_ENUMS, Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import StudyError, build_variant, flexures_of, initial_state, load, tracked_items, variant_state
 from .variants import DEFAULT_VARIANTS
 
 METHODS = ("twist", "dualquat")
 INTEGRATORS = ("rk4", "euler", "implicitfast", "discrete")
-#: RK4 is stable for |omega h| below 2 sqrt(2) on the imaginary axis; the default step range reaches
-#: twice the step this gives for the highest natural frequency, past every integrator's limit.
+#: RK4 is stable for |lambda h| below 2 sqrt(2) on the imaginary axis (2.79 on the real one); the
+#: default step range reaches twice the step this gives for the fastest rate of the linearized
+#: model (highest frequency, or damping), past every integrator's limit.
 RK4_LIMIT = 2.0 * math.sqrt(2.0)
-#: Energy drift, in units of the reference's total energy plus its swing, beyond which a run is
-#: taken as diverged even before it turns NaN (no simulation of a passive scene gains that much).
-ENERGY_LIMIT_FACTOR = 10.0
+#: Energy change, in units of the reference's largest total energy plus its swing, beyond which a
+#: run is taken as diverged before it turns NaN. A bounded but poor run stays below it: symplectic
+#: Euler multiplies a linear oscillator's energy by up to 1 / (1 - omega h / 2), 1000 at 0.1 %
+#: below its limit omega h = 2, so the detected limit of such a scheme is within 0.1 % of the true one.
+ENERGY_LIMIT_FACTOR = 1e3
 #: Stepping time [s] of one timing slice. Slices of all candidates are interleaved, one round per
 #: repeat, so that the load of a shared machine spreads evenly over them; medians are reported.
 TIMING_SLICE = 0.05
@@ -43,7 +46,7 @@ class Plan:
         return self.interval / n
 
 
-def _plan(h_model, freq, f_max, *, duration, samples, steps, step_count, max_step, min_step):
+def _plan(h_model, freq, rate, *, duration, samples, steps, step_count, max_step, min_step):
     if duration is None:
         duration = 1.0 / freq[0] if len(freq) else 1000 * h_model  # one period of the lowest elastic mode
         duration = min(max(duration, 200 * h_model), 20000 * h_model)
@@ -54,12 +57,16 @@ def _plan(h_model, freq, f_max, *, duration, samples, steps, step_count, max_ste
         if not (np.isfinite(targets).all() and targets.min() > 0):
             raise StudyError(f"steps must be positive numbers of seconds; got {list(steps)}")
     else:
-        hi = max_step or (2.0 * RK4_LIMIT / (2.0 * np.pi * f_max) if f_max > 0 else 4.0 * h_model)
+        hi = max_step or (2.0 * RK4_LIMIT / rate if rate > 0 else 4.0 * h_model)
         lo = min_step or hi / 2.0 ** (step_count - 1)
         if not 0 < lo <= hi:
             raise StudyError(f"the step range must satisfy 0 < min_step <= max_step; got {lo:g} .. {hi:g}")
         targets = np.geomspace(hi, lo, step_count)
     unit = max(1, math.ceil(max(targets[0], duration / samples) / h_model - 1e-9))
+    if steps:  # prefer an interval that all the given steps divide (up to 4x fewer samples)
+        misfit = [max(abs(u * h_model / h - round(u * h_model / h)) / (u * h_model / h) for h in targets)
+                  for u in range(unit, 4 * unit + 1)]  # fmt: skip
+        unit += next((i for i, m in enumerate(misfit) if m < 1e-9), int(np.argmin(misfit)))
     interval = unit * h_model
     grid = sorted({max(1, round(interval / h)) for h in targets})
     return Plan(interval, max(1, round(duration / interval)), grid, unit)
@@ -117,7 +124,12 @@ class _Study:
         ref.error_estimate = None if ref.agreement is None else ref.agreement / 15.0
         if len(agreements) >= 2 and agreements[-1] > 0:
             ref.observed_order = float(np.log2(agreements[-2] / agreements[-1]))
-        if not ref.converged:
+        if ref.agreement is None:
+            self.result.notes.append(
+                "the reference could not be verified (no second refinement ran through to compare it with); "
+                "errors are measured against an RK4 run of unknown accuracy. Allow more refinements."
+            )
+        elif not ref.converged:
             self.result.notes.append(
                 "the reference did not converge to the requested tolerance"
                 + ("" if ref.agreement is None else f" (its last refinements agree to {ref.agreement:.2g})")
@@ -158,8 +170,8 @@ class _Study:
         key = (sim.name, tuple(method or m for m in sim.file_methods))
         if key not in self._freq:
             sim.configure("rk4", method, sim.model.opt.timestep)
-            freq, _ = linearized_frequencies(sim.model, sim.flex, sim.state["qpos"], ctrl=sim.state.get("ctrl"),
-                                             act=sim.state.get("act"))  # fmt: skip
+            freq = linearized_frequencies(sim.model, sim.flex, sim.state["qpos"], ctrl=sim.state.get("ctrl"),
+                                          act=sim.state.get("act")).elastic  # fmt: skip
             self._freq[key] = freq
             label = sim.name if method is None else f"{sim.name}/{method}"
             self.result.frequencies[label] = [float(f) for f in freq[: max(self.n_freq, 6)]]
@@ -267,49 +279,13 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
           reference_step=None, frequencies=3, samples=200, max_run_wall=120.0, targets=(0.1, 0.01, 1e-4),
           clock="cpu", out=None, progress=True) -> StudyResult:  # fmt: skip
     """Measure the speed-accuracy trade of simulating ``model``'s flexures; see the package docstring."""
-    src, name = load(model)
-    flex = flexures_of(src, name)
-    state, what, data0 = initial_state(src, flex, name, keyframe=keyframe, qpos=qpos, qvel=qvel)
-    items, frame_body = tracked_items(src, flex, name, track, frame)
-    bad = sorted(set(methods) - set(METHODS)) + sorted(set(integrators) - {"rk4", "euler", "implicit",
-                                                                            "implicitfast", "discrete"})  # fmt: skip
-    if clock not in ("cpu", "wall"):
-        bad.append(f"clock={clock!r} (use 'cpu' or 'wall')")
-    if bad:
-        raise StudyError(f"unknown method(s) or integrator(s) {bad}; methods: {METHODS}, integrators: {INTEGRATORS}")
-    full = Sim("full", src, None, state, items, frame_body)
-    with quiet_mujoco_warnings():
-        freq, f_max = linearized_frequencies(full.model, full.flex, state["qpos"], ctrl=state["ctrl"], act=state["act"])
-    h_model = float(src.opt.timestep)
-    plan = _plan(h_model, freq, f_max, duration=duration, samples=samples, steps=steps, step_count=step_count,
-                 max_step=max_step, min_step=min_step)  # fmt: skip
-    result = StudyResult(
-        name, what, plan.duration, plan.interval, frame_body or "the world", [i.label for i in items],
-        {"integrator": integrator_name(src), "timestep": h_model, "method": full.methods_label(None)},
-        highest_frequency=f_max, targets=tuple(targets), clock=clock,
-    )  # fmt: skip
-    result.frequencies["full"] = [float(f) for f in freq[: max(frequencies, 6)]]
-    if steps and any(abs(plan.h(round(plan.interval / h)) / h - 1) > 0.01 for h in steps):
-        result.notes.append(f"steps were aligned to divisors of the sample interval: {[plan.h(n) for n in plan.grid]}")
+    opts = {k: v for k, v in locals().items() if k not in ("model", "out", "progress")}
+    label = model if not hasattr(model, "opt") else "model"
+    result = StudyResult(str(label), targets=tuple(targets), clock=clock)
     bar = tqdm(total=max_refinements + 1, unit="run", disable=not progress, leave=False)
-    ctx = _Study(result, plan, full, repeat=max(1, repeat), max_run_wall=max_run_wall, frequencies=frequencies,
-                 clock=clock, bar=bar)  # fmt: skip
     try:
         with quiet_mujoco_warnings():
-            ctx.reference(tol=reference_tol, max_refinements=max_refinements, start_step=reference_step)
-            sims = [full] + _variant_sims(DEFAULT_VARIANTS if variants is None else variants, src, data0, items,
-                                          frame_body, result)  # fmt: skip
-            groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
-            bar.total = bar.n + groups * (len(plan.grid) + 3) + 1 + max(1, repeat)  # ~3 bisection runs per group
-            bar.refresh()
-            for sim in sims:
-                for method in methods if sim.has_flexures else [None]:
-                    for integrator in integrators:
-                        rows, limit = ctx.group(sim, method, integrator, bisect, limit_rtol)
-                        result.rows += rows
-                        result.limits.append(limit)
-            _mark_model_setting(ctx, full, plan)
-            ctx.timing()
+            _run(result, model, bar, **opts)
     except StudyError as exc:
         result.message = str(exc)
         exc.partial = result
@@ -319,14 +295,64 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
     finally:
         bar.close()
     result.mark_pareto()
-    if result.rows and not any(r.status == "ok" for r in result.rows):
+    swept = [r for r in result.rows if r.source != "model"]
+    if swept and not any(r.status == "ok" for r in swept):
         result.message = (
-            "every candidate diverged or was skipped (see the limits above); the reference ran, so the scene itself "
-            "is fine: try smaller steps with --min-step/--max-step or --steps"
+            "every candidate step diverged or was skipped (see the stability limits); the reference ran, so the scene "
+            "itself is fine: try smaller steps with --min-step/--max-step or --steps"
         )
     if out is not None:
         result.write(out)
     return result
+
+
+def _check_choices(methods, integrators, clock):
+    bad = sorted(set(methods) - set(METHODS)) + sorted(set(integrators) - set(INTEGRATOR_ENUMS))
+    if clock not in ("cpu", "wall"):
+        bad.append(f"clock={clock!r}")
+    if bad:
+        raise StudyError(f"unknown choice(s) {bad}: methods are {list(METHODS)}, integrators "
+                         f"{sorted(INTEGRATOR_ENUMS)}, clock 'cpu' or 'wall'")  # fmt: skip
+
+
+def _run(result, model, bar, *, keyframe, qpos, qvel, duration, track, frame, methods, integrators, steps,
+         step_count, max_step, min_step, variants, repeat, bisect, limit_rtol, reference_tol, max_refinements,
+         reference_step, frequencies, samples, max_run_wall, targets, clock):  # fmt: skip
+    """The phases of :func:`study`, filling ``result`` as they go (so a failure leaves what was measured)."""
+    _check_choices(methods, integrators, clock)
+    src, result.model = load(model)
+    flex = flexures_of(src, result.model)
+    state, result.initial_state, data0 = initial_state(src, flex, result.model, keyframe=keyframe, qpos=qpos,
+                                                       qvel=qvel)  # fmt: skip
+    items, frame_body = tracked_items(src, flex, result.model, track, frame)
+    result.frame, result.tracked = frame_body or "the world", [i.label for i in items]
+    full = Sim("full", src, None, state, items, frame_body)
+    result.model_setting = {"integrator": integrator_name(src), "timestep": float(src.opt.timestep),
+                            "method": full.methods_label(None)}  # fmt: skip
+    lin = linearized_frequencies(full.model, full.flex, state["qpos"], ctrl=state["ctrl"], act=state["act"])
+    freq, result.highest_frequency, result.fastest_rate = lin
+    result.frequencies["full"] = [float(f) for f in freq[: max(frequencies, 6)]]
+    plan = _plan(float(src.opt.timestep), freq, lin.rate, duration=duration, samples=samples,
+                 steps=steps, step_count=step_count, max_step=max_step, min_step=min_step)  # fmt: skip
+    result.duration, result.sample_interval = plan.duration, plan.interval
+    if steps and any(abs(plan.h(round(plan.interval / h)) / h - 1) > 0.01 for h in steps):
+        result.notes.append(f"steps were aligned to divisors of the sample interval: {[plan.h(n) for n in plan.grid]}")
+    ctx = _Study(result, plan, full, repeat=max(1, repeat), max_run_wall=max_run_wall, frequencies=frequencies,
+                 clock=clock, bar=bar)  # fmt: skip
+    ctx.reference(tol=reference_tol, max_refinements=max_refinements, start_step=reference_step)
+    sims = [full] + _variant_sims(DEFAULT_VARIANTS if variants is None else variants, src, data0, items, frame_body,
+                                  result)  # fmt: skip
+    groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
+    bar.total = bar.n + groups * (len(plan.grid) + 3) + 1 + max(1, repeat)  # ~3 bisection runs per group
+    bar.refresh()
+    for sim in sims:
+        for method in methods if sim.has_flexures else [None]:
+            for integrator in integrators:
+                rows, limit = ctx.group(sim, method, integrator, bisect, limit_rtol)
+                result.rows += rows
+                result.limits.append(limit)
+    _mark_model_setting(ctx, full, plan)
+    ctx.timing()
 
 
 def _mark_model_setting(ctx, full, plan):
