@@ -17,8 +17,8 @@ Layers
     The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
     an ``MjSpec``, :class:`Flexures` (the passive-force provider) and linearization.
 ``mjflex.app``
-    Applications on top: the ARCADE model, simulation runs, rendering and the command line
-    (``python -m mjflex``).
+    Applications on top: the ARCADE model, simulation runs, rendering, the speed-accuracy study
+    (``mjflex.study``, loaded on first use) and the command line (``python -m mjflex``).
 
 Conventions (used everywhere in the package)
 --------------------------------------------
@@ -58,3 +58,12 @@ from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 __version__ = "0.1.0"
 
 __all__ = ["geometry", *core.__all__, *mj.__all__]
+
+
+def __getattr__(name):
+    """``mjflex.study``: the speed-accuracy study of :mod:`mjflex.app.study`, imported on first use."""
+    if name == "study":
+        from .app.study import study
+
+        return study
+    raise AttributeError(f"module 'mjflex' has no attribute {name!r}")

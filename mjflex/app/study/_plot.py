@@ -50,6 +50,8 @@ def pareto_plot(result, path):
             [strip] * len(bad), [r.cost for r in bad], marker="x", color="0.5", label="diverged / skipped", zorder=3
         )
         ax.axvline(strip / 3, color="0.8", lw=0.8)
+        ax.annotate("diverged /\nskipped", (strip, 1.0), xycoords=("data", "axes fraction"), xytext=(0, -4),
+                    textcoords="offset points", ha="center", va="top", fontsize=7, color="0.4")  # fmt: skip
         xmax = strip
     ref = result.reference
     if ref is not None and ref.cost:
