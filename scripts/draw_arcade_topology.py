@@ -62,7 +62,7 @@ def main():
     for e, name in enumerate(flex.names):
         if "_p0_" not in name:
             continue
-        p = data.site_xpos[flex._ints[e, 0]]
+        p = data.site_xpos[flex.site_ids[e, 0]]
         leaf = name.startswith("leaf")
         ax.plot(p[0], p[2], marker="s" if leaf else "o", color="#2a9d4b" if leaf else "#d33", ms=6)
     ax.plot([], [], "o", color="#d33", label="notch hinge (12 per plate)")

@@ -103,3 +103,12 @@ def gradient_wrt_b(energy, R_WB, p_WB, h_rot, h_lin):
 
 def hat(v):
     return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def c_output(capfd):
+    """What C code printed (MuJoCo's warnings go to stderr), once its stdio buffers are flushed."""
+    import ctypes
+
+    ctypes.CDLL(None).fflush(None)
+    captured = capfd.readouterr()
+    return captured.out + captured.err

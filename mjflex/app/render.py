@@ -78,7 +78,7 @@ class RunRenderer:
         self.option = mujoco.MjvOption()
         for g in FLEXURE_SITE_GROUPS:
             self.option.sitegroup[g] = 1
-        self.sites = flex._ints[:, 0]
+        self.sites = flex.site_ids[:, 0]
         per_rad = np.array([r.strain_per_radian if r.strain_per_radian is not None else np.nan for r in flex.records])
         bending = np.abs(run.array("bending"))
         self.strain = np.where(np.isfinite(per_rad), bending * per_rad, bending)  # rotation where no strain known

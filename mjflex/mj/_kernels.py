@@ -7,14 +7,18 @@ adds the generalized forces to ``qfrc_passive`` and/or writes wrenches, energies
 the registry that :mod:`mjflex.mj._callback` maintains; it runs inside ``mj_passive`` without
 the GIL or the Python bindings.
 
-Element tables (built once by :class:`mjflex.Flexures`):
+Element tables (built once by :mod:`._tables`), their columns named once below (``columns``):
 
-* ``ints`` (n, NI) int64: site and body ids, method, switches, fast-path dof address of each
-  body (-1 when the body is not a free-jointed child of the world), and the range of its dof
-  chain in ``chain``;
-* ``floats`` (n, NF) float64: K and B (row-major 6x6) and the rest offset ``X_ab0`` (R, p) of
-  frame b seen from frame a at ``qpos0`` (round-off of the model file, absorbed so that the
-  reference configuration is exactly unstressed).
+* ``ints`` (n, NI) int64, ``INT_COLUMNS``: site and body ids, method, switches, fast-path dof
+  address of each body (-1 when the body is not a free-jointed child of the world), and the
+  range of its dof chain in ``chain``;
+* ``floats`` (n, NF) float64, ``FLOAT_COLUMNS``: K and B (row-major 6x6), the rest offset
+  ``X_ab0`` (R, p) of frame b seen from frame a at ``qpos0`` (round-off of the model file,
+  absorbed so that the reference configuration is exactly unstressed), and the inverse mass
+  and inertia used by the divergence check.
+
+The registry that :func:`dispatch` reads (``HEADER_WORDS``, ``SLOT_WORDS``) is described in
+:mod:`mjflex.mj._callback`, with the rules the native callback follows.
 """
 
 import math
@@ -27,6 +31,7 @@ from numba.extending import intrinsic
 from ..core._kernels import (
     _cross,
     _lin,
+    load3,
     relative_position,
     relative_quat,
     spatial_potential,
@@ -34,21 +39,85 @@ from ..core._kernels import (
     twist_from_quat_pos,
 )
 
-SITE_A, SITE_B, BODY_A, BODY_B, METHOD, ENABLED, VISCOUS, OFFSET, FREE_A, FREE_B, CHAIN_A0, CHAIN_A1 = range(12)
-CHAIN_B0, CHAIN_B1 = 12, 13
-NI = 14
-K_AT, B_AT, R0_AT, P0_AT = 0, 36, 72, 81
-NF = 84
+
+def columns(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
+    """Start column of each ``(name, width)`` field laid out one after the other, and the total width.
+
+    The one definition of the provider's tables and registry words: adding a field changes
+    only its list below.
+    """
+    start, at = {}, 0
+    for name, width in fields:
+        start[name] = at
+        at += width
+    return start, at
+
+
+#: Columns of ``ints`` (n, NI): site and body ids of the element's frames a and b, method
+#: code, run-time switches, whether a rest offset applies, free-joint dof address of each
+#: body (-1: not a free-jointed child of the world) and the range of its dof chain in ``chain``.
+INT_COLUMNS, NI = columns(
+    ("site_a", 1), ("site_b", 1), ("body_a", 1), ("body_b", 1), ("method", 1), ("enabled", 1), ("viscous", 1),
+    ("offset", 1), ("free_a", 1), ("free_b", 1), ("chain_a0", 1), ("chain_a1", 1), ("chain_b0", 1), ("chain_b1", 1),
+)  # fmt: skip
+#: Columns of ``floats`` (n, NF): K and B (row-major 6x6), the rest offset ``X_ab0`` (R row-major,
+#: p), and the largest inverse mass [1/kg] and inverse principal inertia [1/(kg m^2)] of the
+#: element's (non-world) bodies, which turn its wrench into the acceleration it alone would
+#: cause (the divergence check, see ``ACCEL_LIMIT``).
+FLOAT_COLUMNS, NF = columns(("K", 36), ("B", 36), ("R0", 9), ("p0", 3), ("inv_mass", 1), ("inv_inertia", 1))
+_I, _F = INT_COLUMNS, FLOAT_COLUMNS
+SITE_A, SITE_B, BODY_A, BODY_B = _I["site_a"], _I["site_b"], _I["body_a"], _I["body_b"]
+METHOD, ENABLED, VISCOUS, OFFSET = _I["method"], _I["enabled"], _I["viscous"], _I["offset"]
+FREE_A, FREE_B = _I["free_a"], _I["free_b"]
+CHAIN_A0, CHAIN_A1, CHAIN_B0, CHAIN_B1 = _I["chain_a0"], _I["chain_a1"], _I["chain_b0"], _I["chain_b1"]
+K_AT, B_AT, R0_AT, P0_AT, INV_MASS, INV_INERTIA = (
+    _F["K"],
+    _F["B"],
+    _F["R0"],
+    _F["p0"],
+    _F["inv_mass"],
+    _F["inv_inertia"],
+)
+
+#: An element whose wrench alone would accelerate one of its bodies beyond this [m/s^2 or
+#: rad/s^2] counts as diverging: MuJoCo's ``mjMAXVAL``, the bound beyond which MuJoCo itself
+#: declares ``qpos``/``qvel``/``qacc`` bad and resets. Checking it here names the element
+#: before MuJoCo's own check resets the state.
+ACCEL_LIMIT = 1e10
 
 APPLY, WRENCH, ENERGY, POWER, COORDS = 1, 2, 4, 8, 16
 
-# registry layout (int64 words): header, then one slot per registered model
-H_CAPACITY, H_SPRING_BIT, H_DAMPER_BIT, H_DISABLEFLAGS = 0, 1, 2, 3
-H_SITE_XPOS, H_SITE_XMAT, H_XPOS, H_XMAT, H_CVEL, H_SUBTREE_COM, H_CDOF, H_QFRC = 4, 5, 6, 7, 8, 9, 10, 11
-H_COUNT = 12  # slots in use; they are kept contiguous from the first
-HEADER = 16
-S_MODEL, S_N, S_INTS, S_FLOATS, S_CHAIN, S_NCHAIN, S_ROOTID, S_NSITE, S_NBODY, S_NV, S_MESSAGES = range(11)
-SLOT = 16
+# registry (int64 words): a header, then one slot per served model. A slot is in use when its
+# "model" word is non-zero; slots never move, and only the first H_USED can be in use.
+HEADER_WORDS, HEADER = columns(
+    ("capacity", 1), ("spring_bit", 1), ("damper_bit", 1), ("disableflags", 1), ("site_xpos", 1), ("site_xmat", 1),
+    ("xpos", 1), ("xmat", 1), ("cvel", 1), ("subtree_com", 1), ("cdof", 1), ("qfrc_passive", 1), ("used", 1),
+    ("time", 1), ("timestep", 1), ("autoreset_bit", 1),
+)  # fmt: skip
+_H = HEADER_WORDS
+H_CAPACITY, H_SPRING_BIT, H_DAMPER_BIT, H_AUTORESET_BIT = (
+    _H["capacity"],
+    _H["spring_bit"],
+    _H["damper_bit"],
+    _H["autoreset_bit"],
+)
+H_DISABLEFLAGS, H_TIME, H_TIMESTEP, H_USED = _H["disableflags"], _H["time"], _H["timestep"], _H["used"]
+H_SITE_XPOS, H_SITE_XMAT, H_XPOS, H_XMAT = _H["site_xpos"], _H["site_xmat"], _H["xpos"], _H["xmat"]
+H_CVEL, H_SUBTREE_COM, H_CDOF, H_QFRC = _H["cvel"], _H["subtree_com"], _H["cdof"], _H["qfrc_passive"]
+SLOT_WORDS, SLOT = columns(
+    ("model", 1), ("n", 1), ("ints", 1), ("floats", 1), ("chain", 1), ("nchain", 1), ("rootid", 1), ("nsite", 1),
+    ("nbody", 1), ("nv", 1), ("messages", 1),
+)  # fmt: skip
+_S = SLOT_WORDS
+S_MODEL, S_N, S_INTS, S_FLOATS, S_CHAIN, S_NCHAIN = (
+    _S["model"],
+    _S["n"],
+    _S["ints"],
+    _S["floats"],
+    _S["chain"],
+    _S["nchain"],
+)
+S_ROOTID, S_NSITE, S_NBODY, S_NV, S_MESSAGES = _S["rootid"], _S["nsite"], _S["nbody"], _S["nv"], _S["messages"]
 
 _JIT = {"cache": True, "error_model": "numpy", "fastmath": {"contract"}}
 _ZERO3 = (0.0, 0.0, 0.0)
@@ -78,11 +147,6 @@ def int_from_voidptr(typingctx, ptr):
 @njit(**_JIT)
 def _row9(a, i):
     return (a[i, 0], a[i, 1], a[i, 2], a[i, 3], a[i, 4], a[i, 5], a[i, 6], a[i, 7], a[i, 8])
-
-
-@njit(**_JIT)
-def _row3(a, i):
-    return (a[i, 0], a[i, 1], a[i, 2])
 
 
 @njit(**_JIT)
@@ -128,7 +192,7 @@ def _frame_b(ints, floats, e, R, p):
 def _point_velocity(cvel, subtree_com, rootid, body, p):
     """World angular velocity of ``body`` and linear velocity of its point ``p``."""
     w = (cvel[body, 0], cvel[body, 1], cvel[body, 2])
-    c = _row3(subtree_com, rootid[body])
+    c = load3(subtree_com, rootid[body])
     v = (cvel[body, 3], cvel[body, 4], cvel[body, 5])
     return w, _lin(1.0, v, 1.0, _cross(w, (p[0] - c[0], p[1] - c[1], p[2] - c[2])))
 
@@ -138,7 +202,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
     """Add ``sign * (m about p, f)`` on ``body`` to generalized forces (``J^T`` of the wrench)."""
     if free_adr >= 0:
         # free joint: dofs are the world velocity of the body origin, then the body-frame angular velocity
-        o = _row3(xpos, body)
+        o = load3(xpos, body)
         mo = _lin(1.0, m, 1.0, _cross((p[0] - o[0], p[1] - o[1], p[2] - o[2]), f))
         for k in range(3):
             qfrc[free_adr + k] += sign * f[k]
@@ -146,7 +210,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
                 xmat[body, k] * mo[0] + xmat[body, 3 + k] * mo[1] + xmat[body, 6 + k] * mo[2]
             )
         return
-    c = _row3(subtree_com, rootid[body])
+    c = load3(subtree_com, rootid[body])
     mc = _lin(1.0, m, 1.0, _cross((p[0] - c[0], p[1] - c[1], p[2] - c[2]), f))
     for k in range(c0, c1):
         j = chain[k]
@@ -159,9 +223,13 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
 @njit(**_JIT)
 def flexure_loop(
     mode, ints, floats, chain, rootid, site_xpos, site_xmat, xpos, xmat, cvel, subtree_com, cdof,
-    spring_on, damper_on, qfrc, out6, out1,
+    spring_on, damper_on, accel_limit, qfrc, out6, out1,
 ):  # fmt: skip
-    """Evaluate all elements; returns -1, or the index of the first non-finite result.
+    """Evaluate all elements; returns -1, or the index of the first diverging element.
+
+    An element diverges when its wrench or power is not finite, or when its wrench alone
+    would accelerate one of its bodies beyond ``accel_limit`` (``ACCEL_LIMIT`` in the callback,
+    ``inf`` for the queries of a state).
 
     ``mode`` is a bit set: APPLY adds to ``qfrc``; WRENCH writes ``out6[e]`` = wrench on body B
     ``[moment about frame b; force]`` (world); ENERGY writes ``out1[e]`` = elastic energy;
@@ -175,8 +243,8 @@ def flexure_loop(
             if mode & (ENERGY | POWER):
                 out1[e] = 0.0
             continue
-        Ra, pa = _row9(site_xmat, ints[e, SITE_A]), _row3(site_xpos, ints[e, SITE_A])
-        Rb, pb = _frame_b(ints, floats, e, _row9(site_xmat, ints[e, SITE_B]), _row3(site_xpos, ints[e, SITE_B]))
+        Ra, pa = _row9(site_xmat, ints[e, SITE_A]), load3(site_xpos, ints[e, SITE_A])
+        Rb, pb = _frame_b(ints, floats, e, _row9(site_xmat, ints[e, SITE_B]), load3(site_xpos, ints[e, SITE_B]))
         method = ints[e, METHOD]
         if mode & COORDS:
             w, x, y, z = relative_quat(Ra, Rb)
@@ -195,6 +263,11 @@ def flexure_loop(
         B = _tuple36(floats, e, B_AT) if viscous else _ZERO36
         m, f, power = spatial_wrench(method, Ra, pa, Rb, pb, K, B, viscous, wa, va, wb, vb)
         if not math.isfinite(m[0] + m[1] + m[2] + f[0] + f[1] + f[2] + power):
+            return e
+        if (
+            max(abs(f[0]), abs(f[1]), abs(f[2])) * floats[e, INV_MASS] > accel_limit
+            or max(abs(m[0]), abs(m[1]), abs(m[2])) * floats[e, INV_INERTIA] > accel_limit
+        ):
             return e
         if mode & WRENCH:
             out6[e, 0], out6[e, 1], out6[e, 2], out6[e, 3], out6[e, 4], out6[e, 5] = m[0], m[1], m[2], f[0], f[1], f[2]
@@ -226,12 +299,14 @@ def _field(d_addr, offset, rows, cols):
 def dispatch(m_addr, d_addr, reg_addr):
     """Apply the elements registered for model ``m_addr`` to data ``d_addr``.
 
-    Returns 0, or the address of the error message of the first element whose wrench is not
-    finite; ``qfrc_passive`` is then filled with NaN (the callback reports the message).
+    Returns 0, or the address of the error message (a printf format taking the time) of the
+    first diverging element; ``qfrc_passive`` is then filled with NaN so that MuJoCo's own
+    divergence handling (warning, auto-reset) sees it too, and the callback reports the message.
+    Allocates nothing and raises nothing: everything it reads was validated at installation.
     """
     capacity = _word(reg_addr + 8 * H_CAPACITY)
     reg = carray(voidptr_from_int(reg_addr), (HEADER + SLOT * capacity,), np.int64)
-    for s in range(reg[H_COUNT]):
+    for s in range(reg[H_USED]):
         at = HEADER + SLOT * s
         if reg[at + S_MODEL] != m_addr:
             continue
@@ -250,7 +325,7 @@ def dispatch(m_addr, d_addr, reg_addr):
             _field(d_addr, reg[H_XPOS], nbody, 3), _field(d_addr, reg[H_XMAT], nbody, 9),
             _field(d_addr, reg[H_CVEL], nbody, 6), _field(d_addr, reg[H_SUBTREE_COM], nbody, 3),
             _field(d_addr, reg[H_CDOF], nv, 6),
-            (flags & reg[H_SPRING_BIT]) == 0, (flags & reg[H_DAMPER_BIT]) == 0,
+            (flags & reg[H_SPRING_BIT]) == 0, (flags & reg[H_DAMPER_BIT]) == 0, ACCEL_LIMIT,
             qfrc, unused6, unused1,
         )  # fmt: skip
         if status >= 0:
@@ -258,3 +333,18 @@ def dispatch(m_addr, d_addr, reg_addr):
             return carray(voidptr_from_int(reg[at + S_MESSAGES]), (n,), np.int64)[status]
         return 0
     return 0
+
+
+@njit(**_JIT)
+def _double(addr):
+    return carray(voidptr_from_int(addr), (1,), np.float64)[0]
+
+
+@njit(**_JIT)
+def report_context(m_addr, d_addr, reg_addr):
+    """``(time, autoreset on, step)`` of data ``d_addr`` of model ``m_addr``, for a divergence report."""
+    time = _double(d_addr + _word(reg_addr + 8 * H_TIME))
+    timestep = _double(m_addr + _word(reg_addr + 8 * H_TIMESTEP))
+    flags = carray(voidptr_from_int(m_addr + _word(reg_addr + 8 * H_DISABLEFLAGS)), (1,), np.int32)[0]
+    step = time / timestep if timestep > 0.0 else 0.0
+    return time, (flags & _word(reg_addr + 8 * H_AUTORESET_BIT)) == 0, step

@@ -76,20 +76,6 @@ def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return data.xpos.copy(), data.xmat.reshape(-1, 3, 3).copy(), names
 
 
-def _matrix(M, name, element, what):
-    M = np.asarray(M, dtype=float)
-    if M.ndim == 1 and M.shape[0] in (3, 6):
-        M = np.diag(M)
-    n = M.shape[-1] if M.ndim == 2 else 0
-    if n not in (3, 6):
-        raise ValueError(f"flexure {element!r}: {name} must be 6x6 (or 6 diagonal entries), or 3x3 for a planar "
-                         f"element; got shape {M.shape}")  # fmt: skip
-    try:
-        return validation.check_psd_matrix(M, f"{name} of flexure {element!r}", n, what=what)
-    except ValueError as exc:
-        raise ValueError(str(exc)) from None
-
-
 def add_flexure(
     spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist",
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
@@ -139,8 +125,8 @@ def add_flexure(
     site_names = schema.site_names(name)
     if spec.text(schema.PREFIX + name) is not None or any(spec.site(s) is not None for s in site_names):
         raise ValueError(f"flexure {name!r} already exists in the spec (its sites or text record); pick another name")
-    K = _matrix(K, "K", name, "stiffness")
-    B = None if B is None else _matrix(B, "B", name, "damping")
+    K = schema.element_matrix(K, f"K of flexure {name!r}")
+    B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
         raise ValueError(f"flexure {name!r}: B has shape {B.shape} but K has {K.shape}; both 6x6 or both 3x3")
     p_WE = validation.as_array(pos, "pos", (3,))
