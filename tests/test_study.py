@@ -91,8 +91,9 @@ def test_report_pareto_and_recommendation(two_body_run):
     own = [r for r in result["rows"] if r["model_setting"]]
     assert len(own) == 1 and own[0]["integrator"] == "rk4" and own[0]["timestep"] == pytest.approx(2e-5)
     assert "for <= 1 % error:" in text and "x faster than the reference" in text
-    needs = dict(result["needs"])
-    assert any(k.startswith("engineering answers") for k in needs)
+    needs = {n["need"]: n for n in result["needs"]}
+    assert needs["engineering answers (pose error <= 1 %)"]["choice"].startswith("euler, twist")
+    assert needs["what the model file uses now"]["vs the model's setting"] == "the setting itself"
 
 
 def test_stability_limits_match_closed_form():

@@ -5,6 +5,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
+from ._result import who
+
 MARKERS = {"rk4": "o", "euler": "s", "implicitfast": "^", "implicit": "v", "discrete": "D"}
 
 
@@ -25,9 +27,7 @@ def pareto_plot(result, path):
     seen = set()
     for r, e in zip(ok, errors, strict=True):
         key = (r.variant, r.method, r.integrator)
-        label = None if key in seen else f"{'' if r.variant == 'full' else r.variant + ': '}{r.integrator}" + (
-            "" if r.method == "-" else f", {r.method}"
-        )  # fmt: skip
+        label = None if key in seen else who(r.variant, r.integrator, r.method)
         seen.add(key)
         ax.scatter(e, r.cost, marker=MARKERS.get(r.integrator, "o"), color=colors[(r.variant, r.method)],
                    edgecolor="k" if r.model_setting else "none", s=70 if r.model_setting else 36, label=label,

@@ -16,6 +16,11 @@ import numpy as np
 from ._run import Divergence
 
 
+def who(variant, integrator, method):
+    """``"[variant: ]integrator[, method]"``: the label of a candidate without its step."""
+    return f"{'' if variant == 'full' else variant + ': '}{integrator}{'' if method == '-' else ', ' + method}"
+
+
 @dataclass
 class Row:
     """One candidate: a model variant, an element method, an integrator and a time step."""
@@ -45,14 +50,10 @@ class Row:
 
     @property
     def label(self) -> str:
-        variant = "" if self.variant == "full" else f"{self.variant}: "
-        method = "" if self.method == "-" else f", {self.method}"
-        return f"{variant}{self.integrator}{method}, h = {self.timestep:.3g} s"
+        return f"{who(self.variant, self.integrator, self.method)}, h = {self.timestep:.3g} s"
 
     def to_dict(self):
-        d = asdict(self)
-        d["divergence"] = None if self.divergence is None else self.divergence.to_dict()
-        return d
+        return asdict(self)  # the divergence, a dataclass too, becomes a dict
 
 
 @dataclass
@@ -67,19 +68,15 @@ class Limit:
     divergence: Divergence | None = None  # how the smallest unstable step diverged
 
     def text(self) -> str:
-        who = f"{'' if self.variant == 'full' else self.variant + ': '}{self.integrator}" + (
-            "" if self.method == "-" else f", {self.method}"
-        )
+        name = who(self.variant, self.integrator, self.method)
         if self.largest_stable is None:
-            return f"{who}: diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
+            return f"{name}: diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
         if self.smallest_unstable is None:
-            return f"{who}: stable at every step tried (largest {self.largest_stable:.3g} s); widen with --max-step"
-        return f"{who}: stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
+            return f"{name}: stable at every step tried (largest {self.largest_stable:.3g} s); widen with --max-step"
+        return f"{name}: stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
 
     def to_dict(self):
-        d = asdict(self)
-        d["divergence"] = None if self.divergence is None else self.divergence.to_dict()
-        return d
+        return asdict(self)
 
 
 @dataclass
@@ -204,28 +201,36 @@ class StudyResult:
             lines.append("every candidate step diverged or was skipped: see the stability limits and divergences")
         return lines
 
-    def needs(self) -> list[tuple[str, str]]:
-        """``(need, choice)`` pairs: the "which choice for which need" table."""
-        out = []
-        for target, need in zip(self.targets, ("a quick look", "engineering answers", "validation"), strict=False):
-            row = self.cheapest(target)
-            choice = "none of the candidates" if row is None else (
-                f"{row.label}: {row.cost:.3g} s/s, pose error {_percent(row.pose_error, self.floor)}"
-            )  # fmt: skip
-            out.append((f"{need} (pose error <= {target * 100:g} %)", choice))
-        row = self.cheapest(0.01, key="energy_error")
-        if row is not None:
-            out.append(("energy within 1 %", f"{row.label}: {row.cost:.3g} s/s"))
+    NEEDS_COLUMNS = ("need", "choice", "s per simulated s", "pose error", "energy error", "vs the model's setting")
+
+    def _need(self, need, row, choice=None):
+        own = self.model_setting_row()
+        speed = "-"
+        if row is not None and own is not None and own.status == "ok" and row.cost:
+            speed = "the setting itself" if row is own else f"{own.cost / row.cost:.3g}x faster"
+        if row is None:
+            return (need, choice or "none of the candidates", "-", "-", "-", "-")
+        cost = _fmt(row.cost, ".3g") if row.status == "ok" else row.status
+        return (need, choice or row.label, cost, _percent(row.pose_error, self.floor), _percent(row.energy_error),
+                speed)  # fmt: skip
+
+    def needs(self) -> list[tuple]:
+        """Rows of the "which choice for which need" table (columns: ``NEEDS_COLUMNS``)."""
+        names = ("a quick look", "engineering answers", "validation") + ("",) * len(self.targets)
+        out = [self._need(f"{need or 'error'} (pose error <= {t * 100:g} %)", self.cheapest(t))
+               for t, need in zip(self.targets, names, strict=False)]  # fmt: skip
+        out.append(self._need("energy within 1 %", self.cheapest(0.01, key="energy_error")))
+        for name in self.variants:
+            rows = [r for r in self.ok_rows() if r.variant == name and r.pose_error <= 0.01]
+            best = min(rows, key=lambda r: r.cost) if rows else None
+            out.append(self._need(f"model variant '{name}' (<= 1 %)", best))
         stable = [lim for lim in self.limits if lim.largest_stable]
         if stable:
             lim = max(stable, key=lambda x: x.largest_stable)
-            out.append(("the largest stable step", lim.text()))
+            out.append(("the largest stable step", lim.text(), "-", "-", "-", "-"))
         own = self.model_setting_row()
         if own is not None:
-            state = own.status if own.status != "ok" else (
-                f"{own.cost:.3g} s/s, pose error {_percent(own.pose_error, self.floor)}"
-            )  # fmt: skip
-            out.append(("what the model file uses now", f"{own.label}: {state}"))
+            out.append(self._need("what the model file uses now", own))
         return out
 
     # ------------------------------------------------------------------ output
@@ -259,7 +264,7 @@ class StudyResult:
             "clock": self.clock,
             "variants": self.variants,
             "recommendation": self.recommendation(),
-            "needs": self.needs(),
+            "needs": [dict(zip(self.NEEDS_COLUMNS, row, strict=True)) for row in self.needs()],
             "notes": self.notes,
             "message": self.message,
         }
@@ -288,8 +293,9 @@ class StudyResult:
         out = [f"# Speed-accuracy study: {self.model}", ""]
         out += [f"- {line}" for line in self.summary_lines()]
         out += ["", "## Recommendation", ""] + [f"- {line}" for line in self.recommendation()]
-        out += ["", "## Which choice for which need", "", "| need | choice |", "|---|---|"]
-        out += [f"| {need} | {choice} |" for need, choice in self.needs()]
+        out += ["", "## Which choice for which need", "", "| " + " | ".join(self.NEEDS_COLUMNS) + " |",
+                "|---" * len(self.NEEDS_COLUMNS) + "|"]  # fmt: skip
+        out += ["| " + " | ".join(row) + " |" for row in self.needs()]
         if self.limits:
             out += ["", "## Largest stable step", ""] + [f"- {lim.text()}" for lim in self.limits]
         if self.variants:

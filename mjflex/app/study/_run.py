@@ -16,7 +16,7 @@ import contextlib
 import copy
 import re
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -62,9 +62,6 @@ class Divergence:
     def text(self) -> str:
         where = f" at flexure '{self.element}'" if self.element else (f" at body '{self.body}'" if self.body else "")
         return f"diverged at t = {self.time:.4g} s with h = {self.timestep:.3g} s{where}: {self.reason}"
-
-    def to_dict(self):
-        return asdict(self)
 
 
 @dataclass
