@@ -209,8 +209,13 @@ def run_sampled(sim, integrator, method, h, *, samples, every, energy_limit=None
             steps = k * every
             bad = (message, None) if message else _bad_state(m, d)
             if bad is None:
-                mujoco.mj_forward(m, d)
-                row = sim.sample(d)
+                try:  # the sample's mj_forward meets the state the next step would: it may raise too
+                    mujoco.mj_forward(m, d)
+                    row = sim.sample(d)
+                except mujoco.FatalError as exc:
+                    message = str(exc)
+                    bad = (message, None)
+            if bad is None:
                 if not np.isfinite(row[2]):
                     bad = ("the energy became NaN or infinite", None)
                 elif energy_limit is not None and abs(row[2] - rows[0][2]) > energy_limit:
@@ -221,8 +226,9 @@ def run_sampled(sim, integrator, method, h, *, samples, every, energy_limit=None
                     d.qpos[:], d.qvel[:] = last_qpos, last_qvel
                     with contextlib.suppress(mujoco.FatalError):
                         mujoco.mj_forward(m, d)
+                when = min(float(d.time), k * every * h) if np.isfinite(d.time) else k * every * h
                 element, body = sim.culprit(d, message, dof)
-                divergence = Divergence(float(k * every * h), h, reason, element, body)
+                divergence = Divergence(when, h, reason, element, body)
                 break
             rows.append(row)
             times.append(k * every * h)
