@@ -170,10 +170,15 @@ def _study_parser(sub):
     p.add_argument("--steps", nargs="+", type=float, metavar="H", help="candidate time steps [s] (default: "
                    "--step-count log-spaced steps from past the stability limit down)")  # fmt: skip
     p.add_argument("--step-count", type=int, default=6, help="number of default steps, factors of 2 apart")
-    p.add_argument("--max-step", type=float, help="largest default step [s] (default: 2x RK4's modal limit)")
+    p.add_argument(
+        "--max-step",
+        type=float,
+        help="largest default step [s] (default: twice RK4's limit for the "
+        "fastest rate of the linearized model, damping included)",
+    )
     p.add_argument("--min-step", type=float, help="smallest default step [s]")
     p.add_argument("--no-variants", action="store_true", help="compare the model as given only")
-    p.add_argument("--repeat", type=int, default=3, help="timings per candidate, median reported (default 3)")
+    p.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds, median reported (default 3)")
     p.add_argument("--bisect", type=int, default=8, help="most bisection runs per stability limit (default 8)")
     p.add_argument("--reference-tol", type=float, default=1e-6, help="agreement of reference refinements")
     p.add_argument("--max-refinements", type=int, default=5, help="most halvings of the reference step")

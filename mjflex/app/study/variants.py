@@ -6,8 +6,10 @@ runs every entry of :data:`DEFAULT_VARIANTS` unless it is given ``variants=`` (`
 ``python -m mjflex study --no-variants``). A builder that raises is reported in the study's notes
 and skipped; the others still run.
 
-To add a builder for every study, append it here (one line), e.g.
-``DEFAULT_VARIANTS.append(mjflex.reduce.reduced_builder(keep_below_hz=2000))``.
+To add a builder for every study, list it here (one line per builder), e.g.
+``DEFAULT_VARIANTS = [weld_variant, joint_spring_variant]`` with functions ``model -> Variant``.
+Each is swept over the same integrators and steps as the full model, so each adds about the
+cost of one element method to a study.
 """
 
 #: Builders (or variants) every study compares with the full model unless told otherwise.
