@@ -147,6 +147,7 @@ def test_variant_path_hinge_replacing_a_flexure():
     hinge = [r for r in result.rows if r.variant == "hinge"]
     assert len(hinge) == 3 and all(r.status == "ok" and r.method == "-" for r in hinge)
     assert hinge[-1].frequency_error == pytest.approx((f_hinge - f_full) / f_full, rel=1e-6)
+    assert hinge[-1].note == "has 1 of the reference's first 3 elastic modes"
     full = [r for r in result.rows if r.variant == "full" and r.status == "ok"]
     assert hinge[-1].pose_error > 10 * max(r.pose_error for r in full)
     assert 0.5 < hinge[-1].pose_error / (2 * np.pi * hinge[-1].frequency_error) < 2.0

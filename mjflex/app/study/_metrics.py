@@ -238,7 +238,8 @@ def frequency_error(freq, ref_freq, count):
     """Largest relative difference of the first ``count`` elastic frequencies (None if none).
 
     Frequencies are paired in ascending order, so a model that lacks one of the reference's low
-    modes (or adds one) shows a large error, as it should.
+    modes (or adds one) below its highest shows a large error, as it should; a model with fewer
+    elastic modes than ``count`` is compared on those it has (the study notes how many).
     """
     n = min(count, len(freq), len(ref_freq))
     if n == 0:

@@ -196,8 +196,11 @@ class _Study:
         err = Errors.between(out.trajectory, self.ref_traj, self.scales)
         row.pose_error, row.position_error, row.rotation_error = err.pose, err.position, err.rotation
         row.energy_error = err.energy
-        ref_freq = self.frequencies(self.full, None)
-        row.frequency_error = frequency_error(self.frequencies(sim, method), ref_freq, self.n_freq)
+        ref_freq, freq = self.frequencies(self.full, None), self.frequencies(sim, method)
+        row.frequency_error = frequency_error(freq, ref_freq, self.n_freq)
+        wanted = min(self.n_freq, len(ref_freq))
+        if len(freq) < wanted:  # the frequency error covers only the modes it has
+            row.note = f"has {len(freq)} of the reference's first {wanted} elastic modes"
         return row
 
     def group(self, sim, method, integrator, bisect, limit_rtol):
