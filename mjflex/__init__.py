@@ -17,10 +17,10 @@ Layers
     The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
     an ``MjSpec``, :class:`Flexures` (the passive-force provider) and linearization.
 ``mjflex.app``
-    Applications on top: the ARCADE model, simulation runs, rendering, parameter sweeps
-    (``mjflex.sweep`` and ``mjflex.Recipe``, from :mod:`mjflex.app.sweep`; imported on first
-    use, so that ``import mjflex`` does not import xarray) and the command line
-    (``python -m mjflex``).
+    Applications on top: the ARCADE model, simulation runs, rendering, the speed-accuracy study
+    (``mjflex.study``, :mod:`mjflex.app.study`), parameter sweeps (``mjflex.sweep`` and
+    ``mjflex.Recipe``, :mod:`mjflex.app.sweep`) and the command line (``python -m mjflex``).
+    The study and the sweeps are imported on first use, so ``import mjflex`` stays light.
 
 Conventions (used everywhere in the package)
 --------------------------------------------
@@ -61,14 +61,19 @@ __version__ = "0.1.0"
 
 __all__ = ["geometry", *core.__all__, *mj.__all__]
 
-_LAZY = {"sweep": "sweep", "Recipe": "Recipe"}  # from mjflex.app.sweep, imported on first use (xarray)
+_LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
+    "study": ("study", "study"),
+    "sweep": ("sweep", "sweep"),
+    "Recipe": ("sweep", "Recipe"),
+}
 
 
 def __getattr__(name):
     if name in _LAZY:
-        from .app import sweep as _sweep
+        import importlib
 
-        return getattr(_sweep, _LAZY[name])
+        module, attribute = _LAZY[name]
+        return getattr(importlib.import_module(f".app.{module}", __name__), attribute)
     raise AttributeError(f"module 'mjflex' has no attribute {name!r}")
 
 

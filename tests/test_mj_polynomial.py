@@ -226,3 +226,14 @@ def test_malformed_terms_name_the_element_and_the_fix(data, match):
     spec.text("mjflex:link").data = data
     with pytest.raises(mjflex.ModelError, match=r"flexure 'link': text record 'mjflex:link' is malformed: .*" + match):
         mjflex.Flexures(spec.compile())
+
+
+def test_linear_variants_say_that_they_drop_the_terms():
+    """mjflex.reduce keeps an element that stays whole with its terms; native variants report them as lost."""
+    terms = demo_terms("twist")
+    weld = mjflex.weld_variant(two_body_spec(terms=terms))
+    assert "link: its polynomial terms (order 4, 182 terms) are not represented" in weld.report
+    reduced = mjflex.reduce(two_body_spec(terms=terms), keep_below_hz=1e5)
+    assert "link: its polynomial terms (order 4, 182 terms) are kept if it stays a full 3-D element" in reduced.report
+    kept = mjflex.Flexures(reduced.model).records[0]
+    np.testing.assert_array_equal(kept.terms.coefficients, terms.coefficients)

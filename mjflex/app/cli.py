@@ -1,4 +1,4 @@
-"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo`` and ``sweep``."""
+"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml`` and ``sweep``."""
 
 import argparse
 import json
@@ -152,6 +152,75 @@ def _sweep_parser(sub):
     return sw
 
 
+def _study_command(args):
+    from .study import StudyError, study  # tqdm and the study's modules load only for this command
+
+    model = arcade_model()[0] if args.model == "arcade" else args.model
+    try:
+        result = study(
+            model, keyframe=args.keyframe, duration=args.duration, track=args.track, frame=args.frame,
+            methods=args.methods, integrators=args.integrators, steps=args.steps, step_count=args.step_count,
+            max_step=args.max_step, min_step=args.min_step, variants=[] if args.no_variants else None,
+            repeat=args.repeat, bisect=args.bisect, reference_tol=args.reference_tol,
+            max_refinements=args.max_refinements, reference_step=args.reference_step, samples=args.samples,
+            max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock, out=args.out,
+            progress=not args.quiet,
+        )  # fmt: skip
+    except StudyError as exc:
+        written = f" Partial results written to {', '.join(exc.paths)}." if exc.paths else ""
+        raise SystemExit(f"error: {exc}{written}") from None
+    print("\n".join(result.summary_lines()))
+    print("\n".join(result.recommendation()))
+    for limit in result.limits:
+        print(f"largest stable step, {limit.text()}")
+    stem = f"study_{os.path.splitext(os.path.basename(result.model))[0]}"
+    print(f"wrote {args.out}/{stem}.md, {stem}.json, {stem}.png")
+    if result.message:
+        raise SystemExit(f"error: {result.message}")
+
+
+def _study_parser(sub):
+    p = sub.add_parser("study", help="measure speed vs accuracy of methods, integrators, steps and model variants",
+                       description="Measure the speed-accuracy trade of simulating MODEL's flexures (see "
+                       "mjflex.app.study): a converged RK4 reference, then every candidate's cost, error and "
+                       "largest stable step; writes a markdown table, JSON and a Pareto plot to --out.")  # fmt: skip
+    p.add_argument(
+        "model", help="MJCF file with mjflex elements and a keyframe to start from ('arcade': the showcase model)"
+    )
+    p.add_argument("--keyframe", help="initial state (default: the first keyframe)")
+    p.add_argument("--duration", type=float, help="simulated time [s] (default: one period of the lowest mode)")
+    p.add_argument("--track", nargs="+", metavar="NAME", help="bodies or sites to compare (default: all bodies)")
+    p.add_argument("--frame", default="auto", help="body the poses are taken in, 'world' or 'auto' (default)")
+    p.add_argument("--methods", nargs="+", choices=["twist", "dualquat"], default=["twist", "dualquat"])
+    p.add_argument("--integrators", nargs="+", choices=sorted(INTEGRATORS),
+                   default=["rk4", "euler", "implicitfast", "discrete"])  # fmt: skip
+    p.add_argument("--steps", nargs="+", type=float, metavar="H", help="candidate time steps [s] (default: "
+                   "--step-count log-spaced steps from past the stability limit down)")  # fmt: skip
+    p.add_argument("--step-count", type=int, default=6, help="number of default steps, factors of 2 apart")
+    p.add_argument(
+        "--max-step",
+        type=float,
+        help="largest default step [s] (default: twice RK4's limit for the "
+        "fastest rate of the linearized model, damping included)",
+    )
+    p.add_argument("--min-step", type=float, help="smallest default step [s]")
+    p.add_argument("--no-variants", action="store_true", help="compare the model as given only")
+    p.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds, median reported (default 3)")
+    p.add_argument("--bisect", type=int, default=8, help="most bisection runs per stability limit (default 8)")
+    p.add_argument("--reference-tol", type=float, default=1e-6, help="agreement of reference refinements")
+    p.add_argument("--max-refinements", type=int, default=5, help="most halvings of the reference step")
+    p.add_argument("--reference-step", type=float, help="first reference step [s] (default: the model's)")
+    p.add_argument("--samples", type=int, default=200, help="sample intervals over the duration (default 200)")
+    p.add_argument("--max-run-wall", type=float, default=120.0, help="wall-time budget of one run [s]")
+    p.add_argument("--targets", nargs="+", type=float, default=[0.1, 0.01, 1e-4],
+                   help="relative pose-error targets of the recommendation")  # fmt: skip
+    p.add_argument("--clock", choices=["cpu", "wall"], default="cpu", help="cost measured as the stepping thread's "
+                   "CPU time (default; an idle core's wall time, robust on a shared machine) or wall time")  # fmt: skip
+    p.add_argument("--out", default="out", help="directory for study_<model>.md/.json/.png (default out)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
     sub = ap.add_subparsers(dest="command", required=True)
@@ -168,6 +237,7 @@ def main(argv=None):
     demo = sub.add_parser("demo", help="the paper's ARCADE run: video, Fig. 4-like panels, energy and stroke plots")
     demo.add_argument("--out", default="out")
     demo.add_argument("--duration", type=float, default=0.08, help="simulated time [s] (default 0.08)")
+    _study_parser(sub)
     for p in (sim, demo):
         p.add_argument("--width", type=int, default=1280 if p is demo else 640)
         p.add_argument("--height", type=int, default=720 if p is demo else 360)
@@ -176,6 +246,12 @@ def main(argv=None):
         p.add_argument("--quiet", action="store_true", help="no progress bar")
     _sweep_parser(sub)
     args = ap.parse_args(argv)
+    if args.command == "study":
+        for name in ("duration", "step_count", "max_step", "min_step", "repeat", "samples", "max_run_wall"):
+            if getattr(args, name) is not None and getattr(args, name) <= 0:
+                ap.error(f"--{name.replace('_', '-')} must be positive")
+        _study_command(args)
+        return
     for name in ("duration", "fps", "slowdown", "width", "height", "samples", "workers"):
         if getattr(args, name, 1) <= 0:
             ap.error(f"--{name} must be positive")
