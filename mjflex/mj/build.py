@@ -10,7 +10,14 @@ from ..core import stiffness_in_frame, validation
 from . import schema
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
-SITE_GROUP = 4  # hidden by default in MuJoCo's viewers; renderers enable it to show flexures
+#: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
+#: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
+#: on one site in ``SHAPE_SITE_GROUP`` and hide the other in ``HIDDEN_SITE_GROUP`` (ARCADE does);
+#: mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
+SITE_GROUP = 4
+SHAPE_SITE_GROUP = 3
+HIDDEN_SITE_GROUP = 5
+SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
 
 @dataclass
