@@ -82,11 +82,6 @@ def _lin3(ca, a, cb, b, cc, c):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _vec(a):
-    return (a[0], a[1], a[2])
-
-
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _mat_vec(R, v):
     """``R @ v`` for a row-major 9-tuple ``R``."""
     return (

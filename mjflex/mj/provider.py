@@ -444,4 +444,4 @@ class Flexures:
 
     @property
     def methods(self) -> tuple[str, ...]:
-        return tuple("twist" if c == 0 else "dualquat" for c in self._ints[:, k.METHOD])
+        return tuple(validation.METHOD_NAMES[int(c)] for c in self._ints[:, k.METHOD])
