@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mjflex
-from tests.helpers import hat, random_rotation, random_spd, rot_exp
+from tests.helpers import random_rotation, random_spd, rot_exp
 
 METHODS = ["twist", "dualquat"]
 
@@ -194,9 +194,17 @@ def test_half_turn_twist_energy_is_continuous_with_a_kink():
     assert below < at and above < at  # a peak with a kink, slope +5 pi -> -5 pi
     dq = [energy(np.pi + s, "dualquat") for s in (-h, 0.0, h)]
     assert abs((dq[2] - dq[0]) / (2 * h)) <= 1e-6  # smooth maximum: zero slope
-    for method in METHODS:  # exactly pi: defined, finite
-        W = mjflex.wrench_on_b(I3, z, np.diag([-1.0, -1.0, 1.0]), [0.1, 0.2, 0.0], K, method=method)
-        assert np.all(np.isfinite(W))
+    # exactly pi: the twist wrench is one of its two one-sided limits, the dual-quaternion wrench is continuous
+    p_b = np.array([0.1, 0.2, 0.0])
+    for method in METHODS:
+        W = mjflex.wrench_on_b(I3, z, np.diag([-1.0, -1.0, 1.0]), p_b, K, method=method)
+        sides = [mjflex.wrench_on_b(I3, z, rot_exp([0.0, 0.0, np.pi + s]), p_b, K, method=method) for s in (-h, h)]
+        gaps = [np.linalg.norm(W - side) / np.linalg.norm(side) for side in sides]
+        assert min(gaps) <= 1e-4  # O(h) away from one side
+        if method == "twist":
+            assert max(gaps) >= 0.1  # and the sides differ: the kink
+        else:
+            assert max(gaps) <= 1e-4
 
 
 # --------------------------------------------------------------------------- planar
@@ -311,4 +319,3 @@ def test_broadcasting_partial_shapes():
     assert np.array_equal(W[2, 3], mjflex.wrench_on_b(R_WA[2, 0], np.zeros(3), R_WB[3], p[2, 3], K))
     with pytest.raises(ValueError, match="batch shapes do not broadcast"):
         mjflex.wrench_on_b(R_WA[:3], np.zeros(3), R_WB, p, K)
-    assert hat(np.ones(3)).shape == (3, 3)
