@@ -66,6 +66,12 @@ class Flexures:
     is set to "never" here, as MuJoCo's compiler does for trees coupled by stiff tendons; an
     explicit ``sleep="allowed"`` or ``"init"`` on such a tree is kept, with a warning at install.
 
+    Contacts: MuJoCo collides the bodies an element joins unless their pair is excluded
+    (``<contact><exclude body1 body2/></contact>``, which :func:`mjflex.add_flexure` writes) or
+    their geoms cannot collide. At construction a warning names the elements whose two bodies
+    MuJoCo's own collision detection finds in contact at ``qpos0`` (every collision rule counts:
+    contype/conaffinity, the parent filter, excludes, explicit pairs, margins).
+
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
     the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
