@@ -157,7 +157,7 @@ class Progress:
         self.interval = interval if self.tty else log_interval
         self.start = self.clock()
         self.first = None  # (step, time) once the first step is done
-        self.shown = self.start
+        self.shown = -math.inf if self.tty else self.start  # a terminal shows the bar at once
 
     def eta(self, done, now):
         """Seconds left, or None while there is no sound estimate."""
