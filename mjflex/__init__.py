@@ -17,7 +17,9 @@ Layers
     The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
     an ``MjSpec``, :class:`Flexures` (the passive-force provider) and linearization.
 ``mjflex.app``
-    Applications on top: the ARCADE model, simulation runs, rendering and the command line
+    Applications on top: the ARCADE model, simulation runs, rendering, parameter sweeps
+    (``mjflex.sweep`` and ``mjflex.Recipe``, from :mod:`mjflex.app.sweep`; imported on first
+    use, so that ``import mjflex`` does not import xarray) and the command line
     (``python -m mjflex``).
 
 Conventions (used everywhere in the package)
@@ -47,3 +49,17 @@ from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 __version__ = "0.1.0"
 
 __all__ = ["geometry", *core.__all__, *mj.__all__]
+
+_LAZY = {"sweep": "sweep", "Recipe": "Recipe"}  # from mjflex.app.sweep, imported on first use (xarray)
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        from .app import sweep as _sweep
+
+        return getattr(_sweep, _LAZY[name])
+    raise AttributeError(f"module 'mjflex' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted([*globals(), *_LAZY])

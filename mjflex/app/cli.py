@@ -1,4 +1,4 @@
-"""Command line: ``python -m mjflex simulate MODEL.xml ...`` and ``python -m mjflex demo``."""
+"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo`` and ``sweep``."""
 
 import argparse
 import json
@@ -205,6 +205,33 @@ def _demo_command(args):
     print(f"wrote {args.out}/arcade.mp4, arcade_panels.png, arcade_energy.png, arcade_stroke.png, arcade_summary.json")
 
 
+def _floats(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("expected at least one number")
+    return values
+
+
+def _sweep_parser(sub):
+    sw = sub.add_parser("sweep", help="ARCADE: cylinder stroke vs leaf-spring stiffness and damping, over a grid")
+    sw.add_argument("--leaf-scale", type=_floats, default=[0.5, 1.0, 2.0, 4.0],
+                    help="leaf-spring stiffness scales, comma-separated (default 0.5,1,2,4)")  # fmt: skip
+    sw.add_argument("--beta", type=_floats, default=[0.0, 2e-6, 1e-5, 4e-5],
+                    help="Rayleigh damping B = beta K of every flexure [s] (default 0,2e-6,1e-5,4e-5)")  # fmt: skip
+    sw.add_argument("--duration", type=float, default=0.03, help="simulated time per variant [s] (default 0.03)")
+    sw.add_argument("--samples", type=int, default=61, help="observations from 0 to duration (default 61)")
+    sw.add_argument("--executor", choices=["batch", "pool", "dask"], default="batch",
+                    help="batch: Batch threads here; pool: spawn process pool; dask: local cluster")  # fmt: skip
+    sw.add_argument("--workers", type=int, default=2, help="processes for pool/dask (default 2)")
+    sw.add_argument("--threads", type=int, help="Batch threads per process (default: all CPUs here, 1 per worker)")
+    sw.add_argument("--out", default="out")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    return sw
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
     sub = ap.add_subparsers(dest="command", required=True)
@@ -228,11 +255,21 @@ def main(argv=None):
         p.add_argument("--slowdown", type=positive_float, default=100.0,
                        help="slow-motion factor of the video (default 100)")  # fmt: skip
         p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _sweep_parser(sub)
     args = ap.parse_args(argv)
-    for name in ("duration", "fps", "slowdown", "width", "height"):
-        if getattr(args, name) <= 0:
+    for name in ("duration", "fps", "slowdown", "width", "height", "samples", "workers"):
+        if getattr(args, name, 1) <= 0:
             ap.error(f"--{name} must be positive")
-    if args.command == "simulate":
+    if args.command == "sweep":
+        if args.threads is not None and args.threads < 0:
+            ap.error("--threads must be >= 0 (0: all CPUs)")
+        from .sweep.arcade import run
+
+        try:
+            run(args)
+        except ValueError as exc:
+            raise SystemExit(f"error: {exc}") from None
+    elif args.command == "simulate":
         _simulate_command(args)
     else:
         _demo_command(args)
