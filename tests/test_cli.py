@@ -43,7 +43,7 @@ def test_divergence_found_by_mujoco_names_the_quantity_and_restores_auto_reset()
     data = mujoco.MjData(model)
     data.qvel[0] = 2e10  # beyond MuJoCo's mjMAXVAL (1e10)
     flags = model.opt.disableflags
-    with pytest.raises(DivergenceError, match=r"step 1 of 10 .*huge qvel .* at dof 0") as error:
+    with pytest.raises(DivergenceError, match=r"step 1 of 10 .*huge qvel\[0\]") as error:
         simulate(model, data, flex, 10 * model.opt.timestep, progress=False)
     assert error.value.step == 1 and error.value.time == 0.0 and len(error.value.run.time) == 1
     assert model.opt.disableflags == flags  # auto-reset as the model had it

@@ -215,10 +215,10 @@ def _divergence(model, data, before):
     """What MuJoCo's warnings say diverged since the counts ``before``, or None."""
     for w, what in DIVERGENCE_WARNINGS.items():
         if data.warning[w].number > before[int(w)]:
-            dof = int(data.warning[w].lastinfo)
+            index = int(data.warning[w].lastinfo)
             return (
-                f"MuJoCo found a non-finite or huge {what} (beyond 1e10, its mjMAXVAL) at dof {dof}; reduce the "
-                "time step (mjflex.mj.linearize.normal_modes gives the stiffest mode) or check the initial state"
+                f"MuJoCo found a non-finite or huge {what}[{index}] (beyond 1e10, its mjMAXVAL); reduce the time "
+                "step (mjflex.mj.linearize.normal_modes gives the stiffest mode) or check the initial state"
             )
     if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
         return "the state is not finite"
