@@ -170,3 +170,48 @@ def demo_terms(method, order=4, seed=0):
     U0 = 0.5 * (0.6 * rot**2 + 100.0 * trans**2)
     r = rng.uniform(-1.0, 1.0, len(e)) * 0.3 / np.sqrt(len(e))
     return mjflex.PolynomialTerms(method, e, r * U0 / np.prod(np.array(z) ** e, axis=1))
+
+
+def perturb_joints(model, data, rng, *, angle=0.3, other=0.4):
+    """Random joint positions around ``qpos0`` (ball joints: a unit quaternion near identity) and velocities."""
+    data.qpos[:] = model.qpos0
+    for j in range(model.njnt):
+        adr = model.jnt_qposadr[j]
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL:
+            dq = np.r_[1.0, angle * rng.normal(size=3)]
+            data.qpos[adr : adr + 4] = dq / np.linalg.norm(dq)
+        else:
+            data.qpos[adr] = other * rng.normal()
+    data.qvel[:] = rng.normal(size=model.nv)
+    mujoco.mj_forward(model, data)
+
+
+def applied_wrenches_reference(model, data, flex):
+    """Generalized forces of the provider's wrenches through MuJoCo's own ``mj_applyFT`` (the independent path)."""
+    W = flex.wrenches(data)
+    expected = np.zeros(model.nv)
+    for e in range(len(flex)):
+        sa, sb = flex.site_ids[e]
+        point = data.site_xpos[sb]
+        mujoco.mj_applyFT(model, data, W[e, 3:], W[e, :3], point, model.site_bodyid[sb], expected)
+        mujoco.mj_applyFT(model, data, -W[e, 3:], -W[e, :3], point, model.site_bodyid[sa], expected)
+    return expected
+
+
+def rollout_and_serial(model, data, nstep, *, copies=4, threads=2):
+    """``(states, final)``: ``mujoco.rollout`` of ``copies`` copies on ``threads`` threads, and serial stepping.
+
+    Both start from ``data``'s state and run while the caller has a provider installed.
+    """
+    from mujoco import rollout
+
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.empty(mujoco.mj_stateSize(model, kind))
+    mujoco.mj_getState(model, data, state0, kind)
+    states, _ = rollout.rollout([model] * copies, [mujoco.MjData(model) for _ in range(threads)],
+                                np.tile(state0, (copies, 1)), nstep=nstep)  # fmt: skip
+    for _ in range(nstep):
+        mujoco.mj_step(model, data)
+    final = np.empty_like(state0)
+    mujoco.mj_getState(model, data, final, kind)
+    return states, final

@@ -13,7 +13,16 @@ import numpy as np
 import pytest
 
 import mjflex
-from tests.models import B_DEMO, K_DEMO, demo_terms, hinge_chain_spec, two_body_spec
+from tests.models import (
+    B_DEMO,
+    K_DEMO,
+    applied_wrenches_reference,
+    demo_terms,
+    hinge_chain_spec,
+    perturb_joints,
+    rollout_and_serial,
+    two_body_spec,
+)
 
 pytestmark = pytest.mark.usefixtures("clean_callback")
 METHODS = ["twist", "dualquat"]
@@ -67,24 +76,9 @@ def test_chain_generalized_forces_equal_mj_applyFT(method):
     terms = demo_terms(method, seed=1)
     model = hinge_chain_spec(n=4, B=B_DEMO, method=method, terms=terms).compile()
     data = mujoco.MjData(model)
-    rng = np.random.default_rng(1)
-    for j in range(model.njnt):
-        adr = model.jnt_qposadr[j]
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL:
-            dq = np.r_[1.0, 0.2 * rng.normal(size=3)]
-            data.qpos[adr : adr + 4] = dq / np.linalg.norm(dq)
-        else:
-            data.qpos[adr] = 0.3 * rng.normal()
-    data.qvel[:] = rng.normal(size=model.nv)
-    mujoco.mj_forward(model, data)
+    perturb_joints(model, data, np.random.default_rng(1), angle=0.2, other=0.3)
     flex = mjflex.Flexures(model)
-    W = flex.wrenches(data)
-    expected = np.zeros(model.nv)
-    for e in range(len(flex)):
-        sa, sb = flex.site_ids[e]
-        point = data.site_xpos[sb]
-        mujoco.mj_applyFT(model, data, W[e, 3:], W[e, :3], point, model.site_bodyid[sb], expected)
-        mujoco.mj_applyFT(model, data, -W[e, 3:], -W[e, :3], point, model.site_bodyid[sa], expected)
+    expected = applied_wrenches_reference(model, data, flex)
     got = flex.generalized_forces(data)
     assert np.linalg.norm(got - expected) <= 1e-12 * np.linalg.norm(expected)
     before = data.qfrc_passive.copy()
@@ -117,20 +111,10 @@ def test_energy_is_conserved_with_polynomial_terms(method):
 
 def test_rollout_threads_match_serial_stepping():
     """The terms' work arrays live on each thread's stack: threaded rollouts equal serial stepping."""
-    from mujoco import rollout
-
     model = two_body_spec(method="dualquat", B=B_DEMO, integrator="Euler", terms=demo_terms("dualquat")).compile()
     data = _moved(model, seed=4)
-    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state0 = np.empty(mujoco.mj_stateSize(model, kind))
-    mujoco.mj_getState(model, data, state0, kind)
     with mjflex.Flexures(model):
-        states, _ = rollout.rollout([model] * 4, [mujoco.MjData(model) for _ in range(3)], np.tile(state0, (4, 1)),
-                                    nstep=200)  # fmt: skip
-        for _ in range(200):
-            mujoco.mj_step(model, data)
-    final = np.empty_like(state0)
-    mujoco.mj_getState(model, data, final, kind)
+        states, final = rollout_and_serial(model, data, 200, threads=3)
     assert np.array_equal(states[:, -1], np.tile(final, (4, 1)))
 
 
