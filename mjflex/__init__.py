@@ -37,21 +37,10 @@ Conventions (used everywhere in the package)
   (columns are B's axes in W coordinates), ``p_WB`` the position of B's origin in W
   coordinates, ``X_AB = (R_AB, p_AB)`` the pose of B in A, so ``x_A = R_AB x_B + p_AB``.
   ``W`` is the world frame; lower-case ``a``, ``b`` are the two frames of an element.
+
+Importing mjflex has no side effects on the environment: ``MUJOCO_GL`` is chosen only when
+mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`).
 """
-
-import os as _os
-import platform as _platform
-import sys as _sys
-
-# Headless Linux: let MuJoCo's offscreen renderer use EGL unless the user chose a backend.
-# (MuJoCo reads MUJOCO_GL once, when it is first imported.)
-if (
-    "mujoco" not in _sys.modules
-    and _platform.system() == "Linux"
-    and not _os.environ.get("DISPLAY")
-    and not _os.environ.get("WAYLAND_DISPLAY")
-):
-    _os.environ.setdefault("MUJOCO_GL", "egl")
 
 from . import core, geometry, mj
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)

@@ -26,6 +26,9 @@ TEMPLATE = """
       <site name="{site_b}" pos="{pos_b}" {quat_b}/>
     </body>
   </worldbody>
+  <contact>
+    <exclude body1="A" body2="B"/>
+  </contact>
   <custom>
     <text name="mjflex:e" data='{data}'/>
   </custom>

@@ -20,6 +20,8 @@ Tolerances, all relative so that they do not depend on units:
 
 import numpy as np
 
+from ._kernels import DUALQUAT, TWIST
+
 SYMMETRY_RTOL = 1e-8
 PSD_RTOL = 1e-10
 ORTHONORMAL_ATOL = 1e-9
@@ -150,7 +152,9 @@ def check_unit_dual_quaternion(q, name: str) -> np.ndarray:
     return q
 
 
-METHOD_CODES = {"twist": 0, "dualquat": 1}
+#: Method name -> the code the kernels take; ``METHOD_NAMES`` is the reverse.
+METHOD_CODES = {"twist": TWIST, "dualquat": DUALQUAT}
+METHOD_NAMES = {code: name for name, code in METHOD_CODES.items()}
 
 
 def method_code(method: str, name: str = "method") -> int:

@@ -32,6 +32,8 @@ from ..core._kernels import (
     _cross,
     _lin,
     load3,
+    load9,
+    load36,
     relative_position,
     relative_quat,
     spatial_potential,
@@ -145,33 +147,11 @@ def int_from_voidptr(typingctx, ptr):
 
 
 @njit(**_JIT)
-def _row9(a, i):
-    return (a[i, 0], a[i, 1], a[i, 2], a[i, 3], a[i, 4], a[i, 5], a[i, 6], a[i, 7], a[i, 8])
-
-
-@njit(**_JIT)
-def _tuple36(a, i, at):
-    """Row-major 6x6 matrix stored in ``a[i, at:at + 36]``, as a 36-tuple."""
-    return (
-        a[i, at], a[i, at + 1], a[i, at + 2], a[i, at + 3], a[i, at + 4], a[i, at + 5],
-        a[i, at + 6], a[i, at + 7], a[i, at + 8], a[i, at + 9], a[i, at + 10], a[i, at + 11],
-        a[i, at + 12], a[i, at + 13], a[i, at + 14], a[i, at + 15], a[i, at + 16], a[i, at + 17],
-        a[i, at + 18], a[i, at + 19], a[i, at + 20], a[i, at + 21], a[i, at + 22], a[i, at + 23],
-        a[i, at + 24], a[i, at + 25], a[i, at + 26], a[i, at + 27], a[i, at + 28], a[i, at + 29],
-        a[i, at + 30], a[i, at + 31], a[i, at + 32], a[i, at + 33], a[i, at + 34], a[i, at + 35],
-    )  # fmt: skip
-
-
-@njit(**_JIT)
 def _frame_b(ints, floats, e, R, p):
     """Pose of frame b, corrected by the rest offset: ``X_Wb* = X_Wb X_ab0^-1``."""
     if ints[e, OFFSET] == 0:
         return R, p
-    R0 = (
-        floats[e, R0_AT], floats[e, R0_AT + 1], floats[e, R0_AT + 2],
-        floats[e, R0_AT + 3], floats[e, R0_AT + 4], floats[e, R0_AT + 5],
-        floats[e, R0_AT + 6], floats[e, R0_AT + 7], floats[e, R0_AT + 8],
-    )  # fmt: skip
+    R0 = load9(floats, e, R0_AT)
     Rs = (  # R_b* = R_b R0^T
         R[0] * R0[0] + R[1] * R0[1] + R[2] * R0[2], R[0] * R0[3] + R[1] * R0[4] + R[2] * R0[5],
         R[0] * R0[6] + R[1] * R0[7] + R[2] * R0[8], R[3] * R0[0] + R[4] * R0[1] + R[5] * R0[2],
@@ -179,7 +159,7 @@ def _frame_b(ints, floats, e, R, p):
         R[6] * R0[0] + R[7] * R0[1] + R[8] * R0[2], R[6] * R0[3] + R[7] * R0[4] + R[8] * R0[5],
         R[6] * R0[6] + R[7] * R0[7] + R[8] * R0[8],
     )  # fmt: skip
-    p0 = (floats[e, P0_AT], floats[e, P0_AT + 1], floats[e, P0_AT + 2])
+    p0 = load3(floats, e, P0_AT)
     q = (
         Rs[0] * p0[0] + Rs[1] * p0[1] + Rs[2] * p0[2],
         Rs[3] * p0[0] + Rs[4] * p0[1] + Rs[5] * p0[2],
@@ -243,15 +223,15 @@ def flexure_loop(
             if mode & (ENERGY | POWER):
                 out1[e] = 0.0
             continue
-        Ra, pa = _row9(site_xmat, ints[e, SITE_A]), load3(site_xpos, ints[e, SITE_A])
-        Rb, pb = _frame_b(ints, floats, e, _row9(site_xmat, ints[e, SITE_B]), load3(site_xpos, ints[e, SITE_B]))
+        Ra, pa = load9(site_xmat, ints[e, SITE_A]), load3(site_xpos, ints[e, SITE_A])
+        Rb, pb = _frame_b(ints, floats, e, load9(site_xmat, ints[e, SITE_B]), load3(site_xpos, ints[e, SITE_B]))
         method = ints[e, METHOD]
         if mode & COORDS:
             w, x, y, z = relative_quat(Ra, Rb)
             tau, t, _ = twist_from_quat_pos(w, x, y, z, relative_position(Ra, pa, pb))
             out6[e, 0], out6[e, 1], out6[e, 2], out6[e, 3], out6[e, 4], out6[e, 5] = tau + t
             continue
-        K = _tuple36(floats, e, K_AT) if spring_on else _ZERO36
+        K = load36(floats, e, K_AT) if spring_on else _ZERO36
         if mode & ENERGY:
             out1[e] = spatial_potential(method, Ra, pa, Rb, pb, K)
             continue
@@ -260,7 +240,7 @@ def flexure_loop(
         if viscous:
             wa, va = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_A], pa)
             wb, vb = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_B], pb)
-        B = _tuple36(floats, e, B_AT) if viscous else _ZERO36
+        B = load36(floats, e, B_AT) if viscous else _ZERO36
         m, f, power = spatial_wrench(method, Ra, pa, Rb, pb, K, B, viscous, wa, va, wb, vb)
         if not math.isfinite(m[0] + m[1] + m[2] + f[0] + f[1] + f[2] + power):
             return e

@@ -237,6 +237,37 @@ def derive(model) -> Tables:
     )
 
 
+def contacts_at_rest(model, tables: Tables) -> list[tuple[str, str, str]]:
+    """``(element, geom, geom)`` for elements whose two bodies MuJoCo finds in contact at ``qpos0``.
+
+    The check is MuJoCo's own collision detection (``mj_fwdPosition``) in the reference
+    configuration, so contype/conaffinity, the parent-child filter, ``<exclude>``, ``<pair>``,
+    margins and the contact disable flag count exactly as they do in a step. Bodies welded to
+    an element's body (no joint between them) count as that body. Geoms that only come into
+    contact once the element deflects are not reported.
+    """
+    if not tables.names or model.ngeom < 2 or model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
+        return []
+    weld = model.body_weldid
+    joined = {}
+    for e, row in enumerate(tables.ints):
+        joined.setdefault(frozenset((int(weld[row[k.BODY_A]]), int(weld[row[k.BODY_B]]))), tables.names[e])
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    mujoco.mj_fwdPosition(model, data)
+    found, seen = [], set()
+    for g1, g2 in zip(data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon], strict=True):
+        if g1 < 0 or g2 < 0:  # a contact of a MuJoCo flex, not of two bodies' geoms
+            continue
+        pair = frozenset((int(weld[model.geom_bodyid[g1]]), int(weld[model.geom_bodyid[g2]])))
+        element = joined.get(pair)
+        if element is not None and element not in seen:
+            seen.add(element)
+            geoms = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}" for g in (g1, g2)]
+            found.append((element, *geoms))
+    return found
+
+
 STRUCTURE = (k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B, k.FREE_A, k.FREE_B, k.CHAIN_A0, k.CHAIN_A1, k.CHAIN_B0,
              k.CHAIN_B1)  # fmt: skip
 

@@ -10,7 +10,14 @@ from ..core import stiffness_in_frame, validation
 from . import schema
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
-SITE_GROUP = 4  # hidden by default in MuJoCo's viewers; renderers enable it to show flexures
+#: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
+#: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
+#: on one site in ``SHAPE_SITE_GROUP`` and hide the other in ``HIDDEN_SITE_GROUP`` (ARCADE does);
+#: mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
+SITE_GROUP = 4
+SHAPE_SITE_GROUP = 3
+HIDDEN_SITE_GROUP = 5
+SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
 
 @dataclass
@@ -79,6 +86,7 @@ def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
 def add_flexure(
     spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist",
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
+    exclude_contact=True,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -116,6 +124,12 @@ def add_flexure(
     poses : tuple, optional
         Output of :func:`reference_body_poses` to reuse when adding many flexures (the spec is
         compiled otherwise).
+    exclude_contact : bool
+        Exclude contacts between the two bodies (``<contact><exclude body1 body2/></contact>``;
+        once per pair): the element holds them together where their geoms usually touch, and
+        MuJoCo would push them apart. ``False`` keeps their contacts. A pair with the world is
+        never excluded here (the world holds floors and obstacles; MuJoCo's parent-child filter
+        exempts it likewise): :class:`mjflex.Flexures` warns if such geoms touch at rest.
 
     Returns
     -------
@@ -151,9 +165,18 @@ def add_flexure(
             name=site_name, pos=R_WB.T @ (p_WE - p_WB), quat=_quaternion(R_WB.T @ R_WE),
             size=[SITE_SIZE, 0, 0], group=SITE_GROUP,
         ))  # fmt: skip
+    if exclude_contact and all(b is not spec.worldbody for b in bodies):
+        exclude_contacts(spec, *bodies)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source)
     text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def exclude_contacts(spec, body_a, body_b) -> None:
+    """Add ``<exclude body1 body2/>`` for two named bodies of ``spec`` unless the pair is excluded already."""
+    pair = {body_a.name, body_b.name}
+    if not any({e.bodyname1, e.bodyname2} == pair for e in spec.excludes):
+        spec.add_exclude(bodyname1=body_a.name, bodyname2=body_b.name)
 
 
 def add_flexure_in_body_frame(spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), poses=None, **kwargs):

@@ -66,6 +66,12 @@ class Flexures:
     is set to "never" here, as MuJoCo's compiler does for trees coupled by stiff tendons; an
     explicit ``sleep="allowed"`` or ``"init"`` on such a tree is kept, with a warning at install.
 
+    Contacts: MuJoCo collides the bodies an element joins unless their pair is excluded
+    (``<contact><exclude body1 body2/></contact>``, which :func:`mjflex.add_flexure` writes) or
+    their geoms cannot collide. At construction a warning names the elements whose two bodies
+    MuJoCo's own collision detection finds in contact at ``qpos0`` (every collision rule counts:
+    contype/conaffinity, the parent filter, excludes, explicit pairs, margins).
+
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
     the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
@@ -97,6 +103,7 @@ class Flexures:
         self._index = {name: i for i, name in enumerate(self.names)}
         self._ints, self._floats, self._chain, self._rootid = t.ints, t.floats, t.chain, t.rootid
         self._fingerprints = {}
+        self._warn_contacts(model)
         self._sleep_policy(model)
         self._fingerprints[model._address] = _tables.fingerprint(model)
         self._messages = [self._message(name) for name in self.names]
@@ -118,6 +125,27 @@ class Flexures:
             "stiffest mode), or check the qpos/qvel you set."
         )
         return text.encode() + b"\x00"
+
+    def _warn_contacts(self, model):
+        """Warn about elements whose bodies MuJoCo finds in contact at rest (:func:`._tables.contacts_at_rest`)."""
+        touching = _tables.contacts_at_rest(model, self._tables)
+        if not touching:
+            return
+        element, g1, g2 = touching[0]
+        a, b = (
+            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
+            for i in self._ints[self._index[element], [k.BODY_A, k.BODY_B]]
+        )
+        more = f" (and {len(touching) - 1} more elements: {', '.join(t[0] for t in touching[1:4])}...)"
+        warnings.warn(
+            f"mjflex: the bodies '{a}' and '{b}' joined by flexure '{element}'{more if len(touching) > 1 else ''} are "
+            f"in contact in the reference configuration (geoms '{g1}' and '{g2}'): MuJoCo's contact pushes them "
+            "apart while the element holds them together, which usually diverges. Exclude the pair: "
+            f'<contact><exclude body1="{a}" body2="{b}"/></contact> (mjflex.add_flexure does this by default), '
+            "or give the geoms contype/conaffinity that cannot collide.",
+            UserWarning,
+            stacklevel=3,
+        )
 
     def _sleep_policy(self, model):
         """Keep trees joined to another tree awake (see the class notes); returns what stays sleepy."""
@@ -422,4 +450,4 @@ class Flexures:
 
     @property
     def methods(self) -> tuple[str, ...]:
-        return tuple("twist" if c == 0 else "dualquat" for c in self._ints[:, k.METHOD])
+        return tuple(validation.METHOD_NAMES[int(c)] for c in self._ints[:, k.METHOD])
