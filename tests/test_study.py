@@ -51,7 +51,8 @@ def two_body_run(tmp_path_factory):
 
 
 def _errors(rows, integrator, key="pose_error"):
-    rows = sorted((r for r in rows if r["integrator"] == integrator and r["source"] == "grid"),
+    full = (r for r in rows if r["variant"] == "full")
+    rows = sorted((r for r in full if r["integrator"] == integrator and r["source"] == "grid"),
                   key=lambda r: -r["timestep"])  # fmt: skip
     return np.array([r["timestep"] for r in rows]), np.array([r[key] for r in rows])
 
@@ -93,6 +94,7 @@ def test_report_pareto_and_recommendation(two_body_run):
     assert "for <= 1 % error:" in text and "x faster than the reference" in text
     needs = {n["need"]: n for n in result["needs"]}
     assert needs["engineering answers (pose error <= 1 %)"]["choice"].startswith("euler, twist")
+    assert any("'reduced_variant' does not apply: nothing to reduce below 2000 Hz" in n for n in result["notes"])
     assert needs["what the model file uses now"]["vs the model's setting"] == "the setting itself"
 
 
@@ -206,7 +208,7 @@ def test_diverges_at_every_candidate_step(tmp_path):
     """Steps far past the limit: every candidate diverges, each reported with element and step;
     the command exits with the message and the partial results are written."""
     error, _ = _cli("study", TWO_BODY, "--integrators", "euler", "rk4", "--methods", "twist", "--steps", 4e-3, 2e-3,
-                    "--bisect", 0, "--out", tmp_path, *FAST)  # fmt: skip
+                    "--bisect", 0, "--no-variants", "--out", tmp_path, *FAST)  # fmt: skip
     assert "every candidate step diverged" in error
     result = json.loads((tmp_path / "study_two_body.json").read_text())
     grid = [r for r in result["rows"] if r["source"] != "model"]

@@ -6,7 +6,7 @@ from .native import bushing_variant, pseudo_rigid_body_variant, weld_variant
 from .provider import Flexures, ModelError
 from .reduce import reduce
 from .schema import FlexureRecord
-from .variant import Variant
+from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
     "FlexureHandle",
@@ -14,6 +14,7 @@ __all__ = [
     "Flexures",
     "ModelError",
     "Variant",
+    "VariantNotApplicableError",
     "add_flexure",
     "add_flexure_in_body_frame",
     "bushing_variant",

@@ -346,6 +346,12 @@ def serving(model):
     return None if served is None else served[1]
 
 
+def models_served() -> int:
+    """How many models the registry serves now (at most :data:`CAPACITY` per process)."""
+    with _LOCK:
+        return len(_IN_SLOT)
+
+
 def dispatcher_installed() -> bool:
     return _is_ours(mujoco.get_mjcb_passive())
 

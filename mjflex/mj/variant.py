@@ -22,6 +22,10 @@ import numpy as np
 import scipy.linalg
 
 
+class VariantNotApplicableError(Exception):
+    """A variant builder has nothing to build for this model; the message says why."""
+
+
 @dataclass
 class Variant:
     """A model of the same scene as a source model, with the maps that relate the two.

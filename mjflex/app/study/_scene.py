@@ -33,15 +33,25 @@ class StudyError(ValueError):
 
 
 def load(model):
-    """``(MjModel, name)`` from a model object or an MJCF path."""
+    """``(MjModel, name, source)`` from an MJCF path, an ``MjSpec`` or a model object.
+
+    ``source`` is what variant builders receive: the path or a copy of the spec when given one
+    (builders can rebuild the model from it), else the ``MjModel`` itself.
+    """
     if isinstance(model, mujoco.MjModel):
         name = model.names[: model.names.index(b"\x00")].decode() or "model"
-        return model, name
+        return model, name, model
+    if isinstance(model, mujoco.MjSpec):
+        source = model.copy()
+        try:
+            return model.copy().compile(), model.modelname or "model", source
+        except ValueError as exc:
+            raise StudyError(f"the spec does not compile: {exc}") from None
     path = os.fspath(model)
     if not os.path.exists(path):
         raise StudyError(f"model file {path!r} not found")
     try:
-        return mujoco.MjModel.from_xml_path(path), os.path.basename(path)
+        return mujoco.MjModel.from_xml_path(path), os.path.basename(path), path
     except ValueError as exc:
         raise StudyError(f"MuJoCo cannot load {path!r}: {exc}") from None
 
@@ -160,11 +170,12 @@ def tracked_items(model, flex, name, track=None, frame="auto"):
     return items, frame
 
 
-def build_variant(entry, model):
-    """A :class:`Variant` (or a list of them) from an entry: a Variant or a builder ``model -> Variant``."""
+def build_variant(entry, source):
+    """A list of :class:`Variant` from an entry: a Variant, or a builder ``source -> Variant`` (or a
+    list of them, or None), called with the study's source (see :func:`load`)."""
     if isinstance(entry, Variant):
         return [entry]
-    built = entry(model)
+    built = entry(source)
     if built is None:
         return []
     built = list(built) if isinstance(built, list | tuple) else [built]

@@ -1,11 +1,13 @@
 """The study itself: plan the steps, build the reference, sweep the candidates, bisect the limits."""
 
 import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
 from tqdm.auto import tqdm
 
+from ...mj.variant import VariantNotApplicableError
 from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._result import Limit, Reference, Row, StudyResult
 from ._run import INTEGRATOR_ENUMS, Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
@@ -253,11 +255,14 @@ class _Study:
                 limit.largest_stable = h
 
 
-def _variant_sims(entries, src, data0, items, frame, result):
+def _variant_sims(entries, source, src, data0, items, frame, result):
     sims = []
     for entry in entries:
         try:
-            variants = build_variant(entry, src)
+            variants = build_variant(entry, source)
+        except VariantNotApplicableError as exc:
+            result.notes.append(f"variant builder {getattr(entry, '__name__', entry)!r} does not apply: {exc}")
+            continue
         except Exception as exc:  # a user's builder: report it and go on with the others
             result.notes.append(f"variant builder {getattr(entry, '__name__', entry)!r} failed: {exc}")
             continue
@@ -283,7 +288,7 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
           clock="cpu", out=None, progress=True) -> StudyResult:  # fmt: skip
     """Measure the speed-accuracy trade of simulating ``model``'s flexures; see the package docstring."""
     opts = {k: v for k, v in locals().items() if k not in ("model", "out", "progress")}
-    label = model if not hasattr(model, "opt") else "model"
+    label = os.fspath(model) if isinstance(model, str | os.PathLike) else "model"
     result = StudyResult(str(label), targets=tuple(targets), clock=clock)
     bar = tqdm(total=max_refinements + 1, unit="run", disable=not progress, leave=False)
     try:
@@ -323,7 +328,7 @@ def _run(result, model, bar, *, keyframe, qpos, qvel, duration, track, frame, me
          reference_step, frequencies, samples, max_run_wall, targets, clock):  # fmt: skip
     """The phases of :func:`study`, filling ``result`` as they go (so a failure leaves what was measured)."""
     _check_choices(methods, integrators, clock)
-    src, result.model = load(model)
+    src, result.model, source = load(model)
     flex = flexures_of(src, result.model)
     state, result.initial_state, data0 = initial_state(src, flex, result.model, keyframe=keyframe, qpos=qpos,
                                                        qvel=qvel)  # fmt: skip
@@ -343,8 +348,8 @@ def _run(result, model, bar, *, keyframe, qpos, qvel, duration, track, frame, me
     ctx = _Study(result, plan, full, repeat=max(1, repeat), max_run_wall=max_run_wall, frequencies=frequencies,
                  clock=clock, bar=bar)  # fmt: skip
     ctx.reference(tol=reference_tol, max_refinements=max_refinements, start_step=reference_step)
-    sims = [full] + _variant_sims(DEFAULT_VARIANTS if variants is None else variants, src, data0, items, frame_body,
-                                  result)  # fmt: skip
+    entries = DEFAULT_VARIANTS if variants is None else variants
+    sims = [full] + _variant_sims(entries, source, src, data0, items, frame_body, result)
     groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
     bar.total = bar.n + groups * (len(plan.grid) + 3) + 1 + max(1, repeat)  # ~3 bisection runs per group
     bar.refresh()

@@ -105,8 +105,7 @@ def _divisor_near(n, k):
 
 def registry_room() -> int:
     """How many more models this process's flexure registry can serve now."""
-    with registry._LOCK:
-        return registry.CAPACITY - len(registry._IN_SLOT)
+    return registry.CAPACITY - registry.models_served()
 
 
 @contextlib.contextmanager
@@ -117,7 +116,7 @@ def installed(flexes):
         while registry_room() < len(flexes):
             if not _HELD[0]:
                 raise RuntimeError(
-                    f"mjflex serves at most {registry.CAPACITY} models per process and {len(registry._IN_SLOT)} "
+                    f"mjflex serves at most {registry.CAPACITY} models per process and {registry.models_served()} "
                     f"are installed outside this sweep; cannot install {len(flexes)}. Uninstall unused providers "
                     "or pass a smaller chunk_size."
                 )
