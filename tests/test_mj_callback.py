@@ -9,7 +9,7 @@ import pytest
 
 import mjflex
 from mjflex.mj import _callback
-from tests.models import B_DEMO, K_DEMO, two_body_spec
+from tests.models import B_DEMO, K_DEMO, rollout_and_serial, two_body_spec
 
 PLAIN_XML = '<mujoco><worldbody><body><freejoint/><geom size=".1"/></body></worldbody></mujoco>'
 
@@ -273,12 +273,7 @@ def test_threaded_rollout_matches_serial_stepping():
     state0 = np.empty(mujoco.mj_stateSize(model, kind))
     mujoco.mj_getState(model, data, state0, kind)
     with mjflex.Flexures(model):
-        states, _ = rollout.rollout([model] * 4, [mujoco.MjData(model) for _ in range(2)], np.tile(state0, (4, 1)),
-                                    nstep=300)  # fmt: skip
-        for _ in range(300):
-            mujoco.mj_step(model, data)
-    final = np.empty_like(state0)
-    mujoco.mj_getState(model, data, final, kind)
+        states, final = rollout_and_serial(model, data, 300)
     assert np.array_equal(states[:, -1], np.tile(final, (4, 1)))
     free, _ = rollout.rollout(model, mujoco.MjData(model), state0, nstep=300)  # not installed: no flexure forces
     assert np.abs(free[0, -1] - final).max() > 1e-3

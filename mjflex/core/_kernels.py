@@ -421,11 +421,11 @@ def _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
-    """Wrench of one element on body B and its dissipated power.
+def generalized_forces(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
+    """Coordinates of one element and the quadratic generalized forces on them.
 
-    Returns ``(m, f, power)``: moment about ``p_WB`` and force on B in world axes, and
-    ``rate^T B rate`` (times 4 for the dual-quaternion method) [W], 0 unless ``viscous``.
+    Returns ``(e1, e2, aux, y1, y2, power)``: the coordinates as in :func:`_coords`,
+    ``[y1; y2] = K [e1; e2] + B rate`` and ``rate^T B rate`` (0 unless ``viscous``).
     """
     e1, e2, aux = _coords(method, R_WA, p_WA, R_WB, p_WB)
     y1, y2 = _mat6_vec(K, e1, e2)
@@ -436,16 +436,46 @@ def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_
         power = _dot(r1, b1) + _dot(r2, b2)
         y1 = _lin(1.0, y1, 1.0, b1)
         y2 = _lin(1.0, y2, 1.0, b2)
+    return e1, e2, aux, y1, y2, power
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def force_map(method, e1, e2, aux, y1, y2):
+    """``(m, f, scale)``: the wrench on B in b coordinates is ``scale * [m; f]``.
+
+    ``[m; f] = Gamma_ab [y1; y2]`` with ``scale = -1`` (twist, eq. 49) or
+    ``Lambda_ab [y1; y2]`` with ``scale = -2`` (dual quaternion, eq. 87).
+    """
     if method == TWIST:
         m, f = _twist_gamma(e1, e2, aux[0], aux[1], y1, y2)
-        scale = -1.0
-    else:
-        m, f = _lambda_apply(aux[0], e1, aux[1], e2, y1, y2)
-        scale = -2.0
-        power *= 4.0
+        return m, f, -1.0
+    m, f = _lambda_apply(aux[0], e1, aux[1], e2, y1, y2)
+    return m, f, -2.0
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def to_world(scale, m, f, R_WB):
+    """``scale * [R_WB m; R_WB f]``."""
     m = _mat_vec(R_WB, m)
     f = _mat_vec(R_WB, f)
-    return _lin(scale, m, 0.0, m), _lin(scale, f, 0.0, f), power
+    return _lin(scale, m, 0.0, m), _lin(scale, f, 0.0, f)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
+    """Wrench of one element on body B and its dissipated power.
+
+    Returns ``(m, f, power)``: moment about ``p_WB`` and force on B in world axes, and
+    ``rate^T B rate`` (times 4 for the dual-quaternion method) [W], 0 unless ``viscous``.
+    """
+    e1, e2, aux, y1, y2, power = generalized_forces(
+        method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB
+    )
+    m, f, scale = force_map(method, e1, e2, aux, y1, y2)
+    if method != TWIST:
+        power *= 4.0
+    m, f = to_world(scale, m, f, R_WB)
+    return m, f, power
 
 
 # --------------------------------------------------------------------------- batch loops

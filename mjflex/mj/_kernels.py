@@ -15,7 +15,11 @@ Element tables (built once by :mod:`._tables`), their columns named once below (
 * ``floats`` (n, NF) float64, ``FLOAT_COLUMNS``: K and B (row-major 6x6), the rest offset
   ``X_ab0`` (R, p) of frame b seen from frame a at ``qpos0`` (round-off of the model file,
   absorbed so that the reference configuration is exactly unstressed), and the inverse mass
-  and inertia used by the divergence check.
+  and inertia used by the divergence check;
+* ``exps`` (M, 8) int64 and ``coefs`` (M,) float64: the polynomial terms of all elements (rows
+  ``terms_lo:terms_hi`` of ``ints`` belong to an element; twist rows use the first 6 columns).
+  Their work arrays live on the stack of :func:`flexure_loop` (``stack_doubles``), so
+  evaluating them allocates nothing, in any thread.
 
 The registry that :func:`dispatch` reads (``HEADER_WORDS``, ``SLOT_WORDS``) is described in
 :mod:`mjflex.mj._callback`, with the rules the native callback follows.
@@ -24,6 +28,7 @@ The registry that :func:`dispatch` reads (``HEADER_WORDS``, ``SLOT_WORDS``) is d
 import math
 
 import numpy as np
+from llvmlite import ir
 from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -36,10 +41,10 @@ from ..core._kernels import (
     load36,
     relative_position,
     relative_quat,
-    spatial_potential,
-    spatial_wrench,
     twist_from_quat_pos,
 )
+from ..core._poly_kernels import spatial_potential_terms, spatial_wrench_terms
+from ..core.polynomial import MAX_EXPONENT
 
 
 def columns(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
@@ -61,6 +66,7 @@ def columns(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
 INT_COLUMNS, NI = columns(
     ("site_a", 1), ("site_b", 1), ("body_a", 1), ("body_b", 1), ("method", 1), ("enabled", 1), ("viscous", 1),
     ("offset", 1), ("free_a", 1), ("free_b", 1), ("chain_a0", 1), ("chain_a1", 1), ("chain_b0", 1), ("chain_b1", 1),
+    ("terms_lo", 1), ("terms_hi", 1), ("terms_top", 1),
 )  # fmt: skip
 #: Columns of ``floats`` (n, NF): K and B (row-major 6x6), the rest offset ``X_ab0`` (R row-major,
 #: p), and the largest inverse mass [1/kg] and inverse principal inertia [1/(kg m^2)] of the
@@ -72,6 +78,10 @@ SITE_A, SITE_B, BODY_A, BODY_B = _I["site_a"], _I["site_b"], _I["body_a"], _I["b
 METHOD, ENABLED, VISCOUS, OFFSET = _I["method"], _I["enabled"], _I["viscous"], _I["offset"]
 FREE_A, FREE_B = _I["free_a"], _I["free_b"]
 CHAIN_A0, CHAIN_A1, CHAIN_B0, CHAIN_B1 = _I["chain_a0"], _I["chain_a1"], _I["chain_b0"], _I["chain_b1"]
+TERMS_LO, TERMS_HI, TERMS_TOP = _I["terms_lo"], _I["terms_hi"], _I["terms_top"]
+#: Width of the terms' exponent table and of the powers work array (coordinates, powers 0..MAX_EXPONENT).
+TERM_COLUMNS, POWER_COLUMNS = 8, MAX_EXPONENT + 1
+_PW_SIZE, _GRAD_SIZE = TERM_COLUMNS * POWER_COLUMNS, 2 * TERM_COLUMNS  # stack buffers of flexure_loop
 K_AT, B_AT, R0_AT, P0_AT, INV_MASS, INV_INERTIA = (
     _F["K"],
     _F["B"],
@@ -108,7 +118,7 @@ H_SITE_XPOS, H_SITE_XMAT, H_XPOS, H_XMAT = _H["site_xpos"], _H["site_xmat"], _H[
 H_CVEL, H_SUBTREE_COM, H_CDOF, H_QFRC = _H["cvel"], _H["subtree_com"], _H["cdof"], _H["qfrc_passive"]
 SLOT_WORDS, SLOT = columns(
     ("model", 1), ("n", 1), ("ints", 1), ("floats", 1), ("chain", 1), ("nchain", 1), ("rootid", 1), ("nsite", 1),
-    ("nbody", 1), ("nv", 1), ("messages", 1),
+    ("nbody", 1), ("nv", 1), ("messages", 1), ("exps", 1), ("coefs", 1), ("nterms", 1),
 )  # fmt: skip
 _S = SLOT_WORDS
 S_MODEL, S_N, S_INTS, S_FLOATS, S_CHAIN, S_NCHAIN = (
@@ -120,6 +130,7 @@ S_MODEL, S_N, S_INTS, S_FLOATS, S_CHAIN, S_NCHAIN = (
     _S["nchain"],
 )
 S_ROOTID, S_NSITE, S_NBODY, S_NV, S_MESSAGES = _S["rootid"], _S["nsite"], _S["nbody"], _S["nv"], _S["messages"]
+S_EXPS, S_COEFS, S_NTERMS = _S["exps"], _S["coefs"], _S["nterms"]
 
 _JIT = {"cache": True, "error_model": "numpy", "fastmath": {"contract"}}
 _ZERO3 = (0.0, 0.0, 0.0)
@@ -144,6 +155,23 @@ def int_from_voidptr(typingctx, ptr):
         return builder.ptrtoint(args[0], cgutils.intp_t)
 
     return types.int64(types.voidptr), codegen
+
+
+@intrinsic
+def stack_doubles(typingctx, n):
+    """Pointer to ``n`` (a compile-time constant) float64 on the caller's stack, allocated once per call.
+
+    Code generated inline in the calling function: the buffer lives as long as that call, in the
+    calling thread, and costs no allocation.
+    """
+    if not isinstance(n, types.IntegerLiteral):
+        return None
+    size = n.literal_value
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(cgutils.alloca_once(builder, ir.DoubleType(), size=size), cgutils.voidptr_t)
+
+    return types.voidptr(n), codegen
 
 
 @njit(**_JIT)
@@ -202,7 +230,7 @@ def _apply(qfrc, body, free_adr, chain, c0, c1, m, f, p, xpos, xmat, cdof, subtr
 
 @njit(**_JIT)
 def flexure_loop(
-    mode, ints, floats, chain, rootid, site_xpos, site_xmat, xpos, xmat, cvel, subtree_com, cdof,
+    mode, ints, floats, chain, rootid, exps, coefs, site_xpos, site_xmat, xpos, xmat, cvel, subtree_com, cdof,
     spring_on, damper_on, accel_limit, qfrc, out6, out1,
 ):  # fmt: skip
     """Evaluate all elements; returns -1, or the index of the first diverging element.
@@ -214,8 +242,11 @@ def flexure_loop(
     ``mode`` is a bit set: APPLY adds to ``qfrc``; WRENCH writes ``out6[e]`` = wrench on body B
     ``[moment about frame b; force]`` (world); ENERGY writes ``out1[e]`` = elastic energy;
     POWER writes ``out1[e]`` = dissipated power; COORDS writes ``out6[e]`` = the element's
-    finite twist. Disabled elements give zeros.
+    finite twist. Disabled elements give zeros. Polynomial terms (rows ``terms_lo:terms_hi`` of
+    ``exps``, ``coefs``) are elastic: switched off with the springs like ``K``.
     """
+    pw = carray(stack_doubles(_PW_SIZE), (TERM_COLUMNS, POWER_COLUMNS), np.float64)
+    grad = carray(stack_doubles(_GRAD_SIZE), (_GRAD_SIZE,), np.float64)
     for e in range(ints.shape[0]):
         if ints[e, ENABLED] == 0:
             if mode & (WRENCH | COORDS):
@@ -232,8 +263,10 @@ def flexure_loop(
             out6[e, 0], out6[e, 1], out6[e, 2], out6[e, 3], out6[e, 4], out6[e, 5] = tau + t
             continue
         K = load36(floats, e, K_AT) if spring_on else _ZERO36
+        lo, hi = ints[e, TERMS_LO], ints[e, TERMS_HI] if spring_on else ints[e, TERMS_LO]
+        top = ints[e, TERMS_TOP]
         if mode & ENERGY:
-            out1[e] = spatial_potential(method, Ra, pa, Rb, pb, K)
+            out1[e] = spatial_potential_terms(method, Ra, pa, Rb, pb, K, exps, coefs, lo, hi, top, pw, grad)
             continue
         viscous = damper_on and ints[e, VISCOUS] != 0
         wa, va, wb, vb = _ZERO3, _ZERO3, _ZERO3, _ZERO3
@@ -241,7 +274,8 @@ def flexure_loop(
             wa, va = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_A], pa)
             wb, vb = _point_velocity(cvel, subtree_com, rootid, ints[e, BODY_B], pb)
         B = load36(floats, e, B_AT) if viscous else _ZERO36
-        m, f, power = spatial_wrench(method, Ra, pa, Rb, pb, K, B, viscous, wa, va, wb, vb)
+        m, f, power = spatial_wrench_terms(method, Ra, pa, Rb, pb, K, B, viscous, wa, va, wb, vb,
+                                           exps, coefs, lo, hi, top, pw, grad)  # fmt: skip
         if not math.isfinite(m[0] + m[1] + m[2] + f[0] + f[1] + f[2] + power):
             return e
         if (
@@ -296,11 +330,13 @@ def dispatch(m_addr, d_addr, reg_addr):
         floats = carray(voidptr_from_int(reg[at + S_FLOATS]), (n, NF), np.float64)
         chain = carray(voidptr_from_int(reg[at + S_CHAIN]), (reg[at + S_NCHAIN],), np.int64)
         rootid = carray(voidptr_from_int(reg[at + S_ROOTID]), (nbody,), np.int64)
+        exps = carray(voidptr_from_int(reg[at + S_EXPS]), (reg[at + S_NTERMS], TERM_COLUMNS), np.int64)
+        coefs = carray(voidptr_from_int(reg[at + S_COEFS]), (reg[at + S_NTERMS],), np.float64)
         qfrc_ptr = voidptr_from_int(_word(d_addr + reg[H_QFRC]))
         qfrc = carray(qfrc_ptr, (nv,), np.float64)
         unused6, unused1 = carray(qfrc_ptr, (0, 6), np.float64), qfrc[:0]  # empty outputs, no allocation
         status = flexure_loop(
-            APPLY, ints, floats, chain, rootid,
+            APPLY, ints, floats, chain, rootid, exps, coefs,
             _field(d_addr, reg[H_SITE_XPOS], nsite, 3), _field(d_addr, reg[H_SITE_XMAT], nsite, 9),
             _field(d_addr, reg[H_XPOS], nbody, 3), _field(d_addr, reg[H_XMAT], nbody, 9),
             _field(d_addr, reg[H_CVEL], nbody, 6), _field(d_addr, reg[H_SUBTREE_COM], nbody, 3),

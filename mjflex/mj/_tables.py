@@ -42,6 +42,8 @@ class Tables:
     rootid: np.ndarray
     tolerance: np.ndarray  # (n,) coincidence tolerance [m] of each element
     joined_trees: dict[int, str]  # tree -> an element that joins it to another tree or a mocap body
+    exps: np.ndarray  # (max(M, 1), 8) int64: the polynomial terms of all elements (rows terms_lo:terms_hi)
+    coefs: np.ndarray  # (max(M, 1),) float64
 
 
 def names(model, objtype, count):
@@ -182,7 +184,7 @@ def derive(model) -> Tables:
     found = _records(m, {s for s in all_sites if s})
     n = len(found)
     ints, floats = np.zeros((n, k.NI), dtype=np.int64), np.zeros((n, k.NF))
-    tolerance, chain, joined, records, sites = np.zeros(n), [], {}, [], []
+    tolerance, chain, joined, records, sites, terms = np.zeros(n), [], {}, [], [], []
     ref = mujoco.MjData(m)
     ref.qpos[:] = m.qpos0
     mujoco.mj_kinematics(m, ref)
@@ -219,6 +221,7 @@ def derive(model) -> Tables:
         floats[e, k.R0_AT : k.R0_AT + 9] = R0.ravel()
         floats[e, k.P0_AT : k.P0_AT + 3] = p0
         floats[e, k.INV_MASS], floats[e, k.INV_INERTIA] = _inverse_inertia(m, (ba, bb))
+        _lay_out_terms(row, rec.terms, terms)
         trees = [int(m.body_treeid[b]) for b in (ba, bb)]
         mocap = any(m.body_mocapid[b] >= 0 for b in (ba, bb))
         if trees[0] != trees[1] and (min(trees) >= 0 or mocap):
@@ -234,7 +237,28 @@ def derive(model) -> Tables:
         rootid=np.ascontiguousarray(m.body_rootid, dtype=np.int64),
         tolerance=tolerance,
         joined_trees=joined,
+        **_terms_table(terms),
     )
+
+
+def _lay_out_terms(row, terms, tables):
+    """Give element ``row`` the next rows of the terms' table (``tables``: the (exps, coefs) so far)."""
+    lo = sum(len(c) for _, c in tables)
+    row[k.TERMS_LO] = row[k.TERMS_HI] = lo
+    if terms is None or len(terms) == 0:
+        return
+    exps = np.zeros((len(terms), k.TERM_COLUMNS), dtype=np.int64)
+    exps[:, : terms.exponents.shape[1]] = terms.exponents
+    tables.append((exps, terms.coefficients))
+    row[k.TERMS_HI] = lo + len(terms)
+    row[k.TERMS_TOP] = int(terms.exponents.max())
+
+
+def _terms_table(tables):
+    """The terms of all elements as ``exps`` (M, 8) and ``coefs`` (M,); one zero row when there are none."""
+    if not tables:
+        return {"exps": np.zeros((1, k.TERM_COLUMNS), dtype=np.int64), "coefs": np.zeros(1)}
+    return {"exps": np.concatenate([e for e, _ in tables]), "coefs": np.concatenate([c for _, c in tables])}
 
 
 def contacts_at_rest(model, tables: Tables) -> list[tuple[str, str, str]]:

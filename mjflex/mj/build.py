@@ -7,6 +7,8 @@ import mujoco
 import numpy as np
 
 from ..core import stiffness_in_frame, validation
+from ..core.identification import potential_in_frame
+from ..core.polynomial import PolynomialTerms
 from . import schema
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
@@ -84,7 +86,7 @@ def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
 
 
 def add_flexure(
-    spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist",
+    spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
     exclude_contact=True,
 ):  # fmt: skip
@@ -111,10 +113,15 @@ def add_flexure(
         Damping, same layout as ``K``.
     method : {"twist", "dualquat"}
         How the relative displacement is measured (:mod:`mjflex.core.elements`).
+    terms : PolynomialTerms, optional
+        Higher-order terms of the potential (e.g. ``fit.terms`` of :func:`mjflex.fit_potential`),
+        in the coordinates of ``method``, given in the same frame as ``K``; stored with their
+        order in the record.
     stiffness_frame : tuple (pos, quat), optional
-        World pose (reference configuration) of the frame in which ``K`` and ``B`` are given,
-        e.g. a centre of stiffness or a clamped end; they are moved to the element frame with
-        the adjoint (eq. 54). Default: the element frame itself.
+        World pose (reference configuration) of the frame in which ``K``, ``B`` and ``terms`` are
+        given, e.g. a centre of stiffness or a clamped end; they are moved to the element frame
+        with the adjoint (eq. 54; the terms by :func:`mjflex.potential_in_frame`). Default: the
+        element frame itself.
     enabled, viscous : bool
         Initial run-time switches stored in the model.
     strain_per_radian : float, optional
@@ -151,8 +158,11 @@ def add_flexure(
         p_WF = validation.as_array(stiffness_frame[0], "stiffness_frame pos", (3,))
         R_WF = _rotation(_unit_quat(stiffness_frame[1], "stiffness_frame quat"))
         R_FE, p_FE = R_WF.T @ R_WE, R_WF.T @ (p_WE - p_WF)
-        K = stiffness_in_frame(K, R_FE, p_FE)
         B = None if B is None else stiffness_in_frame(B, R_FE, p_FE)
+        if terms is not None and len(terms):
+            K, terms = potential_in_frame(K, terms, R_FE, p_FE)
+        else:
+            K = stiffness_in_frame(K, R_FE, p_FE)
     bodies = _body(spec, body_a, "body_a"), _body(spec, body_b, "body_b")
     if bodies[0] is bodies[1]:
         raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
@@ -167,9 +177,27 @@ def add_flexure(
         ))  # fmt: skip
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
-    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source)
+    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
+                                  *_checked_terms(terms, method, K, name))  # fmt: skip
     text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def _checked_terms(terms, method, K, name):
+    """``(terms, order)`` for the record: None and 2 without terms; raises ValueError naming the element."""
+    if terms is None:
+        return None, 2
+    if not isinstance(terms, PolynomialTerms):
+        raise ValueError(f"flexure {name!r}: terms must be a mjflex.PolynomialTerms; got {type(terms).__name__}")
+    if terms.method != method:
+        raise ValueError(f"flexure {name!r}: the terms are in {terms.method} coordinates; pass method={terms.method!r}")
+    if len(terms) == 0:
+        return None, 2
+    payload = {"order": terms.order, "terms": {k: v for k, v in terms.to_dict().items() if k != "method"}}
+    try:  # the record's own checks (e.g. K plus the terms' stiffness at rest is PSD)
+        return schema.order_and_terms(payload, method, K)[::-1]
+    except ValueError as exc:
+        raise ValueError(f"flexure {name!r}: {exc}") from None
 
 
 def exclude_contacts(spec, body_a, body_b) -> None:

@@ -40,7 +40,17 @@ from ._assemble import assemble, hinge_closure
 from ._directions import element_directions
 from ._tree import WORLD, Joint, Link, free_world_bodies, retired_sites
 from .provider import Flexures
-from .variant import PoseFit, Variant, body_names, compile_spec, identity_body_map, source_spec
+from .variant import (
+    PoseFit,
+    Variant,
+    body_names,
+    compile_spec,
+    identity_body_map,
+    polynomial_terms_lines,
+    source_spec,
+)
+
+_LINEAR = "are not represented: the replacement holds its stiffness at rest K only"
 
 WELD_MATCHES = ("compliant", "mean", "stiff", "rigid")
 #: Impedance of the matched welds: small, so that the constraint acts as a spring (the solver
@@ -160,6 +170,7 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
             f"{len(flex)} elements replaced by soft welds matched to the '{match}' eigenvalue of each block:"
             " isotropic, uncoupled, quaternion-error law; anisotropy and coupling are lost",
         )
+    lines += polynomial_terms_lines(flex, _LINEAR)
     variant_model = compile_spec(spec)
     body_map = identity_body_map(variant_model)
     details = {"match": match, "welds": len(flex), "nv": int(variant_model.nv), "constraints": "spring"}
@@ -259,6 +270,7 @@ def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
         f"{link.element}: {link.joints[0].kind} {link.joints[0].label}, stiffness {link.joints[0].stiffness:.4g}"
         for link in links
     ]
+    report += polynomial_terms_lines(flex, _LINEAR)
     return assemble(
         spec,
         model,
@@ -290,7 +302,8 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
     coupled = ", ".join(f"{d.element} {d.coupling:.2g}" for d in dirs if d.coupling > 1e-9) or "none"
     report = [
         f"{len(dirs)} elements replaced by up to six joints each (three slides, three hinges) with their principal "
-        f"stiffness and damping; couplings dropped (largest normalized off-diagonal stiffness): {coupled}"
+        f"stiffness and damping; couplings dropped (largest normalized off-diagonal stiffness): {coupled}",
+        *polynomial_terms_lines(flex, _LINEAR),
     ]
     details = {"kind": "bushing", "constraints": "spring"}
     variant = assemble(spec, model, links, closer=closer, name=name or "bushing", report=report, details=details)

@@ -102,6 +102,7 @@ class Flexures:
         self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
         self._ints, self._floats, self._chain, self._rootid = t.ints, t.floats, t.chain, t.rootid
+        self._exps, self._coefs = t.exps, t.coefs
         self._fingerprints = {}
         self._warn_contacts(model)
         self._sleep_policy(model)
@@ -263,6 +264,11 @@ class Flexures:
         words[k.S_ROOTID] = self._rootid.ctypes.data
         words[k.S_NSITE], words[k.S_NBODY], words[k.S_NV] = model.nsite, model.nbody, model.nv
         words[k.S_MESSAGES] = self._message_addresses.ctypes.data
+        words[k.S_EXPS], words[k.S_COEFS], words[k.S_NTERMS] = (
+            self._exps.ctypes.data,
+            self._coefs.ctypes.data,
+            len(self._coefs),
+        )
         return words
 
     def install(self) -> "Flexures":
@@ -328,7 +334,8 @@ class Flexures:
         """Evaluate the elements on ``data``; returns -1 or the index of the first diverging element."""
         flags = (model or self.model).opt.disableflags
         return k.flexure_loop(
-            mode, self._ints, self._floats, self._chain, self._rootid, data.site_xpos, data.site_xmat, data.xpos,
+            mode, self._ints, self._floats, self._chain, self._rootid, self._exps, self._coefs, data.site_xpos,
+            data.site_xmat, data.xpos,
             data.xmat, data.cvel, data.subtree_com, data.cdof,
             not flags & mujoco.mjtDisableBit.mjDSBL_SPRING, not flags & mujoco.mjtDisableBit.mjDSBL_DAMPER,
             accel_limit, np.zeros(0) if qfrc is None else qfrc, np.zeros((0, 6)) if out6 is None else out6,
@@ -437,8 +444,15 @@ class Flexures:
         self._ints[i, k.VISCOUS] = bool(viscous)
 
     def set_method(self, name: str, method: str) -> None:
-        """Use ``"twist"`` or ``"dualquat"`` for element ``name``."""
-        self._ints[self.index(name), k.METHOD] = validation.method_code(method)
+        """Use ``"twist"`` or ``"dualquat"`` for element ``name`` (not for one with polynomial terms)."""
+        i, code = self.index(name), validation.method_code(method)
+        terms = self.records[i].terms
+        if terms is not None and code != validation.METHOD_CODES[terms.method]:
+            raise ValueError(
+                f"flexure {name!r} has polynomial terms in {terms.method} coordinates, which do not carry over to "
+                f"{method}: fit (mjflex.fit_potential) or write terms for {method} in its record instead"
+            )
+        self._ints[i, k.METHOD] = code
 
     @property
     def enabled(self) -> np.ndarray:

@@ -63,7 +63,7 @@ from ._planar import in_plane_modes, out_of_plane, planar_record, plane_frame, p
 from ._tree import WORLD, Joint, Link, free_world_bodies
 from .linearize import normal_modes
 from .provider import Flexures
-from .variant import Variant, body_names, compile_spec, equality_rows, source_spec
+from .variant import Variant, body_names, compile_spec, equality_rows, polynomial_terms_lines, source_spec
 
 COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directions that become joint springs
 #: Largest :func:`closure_singularity` (at 1e-3 amplitude) for which loops="auto" closes loops by
@@ -217,9 +217,10 @@ def _joints(d, soft, keep_damping):
 
 
 def _record_text(rec, K=None, B=None, viscous=None):
+    same = K is None  # the element stays whole: its polynomial terms too (restricted ones keep K's part only)
     out = schema.FlexureRecord(rec.name, rec.method, rec.K if K is None else K, rec.B if B is None else B,
                                rec.enabled, rec.viscous if viscous is None else viscous, rec.strain_per_radian,
-                               rec.source)  # fmt: skip
+                               rec.source, rec.terms if same else None, rec.order if same else 2)  # fmt: skip
     if out.B is None or not np.any(out.B):
         out.viscous = True  # nothing to switch off; keep the record minimal
     return out.to_text()
@@ -339,6 +340,11 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         f"(frequency tolerance {100 * freq_tol:g} %, damping tolerance {viscous_tol:g})",
         *(_element_line(d, rigid[e], reasons[e], peak[e], drop[e]) for e, d in enumerate(dirs)),
     ]
+    report += polynomial_terms_lines(
+        flex,
+        "are kept if it stays a full 3-D element; as joints, welds, a one-direction spring or a planar record "
+        "it holds its stiffness at rest K only (the modal analysis uses K in every case)",
+    )
     if plane_line:
         report.insert(1, plane_line)
     if scene is not None:

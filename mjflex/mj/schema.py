@@ -14,6 +14,14 @@ An element named ``E`` (any text) is
     diagonal); 3x3 / 3 numbers for a planar element ``[theta_z; x; y]`` in the frame's x-y
     plane;
   - ``"B"``: damping, same layout as ``K`` (default: none, purely elastic);
+  - ``"order"`` and ``"terms"``: a higher-order potential (:mod:`mjflex.core.polynomial`):
+    ``"order"`` is its order N (an integer >= 2, even for ``"dualquat"``; default 2, the
+    quadratic potential of ``K``) and ``"terms"`` the polynomial terms added to ``K``'s energy,
+    ``{"exponents": [[...], ...], "coefficients": [...]}``: one row of 6 (twist: ``tau, t``) or
+    8 (dual quaternion: ``sigma, xi, s', x'``) exponents per term, in the coordinates of
+    ``"method"`` (also for planar elements), degrees at most ``"order"``. ``"terms"`` needs
+    ``"order"``; what :func:`mjflex.fit_potential` returns goes in as
+    ``fit.terms.to_dict()`` (less its ``"method"``);
   - ``"enabled"``, ``"viscous"``: run-time switches, ``true`` (default) or ``false``;
   - ``"strain_per_radian"``: peak bending strain per radian about the frame's z axis, used in
     reports (optional);
@@ -50,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import validation
+from ..core.polynomial import PolynomialTerms
 
 PREFIX = "mjflex:"
 SITE_A_SUFFIX = "/a"
@@ -57,7 +66,8 @@ SITE_B_SUFFIX = "/b"
 #: Separators between an element's name and the ``a`` / ``b`` of its sites, in order of preference.
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
-KEYS = ("mjflex", "method", "K", "B", "enabled", "viscous", "strain_per_radian", "source")
+KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "source")
+TERMS_KEYS = ("exponents", "coefficients")
 #: The two sites count as coincident when they are closer than this times the element's own
 #: length scale: the summed lengths of the site and body positions that place both sites,
 #: whose 6-significant-digit rounding by MuJoCo's XML writers (relative error <= 5e-6 per
@@ -77,7 +87,8 @@ PLANAR_INDEX = (2, 3, 4)
 class FlexureRecord:
     """The parameters of one element as stored in the model file.
 
-    ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar); ``B`` is None without damping.
+    ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar); ``B`` is None without damping; ``terms``
+    (in the coordinates of ``method``) is None for the quadratic potential.
     """
 
     name: str
@@ -88,6 +99,8 @@ class FlexureRecord:
     viscous: bool = True
     strain_per_radian: float | None = None
     source: dict | None = None
+    terms: PolynomialTerms | None = None
+    order: int = 2
 
     @property
     def planar(self) -> bool:
@@ -98,6 +111,9 @@ class FlexureRecord:
         payload = {"mjflex": SCHEMA_VERSION, "method": self.method, "K": self.K.tolist()}
         if self.B is not None:
             payload["B"] = self.B.tolist()
+        if self.terms is not None:
+            payload["order"] = int(self.order)
+            payload["terms"] = {k: v for k, v in self.terms.to_dict().items() if k != "method"}
         if not self.enabled:
             payload["enabled"] = False
         if not self.viscous:
@@ -232,5 +248,37 @@ def parse_text(element: str, data: str) -> FlexureRecord:
     source = payload.get("source")
     if source is not None and not isinstance(source, dict):
         raise ValueError(f'"source" must be a JSON object; got {source!r}')
+    order, terms = order_and_terms(payload, method, K)
     return FlexureRecord(element, method, K, B, payload.get("enabled", True), payload.get("viscous", True),
-                         None if strain is None else float(strain), source)  # fmt: skip
+                         None if strain is None else float(strain), source, terms, order)  # fmt: skip
+
+
+def order_and_terms(payload, method, K):
+    """``(order, terms)`` of a record: validated polynomial terms, or ``(2, None)``."""
+    order = payload.get("order", 2)
+    if isinstance(order, bool) or not isinstance(order, int) or order < 2 or (method == "dualquat" and order % 2):
+        even = " and even for a dualquat element (its potential is even in q)" if method == "dualquat" else ""
+        raise ValueError(f'"order" must be an integer >= 2{even}; got {order!r}')
+    data = payload.get("terms")
+    if data is None:
+        if order != 2:
+            raise ValueError(f'"order" is {order} but there are no "terms"; add the terms or drop "order"')
+        return 2, None
+    if "order" not in payload:
+        raise ValueError('"terms" need the "order" of the potential (the highest degree of its terms)')
+    if not isinstance(data, dict) or sorted(data) != sorted(TERMS_KEYS):
+        raise ValueError(f'"terms" must be an object with exactly the keys {list(TERMS_KEYS)}; got {data!r:.200}')
+    try:
+        terms = PolynomialTerms.from_dict({"method": method, **data})
+    except ValueError as exc:
+        raise ValueError(f'"terms": {str(exc).rstrip(".")}') from None
+    if terms.order > order:
+        row = int(np.argmax(terms.exponents.sum(axis=1)))
+        raise ValueError(
+            f'"terms" exponents[{row}] has degree {terms.order}, above "order" {order}; raise "order" or drop the term'
+        )
+    H = terms.rest_stiffness()
+    if np.any(H):
+        K6 = embed_planar(K) if K.shape == (3, 3) else K
+        validation.check_psd_matrix(K6 + H, "K + the terms' stiffness at rest", 6, what="stiffness")
+    return order, terms

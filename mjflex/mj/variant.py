@@ -293,3 +293,17 @@ class PoseFit:
         self.last_residual = float(max(np.abs(r).max(), np.abs(e).max(initial=0.0)))
         qvel = self._weighted_solve(J, W, np.concatenate([t[3] for t in targets]), G, np.zeros(len(G)))
         return d.qpos.copy(), qvel
+
+
+def polynomial_terms_lines(flex, fate: str) -> list[str]:
+    """Report lines for the elements of ``flex`` with polynomial terms, saying what a variant does with them.
+
+    Variants built from MuJoCo joints, welds or planar records are linear in the elements they
+    replace: they hold the stiffness at rest ``K`` (which the terms of :func:`mjflex.polynomial_basis`
+    leave unchanged) and not the terms; the report must say so rather than drop them silently.
+    """
+    return [
+        f"{name}: its polynomial terms (order {rec.order}, {len(rec.terms)} terms) {fate}"
+        for name, rec in zip(flex.names, flex.records, strict=True)
+        if rec.terms is not None
+    ]
