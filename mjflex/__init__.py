@@ -17,8 +17,10 @@ Layers
     The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
     an ``MjSpec``, :class:`Flexures` (the passive-force provider) and linearization.
 ``mjflex.app``
-    Applications on top: the ARCADE model, simulation runs, rendering and the command line
-    (``python -m mjflex``).
+    Applications on top: the ARCADE model, simulation runs, rendering, the speed-accuracy study
+    (``mjflex.study``, :mod:`mjflex.app.study`), parameter sweeps (``mjflex.sweep`` and
+    ``mjflex.Recipe``, :mod:`mjflex.app.sweep`) and the command line (``python -m mjflex``).
+    The study and the sweeps are imported on first use, so ``import mjflex`` stays light.
 
 Conventions (used everywhere in the package)
 --------------------------------------------
@@ -35,21 +37,10 @@ Conventions (used everywhere in the package)
   (columns are B's axes in W coordinates), ``p_WB`` the position of B's origin in W
   coordinates, ``X_AB = (R_AB, p_AB)`` the pose of B in A, so ``x_A = R_AB x_B + p_AB``.
   ``W`` is the world frame; lower-case ``a``, ``b`` are the two frames of an element.
+
+Importing mjflex has no side effects on the environment: ``MUJOCO_GL`` is chosen only when
+mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`).
 """
-
-import os as _os
-import platform as _platform
-import sys as _sys
-
-# Headless Linux: let MuJoCo's offscreen renderer use EGL unless the user chose a backend.
-# (MuJoCo reads MUJOCO_GL once, when it is first imported.)
-if (
-    "mujoco" not in _sys.modules
-    and _platform.system() == "Linux"
-    and not _os.environ.get("DISPLAY")
-    and not _os.environ.get("WAYLAND_DISPLAY")
-):
-    _os.environ.setdefault("MUJOCO_GL", "egl")
 
 from . import core, geometry, mj
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
@@ -58,3 +49,22 @@ from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 __version__ = "0.1.0"
 
 __all__ = ["geometry", *core.__all__, *mj.__all__]
+
+_LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
+    "study": ("study", "study"),
+    "sweep": ("sweep", "sweep"),
+    "Recipe": ("sweep", "Recipe"),
+}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        module, attribute = _LAZY[name]
+        return getattr(importlib.import_module(f".app.{module}", __name__), attribute)
+    raise AttributeError(f"module 'mjflex' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted([*globals(), *_LAZY])

@@ -1,13 +1,21 @@
-"""Timing helpers shared by the benchmark scripts.
+"""Timing and output helpers shared by the benchmark and measurement scripts.
 
 These machines are shared and noisy, so cases are measured *interleaved*: every repeat
 times each case once (``number`` calls), and each case's ratio to the baseline is taken
 within the same repeat. Reported: median time per call and median same-repeat ratio.
+
+Every script writes its JSON with :func:`write_json`, which adds the command, the date and the
+machine. Run a script with ``MJFLEX_RECORD=1`` in the environment to also record the JSON in
+``docs/results/<script>.json`` (committed): README.md's "What was measured" is generated from
+those files by ``python scripts/readme_results.py``.
 """
 
+import datetime
 import json
 import os
 import platform
+import shlex
+import sys
 import time
 
 import numpy as np
@@ -63,10 +71,25 @@ def print_table(rows, title):
         print(f"{name:<56} {r['median_s'] * 1e6:>9.2f}us {r['min_s'] * 1e6:>9.2f}us {ratio:>26}")
 
 
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "results")
+
+
 def write_json(path, payload):
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    """Write ``payload`` with the command, date and machine to ``path``; also to ``docs/results`` if recording.
+
+    Recording (``MJFLEX_RECORD=1``) writes ``docs/results/<name of the running script>.json``.
+    """
     payload = dict(payload)
+    script = os.path.relpath(os.path.abspath(sys.argv[0]), os.path.join(RESULTS, "..", ".."))
+    payload["command"] = shlex.join(["python", script.replace(os.sep, "/"), *sys.argv[1:]])
+    payload["date"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     payload["machine"] = {"platform": platform.platform(), "python": platform.python_version(), "cpus": os.cpu_count()}
-    with open(path, "w") as f:
-        json.dump(payload, f, indent=2)
-    print(f"\nwrote {path}")
+    paths = [path]
+    if os.environ.get("MJFLEX_RECORD") == "1":
+        paths.append(os.path.join(RESULTS, os.path.splitext(os.path.basename(sys.argv[0]))[0] + ".json"))
+    for target in paths:
+        os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
+        with open(target, "w") as f:
+            json.dump(payload, f, indent=1)
+            f.write("\n")
+        print(f"\nwrote {os.path.normpath(target)}")

@@ -1,185 +1,264 @@
-"""mjflex against MuJoCo's native ways of modelling a flexure: joint springs and welds.
+"""mjflex against MuJoCo's native ways of modelling flexures, on three scenes, each ending in a verdict.
 
 Usage::
 
-    python scripts/compare_native.py [--json out/compare_native.json] [--duration 0.05]
+    python scripts/compare_native.py [--scenes bushing cantilever arcade] [--json out/compare_native.json]
+                                     [--repeat 11]
 
-Scene: a 2.5 cm aluminium link hangs (no gravity) from the world through the paper's notch
-hinge (mjflex.geometry, t/R = 0.125, E = 3.5 GPa) and is set swinging about the hinge axis at
-400 rad/s (a swing of about 0.8 rad, undamped) with a transverse kick. Modelled as
+Scenes (``mjflex.app.scenes`` and ``models/arcade.xml``) and what each measures:
 
-* **mjflex twist / dualquat**: a free body and one 6x6 element (full stiffness, exact at large
-  rotation);
-* **6-joint bushing**: three slide and three hinge joints in series at the hinge centre with
-  MuJoCo ``stiffness``/``damping`` set to K's and B's diagonal (the usual native bushing);
-* **hinge joint**: one ideal revolute joint with the compliant-rotation stiffness (all other
-  directions rigid);
-* **weld**: a free body welded to the world (MuJoCo's soft equality constraint, as stiff as
-  recommended for the step: ``solref = (2 dt, 1)``): rigid in every direction up to the
-  constraint softness, which is set by the solver, not by the flexure.
+* **bushing**: a 1.2 kg block on a coupled 6x6 bushing, launched into a rotation beyond 1 rad
+  and translations of centimetres, and loaded statically by a combined wrench. Reference: the
+  bushing law itself (mjflex twist: ``K`` on the finite twist). Measured: pose error over
+  0.2 s, static pose error, first frequencies.
+* **cantilever**: a 10 cm aluminium beam (2 x 10 mm) clamped at one end, as a chain of 10
+  elements, against beam theory: tip deflection under a small end load (Timoshenko), under a
+  large one (the elastica, solved with scipy), and the first bending frequency (Euler-
+  Bernoulli) from a release.
+* **arcade**: the ARCADE guide's paper run (1000 rpm spin and 5 m/s of the cylinder, 40 ms)
+  and a small stroke (0.01 m/s, no spin): stroke, parasitic motion of the cylinder (radial
+  offset and tilt of its axis relative to the base), axial trajectory error against the full
+  model, first frequencies.
 
-Printed: cost per step (interleaved medians), swing frequency, peak rotation, parasitic
-translation of the hinge centre, deviation from the mjflex twist trajectory, energy drift.
-RK4, dt = 1e-5 s.
+Native alternatives (``mjflex.mj.native``): matched soft welds, the pseudo-rigid-body model
+(one joint spring per element, loops closed by ``connect`` constraints, closing springs on
+fixed tendons), the 6-joint bushing, MuJoCo 4.0's 1-D flexcomp rod (cantilever only), and
+``mjflex.reduce``. Costs: median wall time of one step (interleaved repeats, ratio to mjflex
+twist in the same repeat), at the scene's step and at each model's own largest stable step
+(RK4, doubling then bisection, divergence = MuJoCo's bad-acceleration warning or a blow-up).
+Machines are shared and noisy: read the ratios, not the absolute times.
 """
 
 import argparse
-import time
 
 import mujoco
 import numpy as np
-from _bench import compare, print_table, write_json
+import scipy.integrate
+from _bench import write_json
+from _variants import Case, costs_at_stable_steps, rotation_angle, simulate, source_case, variant_case
 
 import mjflex
-from mjflex.app.arcade import ArcadeParams, notch_stiffness
-
-LINK = 0.025  # m, link length; the hinge centre is at the link's end, x = 0
-DT = 1e-5
-SPIN = 400.0  # rad/s about the hinge axis z: a swing of ~0.8 rad
-KICK = 0.2  # m/s along y
+from mjflex.app.scenes import Beam, bushing_spec, cantilever_flexcomp_spec, cantilever_spec
+from mjflex.mj.linearize import normal_modes
 
 
-def _link(parent, p, **body):
-    body = parent.add_body(name="link", **body)
-    body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, pos=[LINK / 2 + 0.004, 0, 0], size=[LINK / 2, 0.0025, 0.00475],
-                  density=p.link_density, contype=0, conaffinity=0)  # fmt: skip
-    body.add_site(name="centre", pos=[0, 0, 0])
-    return body
+def _modes(case, count=4):
+    if case.name == "flexcomp":
+        return []  # the rod's elasticity is not in qfrc_spring: its frequency comes from the release below
+    f, _ = normal_modes(case.model, case.flex, joint_springs=True, constraints=case.constraints)
+    return f[f > 1e-2][:count].tolist()
 
 
-def _spec():
-    spec = mujoco.MjSpec()
-    spec.option.gravity = [0, 0, 0]
-    spec.option.timestep = DT
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
-    spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-    return spec
+def _print_costs(rows, h):
+    print(f"\n{'model':<24} {'step [us]':>10} {'x mjflex':>9} {'stable h':>10} {'wall/sim s':>11} {'speed-up':>9}")
+    print(f"{'':<24} {'at h=' + format(h, 'g'):>10} {'(median)':>9} {'[s]':>10} {'at stable':>11} {'at stable':>9}")
+    for name, r in rows.items():
+        print(f"{name:<24} {r['median_s'] * 1e6:>10.2f} {r['ratio_median']:>9.2f} {r['stable_step_s']:>10.2e} "
+              f"{r['wall_per_sim_s_at_stable']:>11.3g} {r['speedup_at_stable']:>9.2f}")  # fmt: skip
 
 
-def build(kind, K, B):
-    p = ArcadeParams()
-    spec = _spec()
-    if kind in ("twist", "dualquat", "weld"):
-        body = _link(spec.worldbody, p)
-        body.add_freejoint()
-        if kind == "weld":
-            # as stiff as MuJoCo recommends for this step (time constant 2 dt, critical damping)
-            spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name1="link",
-                              name2="world", solref=[2 * DT, 1.0])  # fmt: skip
+# ------------------------------------------------------------------------------------------ bushing
+
+
+def _block(m, d):
+    i = m.body("block").id
+    return np.concatenate([d.xpos[i], d.xmat[i]])
+
+
+def _pose_errors(x, ref):
+    dp = np.linalg.norm(x[:, :3] - ref[:, :3], axis=1).max()
+    da = max(rotation_angle(a[3:].reshape(3, 3).T @ b[3:].reshape(3, 3)) for a, b in zip(x, ref, strict=True))
+    return float(dp), float(da)
+
+
+def bushing_scene(repeat):
+    spec = bushing_spec()
+    model = spec.compile()
+    src = source_case("mjflex twist", model)
+    dq_model = spec.compile()
+    dq = source_case("mjflex dualquat", dq_model)
+    dq.flex.set_method("bushing", "dualquat")
+    cases = [src, dq] + [variant_case(v, model, src.state) for v in (
+        mjflex.bushing_variant(spec), mjflex.weld_variant(spec), mjflex.weld_variant(spec, match="mean"),
+        mjflex.pseudo_rigid_body_variant(spec))]  # fmt: skip
+    h, T = model.opt.timestep, 0.2
+    wrench = np.array([600.0, -400.0, 900.0, 12.0, -8.0, 15.0])  # [force; torque] at the block's centre, world
+
+    def load(m, d):
+        d.xfrc_applied[m.body("block").id] = wrench
+
+    rest = (model.qpos0.copy(), np.zeros(model.nv))
+    results = {}
+    ref = simulate(src, h, T, _block, every=10)
+    ref_static = simulate(src, h, 1.0, _block, every=1000, load=load, damping=0.999, state=rest)[-1:]
+    for c in cases:
+        x = ref if c is src else simulate(c, h, T, _block, every=10)
+        state0 = (c.model.qpos0.copy(), np.zeros(c.model.nv))
+        xs = simulate(c, h, 1.0, _block, every=1000, load=load, damping=0.999, state=state0)
+        r = {"modes_hz": _modes(c, 6)}
+        if x is not None:
+            r["dynamic_position_error_mm"], r["dynamic_rotation_error_deg"] = _pose_errors(x, ref)
+            r["dynamic_position_error_mm"] *= 1e3
+            r["dynamic_rotation_error_deg"] = np.degrees(r["dynamic_rotation_error_deg"])
+            r["peak_rotation_deg"] = float(np.degrees(max(rotation_angle(p[3:].reshape(3, 3)) for p in x)))
+        if xs is not None:
+            dp, da = _pose_errors(xs[-1:], ref_static)
+            r["static_position_error_mm"], r["static_rotation_error_deg"] = dp * 1e3, float(np.degrees(da))
+            r["static_rotation_deg"] = float(np.degrees(rotation_angle(xs[-1, 3:].reshape(3, 3))))
+            r["static_displacement_mm"] = float(np.linalg.norm(xs[-1, :3]) * 1e3)
+        results[c.name] = r
+    costs = costs_at_stable_steps(cases, h, repeat, _block, 0.01)
+    print("\n== bushing: 1.2 kg block on a coupled bushing; reference = the 6x6 law on the finite twist (mjflex twist)")
+    print(f"{'model':<24} {'peak rot':>9} {'dyn err':>16} {'static':>16} {'first modes [Hz]':>30}")
+    for name, r in results.items():
+        g = lambda key, r=r: r.get(key, np.nan)  # noqa: E731
+        dyn = f"{g('dynamic_position_error_mm'):6.2f}mm {g('dynamic_rotation_error_deg'):5.1f}deg"
+        sta = f"{g('static_position_error_mm'):6.2f}mm {g('static_rotation_error_deg'):5.1f}deg"
+        modes = " ".join(f"{f:.1f}" for f in r["modes_hz"][:6])
+        print(f"{name:<24} {r.get('peak_rotation_deg', np.nan):>8.0f}d {dyn:>16} {sta:>16} {modes:>30}")
+    _print_costs(costs, h)
+    verdicts = _bushing_verdicts(results, costs)
+    return {"results": results, "costs": costs, "verdicts": verdicts, "timestep": h, "duration": T,
+            "static_wrench": wrench.tolist()}  # fmt: skip
+
+
+def _bushing_verdicts(results, costs):
+    out = []
+    for name in results:
+        if name.startswith("mjflex twist"):
+            continue
+        c = costs[name]
+        g = lambda key, r=results[name]: r.get(key, np.nan)  # noqa: E731
+        out.append(f"bushing: {name} costs {c['ratio_median']:.2f}x mjflex twist per step (stable to "
+                   f"{c['stable_step_s']:.1e} s) and misses the 6x6 law by {g('dynamic_rotation_error_deg'):.1f} deg / "
+                   f"{g('dynamic_position_error_mm'):.1f} mm in motion (peak rotation {g('peak_rotation_deg'):.0f} "
+                   "deg), "
+                   f"{g('static_rotation_error_deg'):.1f} deg / {g('static_position_error_mm'):.2f} mm at rest under "
+                   "load")  # fmt: skip
+    return out
+
+
+# ------------------------------------------------------------------------------------------ cantilever
+
+
+def elastica_tip(beam, F):
+    """Tip position (x, y) [m] of an inextensible Euler-Bernoulli cantilever under a dead end load F along y."""
+    a = F / beam.EI
+
+    def rhs(s, y):  # y = (theta, kappa, x, y)
+        return np.vstack([y[1], -a * np.cos(y[0]), np.cos(y[0]), np.sin(y[0])])
+
+    def bc(ya, yb):
+        return np.array([ya[0], yb[1], ya[2], ya[3]])
+
+    s = np.linspace(0.0, beam.L, 201)
+    guess = np.zeros((4, s.size))
+    guess[2] = s
+    sol = scipy.integrate.solve_bvp(rhs, bc, s, guess, tol=1e-10, max_nodes=100000)
+    if not sol.success:
+        raise RuntimeError(f"elastica did not converge: {sol.message}")
+    return sol.y[2, -1], sol.y[3, -1]
+
+
+def _tip_probe(name):
+    def probe(m, d):
+        if name == "flexcomp":
+            return d.xpos[m.body("rod_11").id].copy()
+        return d.site_xpos[m.site("tip").id].copy()
+
+    return probe
+
+
+def _tip_load(name, F):
+    def load(m, d):
+        d.qfrc_applied[:] = 0.0
+        if name == "flexcomp":
+            d.xfrc_applied[m.body("rod_11").id, 1] = F
         else:
-            mjflex.add_flexure(spec, "hinge", "world", "link", pos=[0, 0, 0], K=K, B=B, method=kind)
-    elif kind == "bushing":
-        body = _link(spec.worldbody, p)
-        axes = np.eye(3)
-        for i in range(3):
-            body.add_joint(name=f"slide{i}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axes[i],
-                           stiffness=[K[3 + i, 3 + i], 0, 0], damping=[B[3 + i, 3 + i], 0, 0])  # fmt: skip
-        for i in range(3):
-            body.add_joint(name=f"hinge{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axes[i],
-                           stiffness=[K[i, i], 0, 0], damping=[B[i, i], 0, 0])  # fmt: skip
-    elif kind == "hinge":
-        body = _link(spec.worldbody, p)
-        body.add_joint(name="hinge2", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], stiffness=[K[2, 2], 0, 0],
-                       damping=[B[2, 2], 0, 0])  # fmt: skip
-    return spec.compile()
+            mujoco.mj_applyFT(m, d, np.array([0.0, F, 0.0]), np.zeros(3), d.site_xpos[m.site("tip").id],
+                              m.site_bodyid[m.site("tip").id], d.qfrc_applied)  # fmt: skip
+
+    return load
 
 
-def initial_state(model):
-    """Swing about z at SPIN rad/s with a transverse kick KICK m/s of the hinge centre."""
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    target = np.array([0, 0, SPIN, 0, KICK, 0])  # [omega; v of the link origin], world
-    J = np.zeros((6, model.nv))
-    mujoco.mj_jacBody(model, data, J[3:], J[:3], model.body("link").id)
-    data.qvel[:] = np.linalg.lstsq(J, target, rcond=None)[0]
-    mujoco.mj_forward(model, data)
-    return data
+def _crossing_frequency(y, dt):
+    s = np.sign(y - y.mean())
+    c = np.nonzero(s[1:] != s[:-1])[0]
+    return (len(c) - 1) / 2.0 / ((c[-1] - c[0]) * dt) if len(c) > 2 else float("nan")
 
 
-def trajectory(model, flex, duration):
-    data = initial_state(model)
-    steps = round(duration / DT)
-    pos, rot, energy = [], [], []
-    context = flex if flex is not None else _Null()
-    with context:
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-            mujoco.mj_forward(model, data)
-            R = data.xmat[model.body("link").id].reshape(3, 3)
-            pos.append(data.site_xpos[model.site("centre").id].copy())
-            rot.append(np.arctan2(R[1, 0], R[0, 0]))
-            energy.append(data.energy.sum() + (flex.potential_energy(data) if flex is not None else 0.0))
-    return np.array(pos), np.unwrap(np.array(rot)), np.array(energy)
-
-
-class _Null:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-
-def swing_frequency(rot, duration):
-    """Frequency of the rotation from its zero crossings [Hz]."""
-    s = np.sign(rot - rot.mean())
-    crossings = np.nonzero(s[1:] != s[:-1])[0]
-    if len(crossings) < 3:
-        return float("nan")
-    return (len(crossings) - 1) / 2 / ((crossings[-1] - crossings[0]) * DT)
+def cantilever_scene(repeat, n=10):
+    beam = Beam()
+    spec = cantilever_spec(beam, n, tip_speed=0.1)  # the kick is the initial state of the stable-step search
+    model = spec.compile()
+    src = source_case("mjflex twist", model)
+    cases = [src] + [variant_case(v, model, src.state) for v in (
+        mjflex.bushing_variant(spec), mjflex.weld_variant(spec), mjflex.pseudo_rigid_body_variant(spec),
+        mjflex.reduce(spec, 2000.0))]  # fmt: skip
+    fc_model = cantilever_flexcomp_spec(beam, n).compile()
+    kicked = np.zeros(fc_model.nv)
+    kicked[fc_model.jnt_dofadr[fc_model.body(f"rod_{n + 1}").jntadr[0]] + 1] = 0.1
+    cases.append(Case("flexcomp", fc_model, None, (fc_model.qpos0.copy(), kicked)))
+    h = model.opt.timestep
+    small, large = 0.1, 0.9 * beam.EI / beam.L**2 * 3  # large: linear theory would give 0.9 L
+    x_el, y_el = elastica_tip(beam, large)
+    f1 = beam.frequencies(1)[0]
+    results = {}
+    for c in cases:
+        key = "flexcomp" if c.name == "flexcomp" else "chain"
+        rest = (c.model.qpos0.copy(), np.zeros(c.model.nv))
+        probe = _tip_probe(key)
+        tip0 = simulate(c, h, h, probe, state=rest)[0]
+        r = {}
+        for label, F, steps in (("small", small, 0.1), ("large", large, 0.1)):
+            x = simulate(c, h, steps, probe, every=round(steps / h), load=_tip_load(key, F), damping=0.998, state=rest)
+            if x is not None:
+                r[f"{label}_tip"] = (x[-1] - tip0).tolist()
+                if label == "small":
+                    released = c.last
+        r["small_error"] = r["small_tip"][1] / beam.tip_deflection(small) - 1.0 if "small_tip" in r else np.nan
+        if "large_tip" in r:
+            dx, dy = r["large_tip"][0], r["large_tip"][1]
+            r["large_error"] = float(np.hypot(dx - (x_el - beam.L), dy - y_el) / np.hypot(x_el - beam.L, y_el))
+        y = simulate(c, h, 0.06, lambda m, d, p=probe: p(m, d)[1], state=(released[0], np.zeros(c.model.nv)))
+        r["f1_hz"] = _crossing_frequency(y, h) if y is not None else np.nan
+        r["f1_error"] = r["f1_hz"] / f1 - 1.0
+        results[c.name] = r
+    costs = costs_at_stable_steps(cases, h, repeat, lambda m, d: d.qpos.copy(), 0.002)
+    print(f"\n== cantilever: L {beam.L} m, t {beam.t} m, b {beam.b} m, aluminium, {n} segments; beam theory: tip "
+          f"{beam.tip_deflection(small) * 1e6:.2f} um under {small} N, elastica tip ({x_el:.4f}, {y_el:.4f}) m under "
+          f"{large:.1f} N, f1 {f1:.1f} Hz")  # fmt: skip
+    print(f"{'model':<24} {'small load':>11} {'large load':>11} {'f1 [Hz]':>9} {'f1 err':>8}")
+    for name, r in results.items():
+        print(f"{name:<24} {100 * r['small_error']:>10.2f}% {100 * r.get('large_error', np.nan):>10.2f}% "
+              f"{r['f1_hz']:>9.1f} {100 * r['f1_error']:>7.2f}%")  # fmt: skip
+    _print_costs(costs, h)
+    verdicts = [
+        f"cantilever: {name} costs {costs[name]['ratio_median']:.2f}x mjflex per step (stable to "
+        f"{costs[name]['stable_step_s']:.1e} s, {costs[name]['speedup_at_stable']:.2f}x mjflex's speed at each one's "
+        f"stable step); tip deflection off beam theory by {100 * r['small_error']:.1f} % (small load), elastica by "
+        f"{100 * r.get('large_error', np.nan):.1f} % (large), f1 by {100 * r['f1_error']:.1f} %"
+        for name, r in results.items()
+    ]
+    return {"results": results, "costs": costs, "verdicts": verdicts, "beam": beam.__dict__, "segments": n,
+            "loads_N": [small, large], "elastica_tip": [x_el, y_el], "f1_euler_bernoulli_hz": f1}  # fmt: skip
 
 
 def main():
+    from _arcade_native import arcade_scene
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--duration", type=float, default=0.05)
+    ap.add_argument("--scenes", nargs="+", default=["bushing", "cantilever", "arcade"])
+    ap.add_argument("--repeat", type=int, default=11)
     ap.add_argument("--json", default="out/compare_native.json")
     args = ap.parse_args()
-    K = notch_stiffness(ArcadeParams())
-    B = np.zeros((6, 6))  # undamped, so that energy drift measures the integration alone
-    kinds = ["twist", "dualquat", "bushing", "hinge", "weld"]
-    models = {k: build(k, K, B) for k in kinds}
-    flexes = {k: mjflex.Flexures(models[k]) if k in ("twist", "dualquat") else None for k in kinds}
-    results, traj = {}, {}
-    for k in kinds:
-        t0 = time.perf_counter()
-        traj[k] = trajectory(models[k], flexes[k], args.duration)
-        pos, rot, energy = traj[k]
-        results[k] = {
-            "frequency_hz": swing_frequency(rot, args.duration),
-            "peak_rotation_rad": float(np.abs(rot).max()),
-            "parasitic_translation_um": float(np.linalg.norm(pos, axis=1).max() * 1e6),
-            "energy_drift_relative": float((energy.max() - energy.min()) / energy[0]),
-            "simulation_wall_s": time.perf_counter() - t0,
-        }
-    ref_pos, ref_rot, _ = traj["twist"]
-    for k in kinds:
-        pos, rot, _ = traj[k]
-        results[k]["max_rotation_deviation_rad"] = float(np.abs(rot - ref_rot).max())
-        results[k]["max_centre_deviation_um"] = float(np.linalg.norm(pos - ref_pos, axis=1).max() * 1e6)
-    for f in flexes.values():
-        if f is not None:
-            f.install()
-    cases = {}
-    for k in kinds:
-        data = initial_state(models[k])
-        cases[k] = (lambda m, d: lambda: [mujoco.mj_step(m, d) for _ in range(10)])(models[k], data)
-    rows = compare(cases, "hinge", repeat=15)
-    for f in flexes.values():
-        if f is not None:
-            f.uninstall()
-    for r in rows.values():
-        for key in ("median_s", "min_s", "max_s"):
-            r[key] /= 10
-    print_table(rows, "cost of one RK4 step (ratios to the single native hinge joint, same repeat)")
-    print(f"\n{'model':<10} {'f [Hz]':>9} {'peak rot':>9} {'parasitic':>11} {'dev. rot':>10} {'dev. centre':>12} "
-          f"{'energy drift':>13}")  # fmt: skip
-    for k in kinds:
-        r = results[k]
-        cells = [f"{r['frequency_hz']:>9.2f}", f"{r['peak_rotation_rad']:>8.3f}r",
-                 f"{r['parasitic_translation_um']:>9.2f}um", f"{r['max_rotation_deviation_rad']:>9.2e}r",
-                 f"{r['max_centre_deviation_um']:>10.2f}um", f"{r['energy_drift_relative']:>13.2e}"]  # fmt: skip
-        print(f"{k:<10} " + " ".join(cells))
-    write_json(args.json, {"results": results, "step_cost": rows, "duration": args.duration, "dt": DT})
+    scenes = {"bushing": bushing_scene, "cantilever": cantilever_scene, "arcade": arcade_scene}
+    out = {name: scenes[name](args.repeat) for name in args.scenes}
+    print("\nverdicts:")
+    for name in args.scenes:
+        for line in out[name]["verdicts"]:
+            print(" -", line)
+    write_json(args.json, out)
 
 
 if __name__ == "__main__":

@@ -11,12 +11,9 @@ The plate lies in the (r, z) half-plane of its angle; the other two plates are t
 import argparse
 import os
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
+from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 import mjflex
@@ -41,7 +38,8 @@ def main():
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     flex = mjflex.Flexures(model)
-    fig, ax = plt.subplots(figsize=(7.5, 8))
+    fig = Figure(figsize=(7.5, 8))
+    ax = fig.subplots()
     # plate 0 lies in the x-z plane (angle 0): r = x
     for g in range(model.ngeom):
         body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])
@@ -62,7 +60,7 @@ def main():
     for e, name in enumerate(flex.names):
         if "_p0_" not in name:
             continue
-        p = data.site_xpos[flex._ints[e, 0]]
+        p = data.site_xpos[flex.site_ids[e, 0]]
         leaf = name.startswith("leaf")
         ax.plot(p[0], p[2], marker="s" if leaf else "o", color="#2a9d4b" if leaf else "#d33", ms=6)
     ax.plot([], [], "o", color="#d33", label="notch hinge (12 per plate)")

@@ -103,3 +103,24 @@ def gradient_wrt_b(energy, R_WB, p_WB, h_rot, h_lin):
 
 def hat(v):
     return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def lambda_tilde(q):
+    """The 6x8 map of the paper's eq. 116 for a unit dual quaternion ``q = (sigma, xi, s', x')``.
+
+    Columns ``(sigma, xi, s', x')``; the wrench of B on the element is ``1/2 Lambda~ grad U``.
+    """
+    s, xi, sd, xd = q[0], q[1:4], q[4], q[5:]
+    L = np.zeros((6, 8))
+    L[:3, 0], L[:3, 1:4], L[:3, 4], L[:3, 5:] = -xi, s * np.eye(3) - hat(xi), -xd, sd * np.eye(3) - hat(xd)
+    L[3:, 4], L[3:, 5:] = -xi, s * np.eye(3) - hat(xi)
+    return L
+
+
+def c_output(capfd):
+    """What C code printed (MuJoCo's warnings go to stderr), once its stdio buffers are flushed."""
+    import ctypes
+
+    ctypes.CDLL(None).fflush(None)
+    captured = capfd.readouterr()
+    return captured.out + captured.err

@@ -20,7 +20,7 @@ MODELS = os.path.join(os.path.dirname(__file__), "..", "models")
 def _joint_counts(model, flex):
     counts = {}
     for e in range(len(flex)):
-        for body in (flex._ints[e, 2], flex._ints[e, 3]):
+        for body in flex.body_ids[e]:
             name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(body))
             counts[name] = counts.get(name, 0) + 1
     return counts

@@ -1,10 +1,17 @@
-"""Physical properties of the element wrenches: rest behaviour, invariance, dissipation, methods, planar, batching."""
+"""Physical properties of the element wrenches: rest behaviour, invariance, dissipation, methods, planar, batching.
+
+Tolerances: identities that hold exactly in exact arithmetic (invariances, planar = spatial,
+adjoint symmetries, native = mjflex) are checked to 1e-11 ... 1e-14 relative, while 1e-15 ... 1e-17
+is achieved (measured). The margin covers round-off on other platforms (fused multiply-add,
+numba's ``fastmath={"contract"}``, other libm/BLAS) and stays far below any modelling error,
+which shows at 1e-6 and above. Tolerances that bound a truncation error say so where they are used.
+"""
 
 import numpy as np
 import pytest
 
 import mjflex
-from tests.helpers import hat, random_rotation, random_spd, rot_exp
+from tests.helpers import random_rotation, random_spd, rot_exp
 
 METHODS = ["twist", "dualquat"]
 
@@ -161,7 +168,7 @@ def test_methods_agree_to_first_order():
         Wt = mjflex.wrench_on_b(R_WA, p_WA, R_WB, p_WB, K, method="twist")
         Wq = mjflex.wrench_on_b(R_WA, p_WA, R_WB, p_WB, K, method="dualquat")
         errs.append(np.linalg.norm(Wt - Wq) / np.linalg.norm(Wt))
-    assert errs[-1] <= 1e-6
+    assert errs[-1] <= 5e-8  # achieved 7e-9 at eps = 1e-4: the O(eps^2) difference of the cubic terms
     # the relative difference shrinks with the displacement: O(eps^2) (cubic wrench terms)
     assert errs[1] <= 0.02 * errs[0] and errs[2] <= 0.02 * errs[1]
 
@@ -193,10 +200,19 @@ def test_half_turn_twist_energy_is_continuous_with_a_kink():
     assert abs(below - at) <= 5 * 5 * np.pi * h and abs(above - at) <= 5 * 5 * np.pi * h
     assert below < at and above < at  # a peak with a kink, slope +5 pi -> -5 pi
     dq = [energy(np.pi + s, "dualquat") for s in (-h, 0.0, h)]
-    assert abs((dq[2] - dq[0]) / (2 * h)) <= 1e-6  # smooth maximum: zero slope
-    for method in METHODS:  # exactly pi: defined, finite
-        W = mjflex.wrench_on_b(I3, z, np.diag([-1.0, -1.0, 1.0]), [0.1, 0.2, 0.0], K, method=method)
-        assert np.all(np.isfinite(W))
+    # smooth maximum: zero slope (exactly 0 here by symmetry; 1e-9 is the round-off of U ~ 10 J over h = 1e-6)
+    assert abs((dq[2] - dq[0]) / (2 * h)) <= 1e-9
+    # exactly pi: the twist wrench is one of its two one-sided limits, the dual-quaternion wrench is continuous
+    p_b = np.array([0.1, 0.2, 0.0])
+    for method in METHODS:
+        W = mjflex.wrench_on_b(I3, z, np.diag([-1.0, -1.0, 1.0]), p_b, K, method=method)
+        sides = [mjflex.wrench_on_b(I3, z, rot_exp([0.0, 0.0, np.pi + s]), p_b, K, method=method) for s in (-h, h)]
+        gaps = [np.linalg.norm(W - side) / np.linalg.norm(side) for side in sides]
+        assert min(gaps) <= 1e-4  # O(h) away from one side
+        if method == "twist":
+            assert max(gaps) >= 0.1  # and the sides differ: the kink
+        else:
+            assert max(gaps) <= 1e-4
 
 
 # --------------------------------------------------------------------------- planar
@@ -311,4 +327,3 @@ def test_broadcasting_partial_shapes():
     assert np.array_equal(W[2, 3], mjflex.wrench_on_b(R_WA[2, 0], np.zeros(3), R_WB[3], p[2, 3], K))
     with pytest.raises(ValueError, match="batch shapes do not broadcast"):
         mjflex.wrench_on_b(R_WA[:3], np.zeros(3), R_WB, p, K)
-    assert hat(np.ones(3)).shape == (3, 3)

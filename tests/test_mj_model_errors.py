@@ -26,6 +26,9 @@ TEMPLATE = """
       <site name="{site_b}" pos="{pos_b}" {quat_b}/>
     </body>
   </worldbody>
+  <contact>
+    <exclude body1="A" body2="B"/>
+  </contact>
   <custom>
     <text name="mjflex:e" data='{data}'/>
   </custom>
@@ -58,7 +61,7 @@ def test_misnamed_site_without_close_match():
 
 def test_both_frames_on_one_body():
     model = _model(site_b="other", extra_a='<site name="e/b" pos="0.05 0 0"/>')
-    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': both sites are on body 'A'\. Put site '/a' on one body"):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': both sites are on body 'A'\. Put site a on one body"):
         mjflex.Flexures(model)
 
 

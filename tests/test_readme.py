@@ -1,5 +1,7 @@
 """The README's Python example runs as written, from the repository root."""
 
+import datetime
+import importlib.util
 import os
 import re
 
@@ -24,3 +26,43 @@ def test_readme_test_command_is_what_ci_runs():
         ci = f.read()
     command = 'python -m pip install -e ".[test]" && python -m pytest'
     assert command in readme and command in ci
+
+
+def _generator():
+    spec = importlib.util.spec_from_file_location("readme_results", os.path.join(ROOT, "scripts", "readme_results.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_readme_figures_are_what_the_recorded_json_gives():
+    """The generated blocks of README.md equal what scripts/readme_results.py makes of docs/results/*.json."""
+    generator = _generator()
+    with open(os.path.join(ROOT, "README.md")) as f:
+        readme = f.read()
+    names = {m["name"] for m in generator.BLOCK.finditer(readme)}
+    assert names == set(generator.BLOCKS), "every renderer has its block in README.md and every block a renderer"
+    results = generator.load_results()
+    assert generator.generate(readme, results) == readme, "run: python scripts/readme_results.py"
+    used = {name for needs, _ in generator.BLOCKS.values() for name in needs}
+    assert used == set(results), "every recorded JSON is shown in the README, and only those"
+
+
+def test_recorded_json_says_how_and_when_it_was_made():
+    for name, result in _generator().load_results().items():
+        assert re.fullmatch(rf"python scripts/{name}\.py( .*)?", result["command"]), name
+        date = datetime.datetime.fromisoformat(result["date"])
+        assert date.tzinfo is not None and date.year >= 2025, name
+        assert result["machine"]["cpus"] >= 1, name
+
+
+def test_generator_rewrites_a_stale_block():
+    generator = _generator()
+    stale = "x\n<!-- results:modes-table -->\nold\n<!-- /results -->\ny\n"
+    generator.BLOCKS["modes-table"] = (["modes"], lambda results: f"{results['modes']['arcade.xml']['n_rigid']}\n")
+    try:
+        assert generator.generate(stale, {"modes": {"arcade.xml": {"n_rigid": 6}}}) == (
+            "x\n<!-- results:modes-table -->\n6\n<!-- /results -->\ny\n"
+        )
+    finally:
+        del generator.BLOCKS["modes-table"]

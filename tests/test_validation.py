@@ -2,9 +2,10 @@
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import mjflex
-from tests.helpers import random_rotation, random_spd
+from tests.helpers import hat, random_rotation, random_spd
 
 I3, Z3 = np.eye(3), np.zeros(3)
 K6 = np.diag([1.0, 1.0, 1.0, 1e3, 1e3, 1e3])
@@ -67,7 +68,9 @@ def test_batched_K_error_names_the_element():
 def test_singular_psd_K_is_accepted():
     K = np.zeros((6, 6))
     K[2, 2] = 1.0
-    assert mjflex.potential(I3, Z3, random_rotation(np.random.default_rng(0)), Z3, K) >= 0
+    R = random_rotation(np.random.default_rng(0))
+    tau_z = Rotation.from_matrix(R).as_rotvec()[2]  # the twist of a pure rotation is its rotation vector
+    assert mjflex.potential(I3, Z3, R, Z3, K) == pytest.approx(0.5 * tau_z**2, rel=1e-13)
 
 
 def test_damping_with_indefinite_symmetric_part():
@@ -157,10 +160,15 @@ def test_dual_quaternion_must_be_unit():
 
 
 def test_check_false_skips_validation():
-    K = K6.copy()
+    K = np.diag([1.0, 1.0, 1.0, 1e3, 2e3, 3e3])
     K[0, 4] = 3.0  # not symmetric: accepted unchecked (caller's responsibility)
-    W = mjflex.wrench_on_b(I3, Z3, I3, [0.0, 0.0, 1e-3], K, check=False)
-    assert np.all(np.isfinite(W))
+    t = np.array([2e-4, -1e-3, 5e-4])
+    W = mjflex.wrench_on_b(I3, Z3, I3, t, K, check=False)
+    # K used as given: at zero rotation the twist is [0; t] and Gamma = [[I, -t^/2], [0, I]] (eqs 43, 46, 49)
+    Kxi = K @ np.r_[Z3, t]
+    assert np.abs(W + np.r_[Kxi[:3] - 0.5 * hat(t) @ Kxi[3:], Kxi[3:]]).max() <= 1e-14 * np.abs(W).max()
+    symmetrized = mjflex.wrench_on_b(I3, Z3, I3, t, 0.5 * (K + K.T), check=False)
+    assert abs(W[0] - symmetrized[0]) > 0.1 * abs(W[0])
 
 
 def test_stiffness_utilities_validate():

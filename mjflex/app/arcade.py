@@ -38,6 +38,7 @@ import numpy as np
 
 from ..geometry import bending_strain_per_radian, leaf_spring_stiffness, notch_hinge_stiffness
 from ..mj import add_flexure, reference_body_poses
+from ..mj.build import HIDDEN_SITE_GROUP, SHAPE_SITE_GROUP
 
 ALUMINIUM = 2700.0
 E_ALUMINIUM = 70e9
@@ -301,7 +302,7 @@ def _paper_keyframe(spec):
 
 
 def _style_sites(handle, p, kind):
-    """Draw the flexure as a thin box on site a (group 3); hide site b (group 5)."""
+    """Draw the flexure as a thin box on site a; hide site b (site groups of :mod:`mjflex.mj.build`)."""
     half = (
         [p.notch_radius, 0.5 * p.notch_web, 0.5 * p.plate_thickness]
         if kind == "notch"
@@ -309,9 +310,9 @@ def _style_sites(handle, p, kind):
     )
     handle.site_a.type = mujoco.mjtGeom.mjGEOM_BOX
     handle.site_a.size = [half[0], max(half[1], 0.0006), half[2] * 1.02]
-    handle.site_a.group = 3
+    handle.site_a.group = SHAPE_SITE_GROUP
     handle.site_a.rgba = [0.2, 0.8, 0.3, 1.0]
-    handle.site_b.group = 5
+    handle.site_b.group = HIDDEN_SITE_GROUP
 
 
 def rigid_spin_velocity(model, data, omega, axial_speed, body="cylinder"):

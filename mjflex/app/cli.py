@@ -1,18 +1,51 @@
-"""Command line: ``python -m mjflex simulate MODEL.xml ...`` and ``python -m mjflex demo``."""
+"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml`` and ``sweep``."""
 
 import argparse
 import json
+import math
 import os
 import sys
+import time
+from contextlib import contextmanager
 
 import mujoco
 import numpy as np
 
 from ..mj import Flexures, ModelError
 from . import render
-from .simulate import INTEGRATORS, configure, simulate, summarize
+from .simulate import INTEGRATORS, DivergenceError, configure, simulate, step_count, summarize
+
+#: Exit status of a run that diverged (1: bad input, 2: bad command line).
+EXIT_DIVERGED = 3
+VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".avi", ".webm", ".gif")
 
 REPO_MODELS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "models")
+
+
+def positive_float(text):
+    """argparse type: a positive, finite number (rejects 0, negatives, nan and inf)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a positive, finite number; got {text!r}")
+    return value
+
+
+def check_output(path, option, suffixes=None):
+    """Raise SystemExit unless ``path`` can be written (its folder exists); checked before a run."""
+    if path is None:
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise SystemExit(f"error: {option} {path!r} is a folder; give a file name")
+    if not os.path.isdir(folder):
+        raise SystemExit(f"error: {option} {path!r}: folder {folder!r} does not exist; create it or choose another")
+    if not os.access(folder, os.W_OK):
+        raise SystemExit(f"error: {option} {path!r}: folder {folder!r} is not writable")
+    if suffixes and not path.lower().endswith(suffixes):
+        raise SystemExit(f"error: {option} {path!r}: the file name must end in one of {', '.join(suffixes)}")
 
 
 def _load(path):
@@ -39,53 +72,97 @@ def _initial_state(model, keyframe):
 
 
 def _frames(run, fps, slowdown):
-    """Indices of the stored samples to show at ``fps`` with time slowed down ``slowdown`` times."""
+    """Indices of the stored samples to show at ``fps`` with time slowed down ``slowdown`` times, and the
+    slow-motion factor they give.
+
+    Samples are taken a whole number of steps apart: when they are not denser than the frames,
+    every sample is one frame (the factor then follows from the sample interval); otherwise
+    the sample nearest each frame time is shown.
+    """
     t = run.array("time")
-    wanted = np.arange(t[0], t[-1] + 1e-15, 1.0 / (fps * slowdown))
-    return np.unique(np.clip(np.searchsorted(t, wanted - 1e-12), 0, len(t) - 1))
+    frame_dt = 1.0 / (fps * slowdown)
+    spacing = float(np.median(np.diff(t))) if len(t) > 1 else frame_dt
+    if spacing > 0.5 * frame_dt:
+        return np.arange(len(t)), 1.0 / (fps * spacing)
+    wanted = np.arange(t[0], t[-1] + 0.5 * frame_dt, frame_dt)
+    return np.unique(np.clip(np.round(np.interp(wanted, t, np.arange(len(t)))).astype(int), 0, len(t) - 1)), slowdown
 
 
 def run_model(model, name, *, duration, method=None, integrator=None, timestep=None, keyframe=None, damping=True,
               video=None, width=640, height=360, fps=30, slowdown=100.0, every_step=False, progress=True):  # fmt: skip
     """Simulate ``model`` and optionally render a video; returns ``(summary, run, flex)``.
 
-    States are kept every video frame (or every step with ``every_step``).
+    Everything is checked before the run (SystemExit with a message). Samples are taken every
+    video frame (or every step with ``every_step``); states are kept only for the video, which is
+    rendered and encoded frame by frame after the run. A divergence raises
+    :class:`mjflex.app.simulate.DivergenceError`.
     """
-    configure(model, integrator=integrator, timestep=timestep)
     try:
+        configure(model, integrator=integrator, timestep=timestep)
+        step_count(duration, model.opt.timestep)
         flex = Flexures(model)
-    except ModelError as exc:
-        raise SystemExit(f"error: {exc}") from None
+    except (ModelError, ValueError) as exc:
+        raise SystemExit(f"error: {name}: {exc}") from None
+    if not len(flex):
+        raise SystemExit(
+            f"error: {name} has no mjflex elements (sites E/a, E/b and a text record mjflex:E; see mjflex.mj.schema "
+            "or the README), so there is nothing to report; check the warnings above for misspelt records"
+        )
     for element in flex.names:
         if method is not None:
             flex.set_method(element, method)
         if not damping:
             flex.set_viscous(element, False)
     data, key = _initial_state(model, keyframe)
-    sample_dt = 1.0 / (fps * slowdown) if video and not every_step else None
+    # without a video, samples only for the energy series (the maxima are tracked every step)
+    sample_dt = None if every_step else 1.0 / (fps * slowdown) if video else duration / 2000
     if progress:
         start = f"keyframe {key!r}" if key else "qpos0 at rest"
         print(f"simulating {name} for {duration * 1e3:g} ms from {start}", file=sys.stderr)
-    run, wall, steps = simulate(model, data, flex, duration, sample_dt=sample_dt, progress=progress)
+    run, wall, steps = simulate(
+        model, data, flex, duration, sample_dt=sample_dt, progress=progress, keep_qpos=bool(video) or every_step
+    )
     summary = summarize(name, model, flex, run, wall, steps)
     if video:
         renderer = render.RunRenderer(model, flex, run, width=width, height=height)
-        frames = [renderer.frame(k) for k in _frames(run, fps, slowdown)]
-        renderer.close()
-        render.write_video(video, frames, fps)
+        try:
+            picks, slowdown = _frames(run, fps, slowdown)
+            count = render.write_video(video, (renderer.frame(k) for k in picks), fps)
+        finally:
+            renderer.close()
         if progress:
-            print(f"wrote {video} ({len(frames)} frames, {fps} fps, {slowdown:g}x slow motion)", file=sys.stderr)
+            print(f"wrote {video} ({count} frames, {fps} fps, {slowdown:.4g}x slow motion)", file=sys.stderr)
     return summary, run, flex
 
 
+@contextmanager
+def _stop_on_divergence(name):
+    """A diverged run: its message on stderr, nothing written, exit status ``EXIT_DIVERGED``."""
+    try:
+        yield
+    except DivergenceError as exc:
+        print(f"error: {name}: {exc} No summary, JSON or video written.", file=sys.stderr)
+        raise SystemExit(EXIT_DIVERGED) from None
+
+
+def _print_command_time(started):
+    print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
+
+
 def _simulate_command(args):
+    started = time.perf_counter()
+    check_output(args.json, "--json")
+    check_output(args.video, "--video", VIDEO_SUFFIXES)
     model = _load(args.model)
-    summary, _, _ = run_model(
-        model, os.path.basename(args.model), duration=args.duration, method=args.method, integrator=args.integrator,
-        timestep=args.timestep, keyframe=args.keyframe, damping=not args.no_damping, video=args.video,
-        width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown, progress=not args.quiet,
-    )  # fmt: skip
+    with _stop_on_divergence(os.path.basename(args.model)):
+        summary, _, _ = run_model(
+            model, os.path.basename(args.model), duration=args.duration, method=args.method,
+            integrator=args.integrator, timestep=args.timestep, keyframe=args.keyframe, damping=not args.no_damping,
+            video=args.video, width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown,
+            progress=not args.quiet,
+        )  # fmt: skip
     print(summary.text())
+    _print_command_time(started)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(summary.to_dict(), f, indent=2)
@@ -102,14 +179,16 @@ def arcade_model():
 
 
 def _demo_command(args):
+    started = time.perf_counter()
     os.makedirs(args.out, exist_ok=True)
     model, source = arcade_model()
     video = os.path.join(args.out, "arcade.mp4")
-    summary, run, flex = run_model(
-        model, os.path.basename(source), duration=args.duration, keyframe="paper_run", video=video,
-        width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown, every_step=True,
-        progress=not args.quiet,
-    )  # fmt: skip
+    with _stop_on_divergence(os.path.basename(source)):
+        summary, run, flex = run_model(
+            model, os.path.basename(source), duration=args.duration, keyframe="paper_run", video=video,
+            width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown, every_step=True,
+            progress=not args.quiet,
+        )  # fmt: skip
     title = "ARCADE-like guide: 105 rad/s spin + 5 m/s cylinder (paper sec. 6)"
     renderer = render.RunRenderer(model, flex, run, width=args.width // 2, height=args.height // 2)
     t = run.array("time")
@@ -122,7 +201,104 @@ def _demo_command(args):
     with open(os.path.join(args.out, "arcade_summary.json"), "w") as f:
         json.dump(summary.to_dict(), f, indent=2)
     print(summary.text())
+    _print_command_time(started)
     print(f"wrote {args.out}/arcade.mp4, arcade_panels.png, arcade_energy.png, arcade_stroke.png, arcade_summary.json")
+
+
+def _floats(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("expected at least one number")
+    return values
+
+
+def _sweep_parser(sub):
+    sw = sub.add_parser("sweep", help="ARCADE: cylinder stroke vs leaf-spring stiffness and damping, over a grid")
+    sw.add_argument("--leaf-scale", type=_floats, default=[0.5, 1.0, 2.0, 4.0],
+                    help="leaf-spring stiffness scales, comma-separated (default 0.5,1,2,4)")  # fmt: skip
+    sw.add_argument("--beta", type=_floats, default=[0.0, 2e-6, 1e-5, 4e-5],
+                    help="Rayleigh damping B = beta K of every flexure [s] (default 0,2e-6,1e-5,4e-5)")  # fmt: skip
+    sw.add_argument("--duration", type=float, default=0.03, help="simulated time per variant [s] (default 0.03)")
+    sw.add_argument("--samples", type=int, default=61, help="observations from 0 to duration (default 61)")
+    sw.add_argument("--executor", choices=["batch", "pool", "dask"], default="batch",
+                    help="batch: Batch threads here; pool: spawn process pool; dask: local cluster")  # fmt: skip
+    sw.add_argument("--workers", type=int, default=2, help="processes for pool/dask (default 2)")
+    sw.add_argument("--threads", type=int, help="Batch threads per process (default: all CPUs here, 1 per worker)")
+    sw.add_argument("--out", default="out")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    return sw
+
+
+def _study_command(args):
+    from .study import StudyError, study  # tqdm and the study's modules load only for this command
+
+    model = arcade_model()[0] if args.model == "arcade" else args.model
+    try:
+        result = study(
+            model, keyframe=args.keyframe, duration=args.duration, track=args.track, frame=args.frame,
+            methods=args.methods, integrators=args.integrators, steps=args.steps, step_count=args.step_count,
+            max_step=args.max_step, min_step=args.min_step, variants=[] if args.no_variants else None,
+            repeat=args.repeat, bisect=args.bisect, reference_tol=args.reference_tol,
+            max_refinements=args.max_refinements, reference_step=args.reference_step, samples=args.samples,
+            max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock, out=args.out,
+            progress=not args.quiet,
+        )  # fmt: skip
+    except StudyError as exc:
+        written = f" Partial results written to {', '.join(exc.paths)}." if exc.paths else ""
+        raise SystemExit(f"error: {exc}{written}") from None
+    print("\n".join(result.summary_lines()))
+    print("\n".join(result.recommendation()))
+    for limit in result.limits:
+        print(f"largest stable step, {limit.text()}")
+    stem = f"study_{os.path.splitext(os.path.basename(result.model))[0]}"
+    print(f"wrote {args.out}/{stem}.md, {stem}.json, {stem}.png")
+    if result.message:
+        raise SystemExit(f"error: {result.message}")
+
+
+def _study_parser(sub):
+    p = sub.add_parser("study", help="measure speed vs accuracy of methods, integrators, steps and model variants",
+                       description="Measure the speed-accuracy trade of simulating MODEL's flexures (see "
+                       "mjflex.app.study): a converged RK4 reference, then every candidate's cost, error and "
+                       "largest stable step; writes a markdown table, JSON and a Pareto plot to --out.")  # fmt: skip
+    p.add_argument(
+        "model", help="MJCF file with mjflex elements and a keyframe to start from ('arcade': the showcase model)"
+    )
+    p.add_argument("--keyframe", help="initial state (default: the first keyframe)")
+    p.add_argument("--duration", type=float, help="simulated time [s] (default: one period of the lowest mode)")
+    p.add_argument("--track", nargs="+", metavar="NAME", help="bodies or sites to compare (default: all bodies)")
+    p.add_argument("--frame", default="auto", help="body the poses are taken in, 'world' or 'auto' (default)")
+    p.add_argument("--methods", nargs="+", choices=["twist", "dualquat"], default=["twist", "dualquat"])
+    p.add_argument("--integrators", nargs="+", choices=sorted(INTEGRATORS),
+                   default=["rk4", "euler", "implicitfast", "discrete"])  # fmt: skip
+    p.add_argument("--steps", nargs="+", type=float, metavar="H", help="candidate time steps [s] (default: "
+                   "--step-count log-spaced steps from past the stability limit down)")  # fmt: skip
+    p.add_argument("--step-count", type=int, default=6, help="number of default steps, factors of 2 apart")
+    p.add_argument(
+        "--max-step",
+        type=float,
+        help="largest default step [s] (default: twice RK4's limit for the "
+        "fastest rate of the linearized model, damping included)",
+    )
+    p.add_argument("--min-step", type=float, help="smallest default step [s]")
+    p.add_argument("--no-variants", action="store_true", help="compare the model as given only")
+    p.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds, median reported (default 3)")
+    p.add_argument("--bisect", type=int, default=8, help="most bisection runs per stability limit (default 8)")
+    p.add_argument("--reference-tol", type=float, default=1e-6, help="agreement of reference refinements")
+    p.add_argument("--max-refinements", type=int, default=5, help="most halvings of the reference step")
+    p.add_argument("--reference-step", type=float, help="first reference step [s] (default: the model's)")
+    p.add_argument("--samples", type=int, default=200, help="sample intervals over the duration (default 200)")
+    p.add_argument("--max-run-wall", type=float, default=120.0, help="wall-time budget of one run [s]")
+    p.add_argument("--targets", nargs="+", type=float, default=[0.1, 0.01, 1e-4],
+                   help="relative pose-error targets of the recommendation")  # fmt: skip
+    p.add_argument("--clock", choices=["cpu", "wall"], default="cpu", help="cost measured as the stepping thread's "
+                   "CPU time (default; an idle core's wall time, robust on a shared machine) or wall time")  # fmt: skip
+    p.add_argument("--out", default="out", help="directory for study_<model>.md/.json/.png (default out)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
 
 
 def main(argv=None):
@@ -130,28 +306,46 @@ def main(argv=None):
     sub = ap.add_subparsers(dest="command", required=True)
     sim = sub.add_parser("simulate", help="simulate an MJCF model with mjflex elements")
     sim.add_argument("model", help="MJCF file")
-    sim.add_argument("--duration", type=float, default=0.01, help="simulated time [s] (default 0.01)")
+    sim.add_argument("--duration", type=positive_float, default=0.01, help="simulated time [s] (default 0.01)")
     sim.add_argument("--video", help="write an MP4 of the run here")
     sim.add_argument("--method", choices=["twist", "dualquat"], help="override every element's method")
     sim.add_argument("--integrator", choices=sorted(INTEGRATORS), help="override the model's integrator")
-    sim.add_argument("--timestep", type=float, help="override the model's time step [s]")
+    sim.add_argument("--timestep", type=positive_float, help="override the model's time step [s]")
     sim.add_argument("--keyframe", help="initial state (default: the first keyframe, else qpos0 at rest)")
     sim.add_argument("--no-damping", action="store_true", help="switch off every element's viscous part")
     sim.add_argument("--json", help="write the summary as JSON here")
     demo = sub.add_parser("demo", help="the paper's ARCADE run: video, Fig. 4-like panels, energy and stroke plots")
     demo.add_argument("--out", default="out")
-    demo.add_argument("--duration", type=float, default=0.08, help="simulated time [s] (default 0.08)")
+    demo.add_argument("--duration", type=positive_float, default=0.08, help="simulated time [s] (default 0.08)")
+    _study_parser(sub)
     for p in (sim, demo):
         p.add_argument("--width", type=int, default=1280 if p is demo else 640)
         p.add_argument("--height", type=int, default=720 if p is demo else 360)
         p.add_argument("--fps", type=int, default=30)
-        p.add_argument("--slowdown", type=float, default=100.0, help="slow-motion factor of the video (default 100)")
+        p.add_argument("--slowdown", type=positive_float, default=100.0,
+                       help="slow-motion factor of the video (default 100)")  # fmt: skip
         p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _sweep_parser(sub)
     args = ap.parse_args(argv)
-    for name in ("duration", "fps", "slowdown", "width", "height"):
-        if getattr(args, name) <= 0:
+    if args.command == "study":
+        for name in ("duration", "step_count", "max_step", "min_step", "repeat", "samples", "max_run_wall"):
+            if getattr(args, name) is not None and getattr(args, name) <= 0:
+                ap.error(f"--{name.replace('_', '-')} must be positive")
+        _study_command(args)
+        return
+    for name in ("duration", "fps", "slowdown", "width", "height", "samples", "workers"):
+        if getattr(args, name, 1) <= 0:
             ap.error(f"--{name} must be positive")
-    if args.command == "simulate":
+    if args.command == "sweep":
+        if args.threads is not None and args.threads < 0:
+            ap.error("--threads must be >= 0 (0: all CPUs)")
+        from .sweep.arcade import run
+
+        try:
+            run(args)
+        except ValueError as exc:
+            raise SystemExit(f"error: {exc}") from None
+    elif args.command == "simulate":
         _simulate_command(args)
     else:
         _demo_command(args)

@@ -1,17 +1,27 @@
 """Headless rendering of runs: flexures coloured by strain, videos, panels and plots.
 
-Rendering uses MuJoCo's offscreen renderer. On Linux without a display mjflex selects EGL
-(``MUJOCO_GL=egl``) when it is imported before mujoco; set ``MUJOCO_GL=osmesa`` where EGL is
-not available (OSMesa: software, slower). Videos are encoded with the ffmpeg binary shipped in
-the ``imageio-ffmpeg`` package (no system ffmpeg needed).
+Rendering uses MuJoCo's offscreen renderer, whose OpenGL backend MuJoCo takes from the
+``MUJOCO_GL`` environment variable. mjflex never sets it when imported. The rule: a backend
+the user chose (``MUJOCO_GL`` set) is always used; when nothing was chosen and mjflex is asked
+to render (:func:`make_renderer`: the command line's ``--video`` and ``demo``, :class:`RunRenderer`)
+on Linux without a display (no ``DISPLAY`` / ``WAYLAND_DISPLAY``), it selects EGL
+(``MUJOCO_GL=egl``, also inherited by child processes). Set ``MUJOCO_GL=osmesa`` where EGL is
+not available (OSMesa: software, slower). Videos are encoded while frames are rendered, one at a
+time, by the ffmpeg binary shipped in the ``imageio-ffmpeg`` package (no system ffmpeg needed).
+Figures are drawn with matplotlib's object-oriented API, so the user's pyplot backend is left as
+it is.
 """
 
+import importlib
+import itertools
 import os
+import platform
 
 import mujoco
 import numpy as np
 
-FLEXURE_SITE_GROUPS = (3, 4)  # mjflex draws flexures in these site groups (see mjflex.mj.build, app.arcade)
+from ..mj.build import SHOWN_SITE_GROUPS
+from .simulate import element_strain_per_radian
 
 
 def _ffmpeg():
@@ -22,14 +32,31 @@ def _ffmpeg():
     return mediapy
 
 
+def select_gl_backend() -> str:
+    """Apply the backend rule of this module before creating a renderer; returns ``MUJOCO_GL``.
+
+    Headless Linux with no backend chosen: ``MUJOCO_GL=egl`` is set and MuJoCo's context
+    selection (made when mujoco was imported) is redone with it.
+    """
+    chosen = os.environ.get("MUJOCO_GL")
+    headless = not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    if chosen or platform.system() != "Linux" or not headless:
+        return chosen or "(unset: MuJoCo's default)"
+    os.environ["MUJOCO_GL"] = "egl"
+    from mujoco.rendering.classic import gl_context
+
+    importlib.reload(gl_context)  # mujoco.Renderer reads gl_context.GLContext when it is created
+    return "egl"
+
+
 def make_renderer(model, width, height):
     """An offscreen ``mujoco.Renderer``; raises RuntimeError saying how to get a GL context."""
+    backend = select_gl_backend()
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, height)
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:  # the GL backends raise a variety of errors
-        backend = os.environ.get("MUJOCO_GL", "(unset: glfw)")
         raise RuntimeError(
             f"cannot create an offscreen OpenGL context with MUJOCO_GL={backend}: {exc}. On a machine without a "
             "display use MUJOCO_GL=egl (GPU or Mesa EGL) or MUJOCO_GL=osmesa (install libosmesa6), set before "
@@ -76,10 +103,10 @@ class RunRenderer:
         self.data = mujoco.MjData(model)
         self.camera = camera or default_camera(model)
         self.option = mujoco.MjvOption()
-        for g in FLEXURE_SITE_GROUPS:
+        for g in SHOWN_SITE_GROUPS:
             self.option.sitegroup[g] = 1
-        self.sites = flex._ints[:, 0]
-        per_rad = np.array([r.strain_per_radian if r.strain_per_radian is not None else np.nan for r in flex.records])
+        self.sites = flex.site_ids[:, 0]
+        per_rad = element_strain_per_radian(flex)
         bending = np.abs(run.array("bending"))
         self.strain = np.where(np.isfinite(per_rad), bending * per_rad, bending)  # rotation where no strain known
         self.scale = strain_scale or max(float(np.nanmax(self.strain)), 1e-12)
@@ -96,10 +123,23 @@ class RunRenderer:
         self.renderer.close()
 
 
-def write_video(path, frames, fps):
-    """Encode ``frames`` (list of HxWx3 uint8) as an H.264 MP4 with imageio-ffmpeg's ffmpeg."""
+def write_video(path, frames, fps) -> int:
+    """Encode ``frames`` (an iterable of ``(H, W, 3)`` uint8 images) as an H.264 MP4; returns the count.
+
+    Frames are passed to imageio-ffmpeg's ffmpeg one at a time as they come, so a generator
+    that renders them keeps one image in memory, whatever the length of the video.
+    """
+    frames = iter(frames)
+    first = next(frames, None)
+    if first is None:
+        raise ValueError(f"no frames to write to {path}")
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    _ffmpeg().write_video(path, frames, fps=fps)
+    count = 0
+    with _ffmpeg().VideoWriter(path, shape=first.shape[:2], fps=fps) as writer:
+        for image in itertools.chain((first,), frames):
+            writer.add_image(image)
+            count += 1
+    return count
 
 
 def read_video(path):
@@ -113,14 +153,17 @@ def read_video(path):
     return np.stack(frames) if frames else np.zeros((0, height, width, 3), np.uint8)
 
 
+def _figure(**kwargs):
+    """A matplotlib figure that needs no pyplot backend (saved with ``fig.savefig``)."""
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)
+
+
 def panel_figure(path, images, times, title):
     """A 2x3 figure of rendered frames, as the paper's Fig. 4."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 3, figsize=(12, 5.2))
+    fig = _figure(figsize=(12, 5.2))
+    axes = fig.subplots(2, 3)
     for ax, image, t in zip(axes.ravel(), images, times, strict=False):
         ax.imshow(image)
         ax.set_title(f"t = {t * 1e3:.1f} ms", fontsize=10)
@@ -128,21 +171,16 @@ def panel_figure(path, images, times, title):
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def energy_plot(path, run, title):
     """Kinetic, elastic and dissipated energy, and the balance error, against time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     t = run.array("time") * 1e3
     kinetic, elastic = run.array("kinetic"), run.array("flexure_potential") + run.array("mujoco_potential")
     dissipated = run.array("dissipated")
     total = kinetic + elastic
-    fig, (a, b) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    fig = _figure(figsize=(8, 6))
+    a, b = fig.subplots(2, 1, sharex=True)
     a.plot(t, elastic, label="flexure potential energy")
     a.plot(t, dissipated, label="dissipated by flexure damping")
     a.plot(t, kinetic - kinetic[0], label="kinetic energy - initial")
@@ -154,17 +192,12 @@ def energy_plot(path, run, title):
     b.set_xlabel("time [ms]")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def stroke_plot(path, run, title):
     """Axial position of the cylinder relative to the base against time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 3.5))
+    fig = _figure(figsize=(8, 3.5))
+    ax = fig.subplots()
     ax.plot(run.array("time") * 1e3, run.array("stroke") * 1e3)
     ax.set_xlabel("time [ms]")
     ax.set_ylabel("cylinder stroke [mm]")
@@ -172,4 +205,3 @@ def stroke_plot(path, run, title):
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

@@ -12,6 +12,8 @@ from .elements import (
     potential,
     wrench_on_b,
 )
+from .identification import FitWarning, PotentialFit, fit_potential, potential_in_frame
+from .polynomial import PolynomialTerms, polynomial_basis, workless_generalized_forces
 from .stiffness import adjoint_from_transform, centre_of_stiffness, stiffness_in_frame
 from .transforms import (
     dual_quaternion_from_transform,
@@ -21,17 +23,24 @@ from .transforms import (
 )
 
 __all__ = [
+    "FitWarning",
+    "PolynomialTerms",
+    "PotentialFit",
     "adjoint_from_transform",
     "centre_of_stiffness",
     "dissipation_power",
     "dual_quaternion_from_transform",
+    "fit_potential",
     "planar_dissipation_power",
     "planar_potential",
     "planar_wrench_on_b",
+    "polynomial_basis",
     "potential",
+    "potential_in_frame",
     "stiffness_in_frame",
     "transform_from_dual_quaternion",
     "transform_from_twist",
     "twist_from_transform",
+    "workless_generalized_forces",
     "wrench_on_b",
 ]

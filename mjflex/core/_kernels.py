@@ -82,11 +82,6 @@ def _lin3(ca, a, cb, b, cc, c):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _vec(a):
-    return (a[0], a[1], a[2])
-
-
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _mat_vec(R, v):
     """``R @ v`` for a row-major 9-tuple ``R``."""
     return (
@@ -106,30 +101,44 @@ def _mat_t_vec(R, v):
     )
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
-def load9(R, i):
-    """Row-major 9-tuple of the (3, 3) matrix ``R[i]`` of an (n, 3, 3) array."""
-    return (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2], R[i, 1, 0], R[i, 1, 1], R[i, 1, 2], R[i, 2, 0], R[i, 2, 1], R[i, 2, 2])
+# Loaders: the matrices and vectors of one element as tuples (kept in registers by numba). They
+# read rows of 2-D arrays, the layout MuJoCo uses (``xmat`` is (n, 9)) and the provider's tables
+# use; batch arrays of shape (n, 3, 3) or (n, 6, 6) are passed as their (n, 9) / (n, 36) views
+# (``flat_rows``).
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
-def load3(p, i):
-    """3-tuple ``p[i]`` of an (n, 3) array."""
-    return (p[i, 0], p[i, 1], p[i, 2])
+def load3(a, i, at=0):
+    """3-tuple ``a[i, at:at + 3]`` of a 2-D array."""
+    return (a[i, at], a[i, at + 1], a[i, at + 2])
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
-def load36(M, k):
-    """Row-major 36-tuple of the (6, 6) matrix ``M[k]`` of an (n, 6, 6) array."""
-    m = M[k]
+def load9(a, i, at=0):
+    """Row-major 3x3 matrix stored in ``a[i, at:at + 9]``, as a 9-tuple."""
     return (
-        m[0, 0], m[0, 1], m[0, 2], m[0, 3], m[0, 4], m[0, 5],
-        m[1, 0], m[1, 1], m[1, 2], m[1, 3], m[1, 4], m[1, 5],
-        m[2, 0], m[2, 1], m[2, 2], m[2, 3], m[2, 4], m[2, 5],
-        m[3, 0], m[3, 1], m[3, 2], m[3, 3], m[3, 4], m[3, 5],
-        m[4, 0], m[4, 1], m[4, 2], m[4, 3], m[4, 4], m[4, 5],
-        m[5, 0], m[5, 1], m[5, 2], m[5, 3], m[5, 4], m[5, 5],
+        a[i, at], a[i, at + 1], a[i, at + 2], a[i, at + 3], a[i, at + 4], a[i, at + 5],
+        a[i, at + 6], a[i, at + 7], a[i, at + 8],
     )  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def load36(a, i, at=0):
+    """Row-major 6x6 matrix stored in ``a[i, at:at + 36]``, as a 36-tuple."""
+    return (
+        a[i, at], a[i, at + 1], a[i, at + 2], a[i, at + 3], a[i, at + 4], a[i, at + 5],
+        a[i, at + 6], a[i, at + 7], a[i, at + 8], a[i, at + 9], a[i, at + 10], a[i, at + 11],
+        a[i, at + 12], a[i, at + 13], a[i, at + 14], a[i, at + 15], a[i, at + 16], a[i, at + 17],
+        a[i, at + 18], a[i, at + 19], a[i, at + 20], a[i, at + 21], a[i, at + 22], a[i, at + 23],
+        a[i, at + 24], a[i, at + 25], a[i, at + 26], a[i, at + 27], a[i, at + 28], a[i, at + 29],
+        a[i, at + 30], a[i, at + 31], a[i, at + 32], a[i, at + 33], a[i, at + 34], a[i, at + 35],
+    )  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
+def flat_rows(a):
+    """The (n, k) view of a C-contiguous (n, ...) array: one row per batch entry."""
+    return a.reshape((a.shape[0], a.size // a.shape[0]))
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -412,11 +421,11 @@ def _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
-    """Wrench of one element on body B and its dissipated power.
+def generalized_forces(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
+    """Coordinates of one element and the quadratic generalized forces on them.
 
-    Returns ``(m, f, power)``: moment about ``p_WB`` and force on B in world axes, and
-    ``rate^T B rate`` (times 4 for the dual-quaternion method) [W], 0 unless ``viscous``.
+    Returns ``(e1, e2, aux, y1, y2, power)``: the coordinates as in :func:`_coords`,
+    ``[y1; y2] = K [e1; e2] + B rate`` and ``rate^T B rate`` (0 unless ``viscous``).
     """
     e1, e2, aux = _coords(method, R_WA, p_WA, R_WB, p_WB)
     y1, y2 = _mat6_vec(K, e1, e2)
@@ -427,16 +436,46 @@ def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_
         power = _dot(r1, b1) + _dot(r2, b2)
         y1 = _lin(1.0, y1, 1.0, b1)
         y2 = _lin(1.0, y2, 1.0, b2)
+    return e1, e2, aux, y1, y2, power
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def force_map(method, e1, e2, aux, y1, y2):
+    """``(m, f, scale)``: the wrench on B in b coordinates is ``scale * [m; f]``.
+
+    ``[m; f] = Gamma_ab [y1; y2]`` with ``scale = -1`` (twist, eq. 49) or
+    ``Lambda_ab [y1; y2]`` with ``scale = -2`` (dual quaternion, eq. 87).
+    """
     if method == TWIST:
         m, f = _twist_gamma(e1, e2, aux[0], aux[1], y1, y2)
-        scale = -1.0
-    else:
-        m, f = _lambda_apply(aux[0], e1, aux[1], e2, y1, y2)
-        scale = -2.0
-        power *= 4.0
+        return m, f, -1.0
+    m, f = _lambda_apply(aux[0], e1, aux[1], e2, y1, y2)
+    return m, f, -2.0
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def to_world(scale, m, f, R_WB):
+    """``scale * [R_WB m; R_WB f]``."""
     m = _mat_vec(R_WB, m)
     f = _mat_vec(R_WB, f)
-    return _lin(scale, m, 0.0, m), _lin(scale, f, 0.0, f), power
+    return _lin(scale, m, 0.0, m), _lin(scale, f, 0.0, f)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
+    """Wrench of one element on body B and its dissipated power.
+
+    Returns ``(m, f, power)``: moment about ``p_WB`` and force on B in world axes, and
+    ``rate^T B rate`` (times 4 for the dual-quaternion method) [W], 0 unless ``viscous``.
+    """
+    e1, e2, aux, y1, y2, power = generalized_forces(
+        method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB
+    )
+    m, f, scale = force_map(method, e1, e2, aux, y1, y2)
+    if method != TWIST:
+        power *= 4.0
+    m, f = to_world(scale, m, f, R_WB)
+    return m, f, power
 
 
 # --------------------------------------------------------------------------- batch loops
@@ -450,6 +489,7 @@ def _i(a, i):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def spatial_wrench_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB, out, power):
+    R_WA, R_WB, K, B = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K), flat_rows(B)
     for i in range(out.shape[0]):
         m, f, power[i] = spatial_wrench(
             method,
@@ -472,6 +512,7 @@ def spatial_wrench_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def spatial_potential_batch(method, R_WA, p_WA, R_WB, p_WB, K, out):
+    R_WA, R_WB, K = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K)
     for i in range(out.shape[0]):
         out[i] = spatial_potential(
             method,
@@ -485,12 +526,14 @@ def spatial_potential_batch(method, R_WA, p_WA, R_WB, p_WB, K, out):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _quat_of(R, i):
+    """Unit quaternion of the rotation matrix in row ``i`` of an (n, 9) array."""
     r = load9(R, i)
     return quat_from_rot9(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8])
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def twist_from_transform_batch(R, p, out):
+    R = flat_rows(R)
     for i in range(out.shape[0]):
         w, x, y, z = _quat_of(R, _i(R, i))
         tau, t, _ = twist_from_quat_pos(w, x, y, z, load3(p, _i(p, i)))
@@ -516,6 +559,7 @@ def transform_from_twist_batch(xi, R_out, p_out):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def dual_quaternion_from_transform_batch(R, p, out):
+    R = flat_rows(R)
     for i in range(out.shape[0]):
         w, x, y, z = _quat_of(R, _i(R, i))
         s_d, x_d = dual_part(w, (x, y, z), load3(p, _i(p, i)))

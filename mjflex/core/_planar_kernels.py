@@ -10,7 +10,7 @@ import math
 
 from numba import njit
 
-from ._kernels import _PI, _TWO_PI, TWIST, _i, jl_inv_coefs, load9
+from ._kernels import _PI, _TWO_PI, TWIST, _i, flat_rows, jl_inv_coefs, load9
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -130,6 +130,7 @@ def _load2(a, i):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def planar_wrench_batch(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA, w_b, v_WB, out, power):
+    K, B = flat_rows(K), flat_rows(B)
     for i in range(out.shape[0]):
         m, f, power[i] = planar_wrench(
             method,
@@ -150,6 +151,7 @@ def planar_wrench_batch(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def planar_potential_batch(method, th_a, p_WA, th_b, p_WB, K, out):
+    K = flat_rows(K)
     for i in range(out.shape[0]):
         out[i] = planar_potential(
             method,

@@ -15,6 +15,13 @@ Both agree to second order at rest, where ``K`` is the stiffness of the element 
 (``K = [[K_o, K_c], [K_c^T, K_t]]``, eq. 40). The damping ``B`` acts on the rate of the same
 coordinates (eqs 58-67, 96-104).
 
+Higher-order potentials
+-----------------------
+``potential`` and ``wrench_on_b`` take ``terms=``, polynomial terms added to the quadratic energy
+(paper secs 4.8 and 5.8; :mod:`mjflex.core.polynomial`, fitted by
+:func:`mjflex.core.identification.fit_potential`). Without terms they run the quadratic kernels
+unchanged.
+
 Sign convention
 ---------------
 :func:`wrench_on_b` returns the wrench **the element exerts on body B**,
@@ -58,7 +65,9 @@ import numpy as np
 
 from . import _kernels as _k
 from . import _planar_kernels as _pk
+from . import _poly_kernels as _polyk
 from ._batch import flatten
+from .polynomial import PolynomialTerms
 from .validation import as_array, check_psd_matrix, check_rotation, method_code
 
 _SPATIAL = {  # argument -> (core shape, what)
@@ -116,26 +125,57 @@ def _prepare(spec, values, check):
     return shape, flat, viscous
 
 
-def _wrench_call(spec, kernel, values, method, check):
+def _terms_args(terms, method, K, check):
+    """``(exps, coefs, pw, grad)`` for the polynomial kernels, or None without terms."""
+    if terms is None:
+        return None
+    if not isinstance(terms, PolynomialTerms):
+        raise ValueError(
+            f"terms must be a mjflex.PolynomialTerms (or None for the quadratic potential); got {type(terms).__name__}"
+        )
+    if terms.method != method:
+        raise ValueError(
+            f"terms are in {terms.method!r} coordinates but method={method!r}: pass method={terms.method!r} "
+            "(the terms and K of a fitted potential belong together)."
+        )
+    if len(terms) == 0:
+        return None
+    if check:
+        H = terms.rest_stiffness()
+        if np.any(H):
+            check_psd_matrix(K + H, "K + terms.rest_stiffness()", 6, what="stiffness")
+    # writable copies: the compiled kernels then share one specialization with the MuJoCo loop's tables
+    return (np.array(terms.exponents), np.array(terms.coefficients), *_polyk.work_arrays(terms.exponents))
+
+
+def _wrench_call(spec, kernel, values, method, check, terms=None):
     """Run a wrench kernel; returns (wrench (..., n), dissipated power (...))."""
     code = method_code(method)
     shape, f, viscous = _prepare(spec, values, check)
+    extra = _terms_args(terms, method, f[4], check)
     n = math.prod(shape)
     out, power = np.empty((n, spec["K"][0][0])), np.empty(n)
-    kernel(code, *f[:6], viscous, *f[6:], out, power)
+    if extra is None:
+        kernel(code, *f[:6], viscous, *f[6:], out, power)
+    else:
+        _polyk.spatial_wrench_terms_batch(code, *f[:6], viscous, *f[6:], *extra, out, power)
     return out.reshape((*shape, spec["K"][0][0])), power.reshape(shape)
 
 
-def _energy_call(spec, kernel, values, method, check):
+def _energy_call(spec, kernel, values, method, check, terms=None):
     """Run a potential kernel; returns the energy (...)."""
     code = method_code(method)
     shape, f, _ = _prepare(spec, values, check)
+    extra = _terms_args(terms, method, f[4], check)
     out = np.empty(math.prod(shape))
-    kernel(code, *f, out)
+    if extra is None:
+        kernel(code, *f, out)
+    else:
+        _polyk.spatial_potential_terms_batch(code, *f, *extra, out)
     return out.reshape(shape)[()]
 
 
-def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", check=True):
+def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, check=True):
     """Elastic energy stored in the element [J].
 
     Parameters
@@ -149,6 +189,10 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", check=True):
         common origin, rows ``[rotation; translation]``: units ``N m/rad``, ``N/rad``, ``N/m``.
     method : {"twist", "dualquat"}
         ``1/2 xi^T K xi`` (eq. 39) or ``2 [xi_v; x']^T K [xi_v; x']`` (eq. 80).
+    terms : PolynomialTerms, optional
+        Higher-order terms added to the quadratic potential (:mod:`mjflex.core.polynomial`),
+        in the coordinates of ``method``; e.g. ``fit.terms`` of a fitted potential. Without
+        them (or with none) the result is the quadratic potential, bit for bit.
     check : bool
         Validate the arguments (skip only for arguments validated before).
 
@@ -158,12 +202,12 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", check=True):
         Energy [J], broadcast over the leading axes of all arguments.
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K}
-    return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check)
+    return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check, terms)
 
 
 def wrench_on_b(
     R_WA, p_WA, R_WB, p_WB, K, *, method="twist", B=None,
-    w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True,
+    w_WA=None, v_WA=None, w_WB=None, v_WB=None, terms=None, check=True,
 ):  # fmt: skip
     """Wrench that the element exerts on body B (elastic plus viscous).
 
@@ -187,6 +231,10 @@ def wrench_on_b(
         Linear velocities of the origins of frames a and b, world axes [m/s] (what
         ``mujoco.mj_objectVelocity`` returns for a site with ``flg_local=0``, reordered as
         ``w = res[:3]``, ``v = res[3:]``). Zero when omitted; only allowed with ``B``.
+    terms : PolynomialTerms, optional
+        Higher-order elastic terms (see :func:`potential`); the elastic wrench becomes
+        ``-Gamma_ab grad U`` (eq. 76) or ``-1/2 Lambda~_ab grad U`` (eq. 115). The viscous part
+        stays quadratic.
     check : bool
         Validate the arguments (skip only for arguments validated before).
 
@@ -198,7 +246,7 @@ def wrench_on_b(
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check)[0]
+    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, terms)[0]
 
 
 def dissipation_power(

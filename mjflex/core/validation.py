@@ -10,16 +10,22 @@ Tolerances, all relative so that they do not depend on units:
   natural scale whatever units rows and columns carry);
 * positive semi-definiteness: the smallest eigenvalue of the diagonally scaled matrix
   ``S M S``, ``S = diag(M_ii)^(-1/2)``, must be ``>= -PSD_RTOL`` (scale-invariant);
-* rotations: ``max |R^T R - I| <= ORTHONORMAL_ATOL`` and ``det R > 0``;
+* rotations: ``max |R^T R - I| <= ORTHONORMAL_ATOL`` and ``det R > 0``; for input of a
+  lower precision (float32, float16) the bound is ``ORTHONORMAL_EPS_FACTOR`` times its machine
+  epsilon instead, i.e. a rotation orthonormal to the precision it was given in is accepted
+  (and used in float64 as given);
 * unit dual quaternions: ``| |q_r| - 1 | <= UNIT_ATOL`` and
   ``|q_r . q_d| <= UNIT_ATOL * max(1, |q_d|)``.
 """
 
 import numpy as np
 
+from ._kernels import DUALQUAT, TWIST
+
 SYMMETRY_RTOL = 1e-8
 PSD_RTOL = 1e-10
 ORTHONORMAL_ATOL = 1e-9
+ORTHONORMAL_EPS_FACTOR = 16
 UNIT_ATOL = 1e-9
 
 _ORTHO_FIX = "re-orthonormalize it, e.g. scipy.spatial.transform.Rotation.from_matrix(R).as_matrix()"
@@ -58,15 +64,19 @@ def _first(mask: np.ndarray) -> tuple:
 
 
 def check_rotation(R, name: str) -> np.ndarray:
-    """Validated rotation matrices ``(..., 3, 3)``."""
+    """Validated rotation matrices ``(..., 3, 3)`` (float64; see the module notes for float32 input)."""
+    given = np.asarray(R).dtype if hasattr(R, "dtype") else np.dtype(np.float64)
+    low = np.issubdtype(given, np.floating) and np.finfo(given).eps > np.finfo(np.float64).eps
+    tol = max(ORTHONORMAL_ATOL, ORTHONORMAL_EPS_FACTOR * float(np.finfo(given).eps)) if low else ORTHONORMAL_ATOL
     R = as_array(R, name, (3, 3))
     err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
-    bad = err > ORTHONORMAL_ATOL
+    bad = err > tol
     if bad.any():
         i = _first(bad)
         raise ValueError(
             f"{_where(name, i)} is not a rotation matrix: max |R^T R - I| = {err[i]:.3g} exceeds "
-            f"{ORTHONORMAL_ATOL:g}; {_ORTHO_FIX}."
+            f"{tol:g} (for its dtype {given}); {_ORTHO_FIX}"
+            + (", in float64 (np.asarray(R, dtype=np.float64))." if low else ".")
         )
     det = np.linalg.det(R)
     bad = det <= 0
@@ -86,7 +96,8 @@ def check_psd_matrix(M, name: str, n: int, *, what: str) -> np.ndarray:
     """
     M = as_array(M, name, (n, n))
     diag = np.abs(np.diagonal(M, axis1=-2, axis2=-1))
-    scale = np.sqrt(diag[..., :, None] * diag[..., None, :])
+    root = np.sqrt(diag)  # sqrt(M_ii) sqrt(M_jj): no overflow of the product for entries up to 1e308
+    scale = root[..., :, None] * root[..., None, :]
     asym = np.abs(M - np.swapaxes(M, -1, -2)) / np.maximum(scale, np.finfo(float).tiny)
     bad = asym > SYMMETRY_RTOL
     if bad.any():
@@ -141,7 +152,9 @@ def check_unit_dual_quaternion(q, name: str) -> np.ndarray:
     return q
 
 
-METHOD_CODES = {"twist": 0, "dualquat": 1}
+#: Method name -> the code the kernels take; ``METHOD_NAMES`` is the reverse.
+METHOD_CODES = {"twist": TWIST, "dualquat": DUALQUAT}
+METHOD_NAMES = {code: name for name, code in METHOD_CODES.items()}
 
 
 def method_code(method: str, name: str = "method") -> int:

@@ -1,4 +1,4 @@
-"""Stiffness from geometry: notch hinges and leaf springs (numpy/scipy; no mujoco).
+"""Stiffness from geometry: notch hinges and leaf springs, and a large-deflection leaf model (no mujoco).
 
 ``notch_hinge_stiffness`` and ``leaf_spring_stiffness`` return the 6x6 at the centre of
 stiffness from stored 3-D finite-element tables (:mod:`.tables`, default), from finite
@@ -13,11 +13,14 @@ from .hinges import (
     notch_hinge_thickness,
     rectangle_torsion_constant,
 )
+from .rod import LeafChain, rod_segment_stiffness
 
 __all__ = [
+    "LeafChain",
     "bending_strain_per_radian",
     "leaf_spring_stiffness",
     "notch_hinge_stiffness",
     "notch_hinge_thickness",
     "rectangle_torsion_constant",
+    "rod_segment_stiffness",
 ]

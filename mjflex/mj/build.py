@@ -7,10 +7,19 @@ import mujoco
 import numpy as np
 
 from ..core import stiffness_in_frame, validation
+from ..core.identification import potential_in_frame
+from ..core.polynomial import PolynomialTerms
 from . import schema
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
-SITE_GROUP = 4  # hidden by default in MuJoCo's viewers; renderers enable it to show flexures
+#: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
+#: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
+#: on one site in ``SHAPE_SITE_GROUP`` and hide the other in ``HIDDEN_SITE_GROUP`` (ARCADE does);
+#: mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
+SITE_GROUP = 4
+SHAPE_SITE_GROUP = 3
+HIDDEN_SITE_GROUP = 5
+SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
 
 @dataclass
@@ -76,23 +85,10 @@ def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return data.xpos.copy(), data.xmat.reshape(-1, 3, 3).copy(), names
 
 
-def _matrix(M, name, element, what):
-    M = np.asarray(M, dtype=float)
-    if M.ndim == 1 and M.shape[0] in (3, 6):
-        M = np.diag(M)
-    n = M.shape[-1] if M.ndim == 2 else 0
-    if n not in (3, 6):
-        raise ValueError(f"flexure {element!r}: {name} must be 6x6 (or 6 diagonal entries), or 3x3 for a planar "
-                         f"element; got shape {M.shape}")  # fmt: skip
-    try:
-        return validation.check_psd_matrix(M, f"{name} of flexure {element!r}", n, what=what)
-    except ValueError as exc:
-        raise ValueError(str(exc)) from None
-
-
 def add_flexure(
-    spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist",
+    spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
+    exclude_contact=True,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -117,10 +113,15 @@ def add_flexure(
         Damping, same layout as ``K``.
     method : {"twist", "dualquat"}
         How the relative displacement is measured (:mod:`mjflex.core.elements`).
+    terms : PolynomialTerms, optional
+        Higher-order terms of the potential (e.g. ``fit.terms`` of :func:`mjflex.fit_potential`),
+        in the coordinates of ``method``, given in the same frame as ``K``; stored with their
+        order in the record.
     stiffness_frame : tuple (pos, quat), optional
-        World pose (reference configuration) of the frame in which ``K`` and ``B`` are given,
-        e.g. a centre of stiffness or a clamped end; they are moved to the element frame with
-        the adjoint (eq. 54). Default: the element frame itself.
+        World pose (reference configuration) of the frame in which ``K``, ``B`` and ``terms`` are
+        given, e.g. a centre of stiffness or a clamped end; they are moved to the element frame
+        with the adjoint (eq. 54; the terms by :func:`mjflex.potential_in_frame`). Default: the
+        element frame itself.
     enabled, viscous : bool
         Initial run-time switches stored in the model.
     strain_per_radian : float, optional
@@ -130,6 +131,12 @@ def add_flexure(
     poses : tuple, optional
         Output of :func:`reference_body_poses` to reuse when adding many flexures (the spec is
         compiled otherwise).
+    exclude_contact : bool
+        Exclude contacts between the two bodies (``<contact><exclude body1 body2/></contact>``;
+        once per pair): the element holds them together where their geoms usually touch, and
+        MuJoCo would push them apart. ``False`` keeps their contacts. A pair with the world is
+        never excluded here (the world holds floors and obstacles; MuJoCo's parent-child filter
+        exempts it likewise): :class:`mjflex.Flexures` warns if such geoms touch at rest.
 
     Returns
     -------
@@ -139,8 +146,8 @@ def add_flexure(
     site_names = schema.site_names(name)
     if spec.text(schema.PREFIX + name) is not None or any(spec.site(s) is not None for s in site_names):
         raise ValueError(f"flexure {name!r} already exists in the spec (its sites or text record); pick another name")
-    K = _matrix(K, "K", name, "stiffness")
-    B = None if B is None else _matrix(B, "B", name, "damping")
+    K = schema.element_matrix(K, f"K of flexure {name!r}")
+    B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
         raise ValueError(f"flexure {name!r}: B has shape {B.shape} but K has {K.shape}; both 6x6 or both 3x3")
     p_WE = validation.as_array(pos, "pos", (3,))
@@ -151,8 +158,11 @@ def add_flexure(
         p_WF = validation.as_array(stiffness_frame[0], "stiffness_frame pos", (3,))
         R_WF = _rotation(_unit_quat(stiffness_frame[1], "stiffness_frame quat"))
         R_FE, p_FE = R_WF.T @ R_WE, R_WF.T @ (p_WE - p_WF)
-        K = stiffness_in_frame(K, R_FE, p_FE)
         B = None if B is None else stiffness_in_frame(B, R_FE, p_FE)
+        if terms is not None and len(terms):
+            K, terms = potential_in_frame(K, terms, R_FE, p_FE)
+        else:
+            K = stiffness_in_frame(K, R_FE, p_FE)
     bodies = _body(spec, body_a, "body_a"), _body(spec, body_b, "body_b")
     if bodies[0] is bodies[1]:
         raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
@@ -165,9 +175,36 @@ def add_flexure(
             name=site_name, pos=R_WB.T @ (p_WE - p_WB), quat=_quaternion(R_WB.T @ R_WE),
             size=[SITE_SIZE, 0, 0], group=SITE_GROUP,
         ))  # fmt: skip
-    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source)
+    if exclude_contact and all(b is not spec.worldbody for b in bodies):
+        exclude_contacts(spec, *bodies)
+    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
+                                  *_checked_terms(terms, method, K, name))  # fmt: skip
     text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def _checked_terms(terms, method, K, name):
+    """``(terms, order)`` for the record: None and 2 without terms; raises ValueError naming the element."""
+    if terms is None:
+        return None, 2
+    if not isinstance(terms, PolynomialTerms):
+        raise ValueError(f"flexure {name!r}: terms must be a mjflex.PolynomialTerms; got {type(terms).__name__}")
+    if terms.method != method:
+        raise ValueError(f"flexure {name!r}: the terms are in {terms.method} coordinates; pass method={terms.method!r}")
+    if len(terms) == 0:
+        return None, 2
+    payload = {"order": terms.order, "terms": {k: v for k, v in terms.to_dict().items() if k != "method"}}
+    try:  # the record's own checks (e.g. K plus the terms' stiffness at rest is PSD)
+        return schema.order_and_terms(payload, method, K)[::-1]
+    except ValueError as exc:
+        raise ValueError(f"flexure {name!r}: {exc}") from None
+
+
+def exclude_contacts(spec, body_a, body_b) -> None:
+    """Add ``<exclude body1 body2/>`` for two named bodies of ``spec`` unless the pair is excluded already."""
+    pair = {body_a.name, body_b.name}
+    if not any({e.bodyname1, e.bodyname2} == pair for e in spec.excludes):
+        spec.add_exclude(bodyname1=body_a.name, bodyname2=body_b.name)
 
 
 def add_flexure_in_body_frame(spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), poses=None, **kwargs):

@@ -1,54 +1,34 @@
 """The passive-force provider: parse a model's flexures once, then add their forces every step."""
 
 import difflib
+import warnings
 
 import mujoco
 import numpy as np
 
 from ..core import validation
-from ..core.transforms import twist_from_transform
-from . import _callback, schema
+from . import _callback, _tables
 from . import _kernels as k
+from ._tables import ModelError
+
+__all__ = ["Flexures", "ModelError"]
+
+_SLEEP = mujoco.mjtSleepPolicy
+_SLEEPY = {int(_SLEEP.mjSLEEP_ALLOWED), int(_SLEEP.mjSLEEP_INIT)}  # the user's explicit choices
+_AUTO = {int(_SLEEP.mjSLEEP_AUTO), int(_SLEEP.mjSLEEP_AUTO_ALLOWED)}  # the compiler's
+
+#: dtype of :meth:`Flexures.table`: one row per element.
+TABLE_DTYPE = np.dtype(
+    [("name", object), ("wrench", np.float64, (6,)), ("displacement", np.float64, (6,)),
+     ("energy", np.float64), ("power", np.float64), ("enabled", bool), ("method", "U8")]
+)  # fmt: skip
 
 
-class ModelError(ValueError):
-    """A flexure element of a model is malformed; the message names the element and the fix."""
-
-
-def _names(model, objtype, count):
-    return [mujoco.mj_id2name(model, objtype, i) or "" for i in range(count)]
-
-
-def _text_records(model):
-    """``{element: json_data}`` of the model's ``mjflex:`` text records."""
-    out = {}
-    for i, name in enumerate(_names(model, mujoco.mjtObj.mjOBJ_TEXT, model.ntext)):
-        if name.startswith(schema.PREFIX):
-            adr, size = model.text_adr[i], model.text_size[i]
-            out[name[len(schema.PREFIX) :]] = bytes(model.text_data[adr : adr + size - 1]).decode("utf-8")
-    return out
-
-
-def _dof_chain(model, body):
-    """Dofs whose motion moves ``body``, from its own last dof to the root."""
-    while body > 0 and model.body_dofnum[body] == 0:
-        body = model.body_parentid[body]
-    if body == 0:
-        return []
-    j, chain = model.body_dofadr[body] + model.body_dofnum[body] - 1, []
-    while j >= 0:
-        chain.append(int(j))
-        j = model.dof_parentid[j]
-    return chain
-
-
-def _free_dofadr(model, body):
-    """Dof address of a free joint that is the only joint of a child of the world, else -1."""
-    if body > 0 and model.body_parentid[body] == 0 and model.body_jntnum[body] == 1:
-        j = model.body_jntadr[body]
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
-            return int(model.jnt_dofadr[j])
-    return -1
+def _restore(model, copies, enabled, viscous, methods):
+    """Unpickle a :class:`Flexures`: rebuilt from its model, with its switches and served copies."""
+    flex = Flexures(model)
+    flex._ints[:, k.ENABLED], flex._ints[:, k.VISCOUS], flex._ints[:, k.METHOD] = enabled, viscous, methods
+    return flex.serve(copies) if copies else flex
 
 
 class Flexures:
@@ -65,13 +45,32 @@ class Flexures:
     Notes
     -----
     ``install()`` (or ``with flex:``) adds the elements' generalized forces to
-    ``data.qfrc_passive`` inside every ``mj_step`` / ``mj_forward`` of this model, for every
-    integrator and any kinematic tree. The functions that read a ``data`` (``wrenches``,
-    ``potential_energy``, ...) use its kinematics as they are (``site_xpos``, ``cvel``...), i.e.
-    as of the last ``mj_forward`` or the start of the last ``mj_step``, like ``data.energy``.
-    MuJoCo's ``spring`` / ``damper`` disable flags switch off the elastic / viscous parts.
-    A provider is bound to this ``MjModel`` object; a copy of it (``copy.copy``, or the file
-    loaded again) needs its own ``Flexures``. One provider per model can be installed at a time.
+    ``data.qfrc_passive`` inside every ``mj_step`` / ``mj_forward`` of this model (and of the
+    copies given to :meth:`serve`), for every integrator and any kinematic tree. The functions
+    that read a ``data`` (``wrenches``, ``potential_energy``, ...) use its kinematics as they are
+    (``site_xpos``, ``cvel``...), i.e. as of the last ``mj_forward`` or the start of the last
+    ``mj_step``, like ``data.energy``. MuJoCo's ``spring`` / ``damper`` disable flags switch off
+    the elastic / viscous parts.
+
+    Installation nests: ``install`` / ``uninstall`` are counted per provider (an inner
+    ``with flex:`` leaves the outer one installed), and when several providers of one model are
+    installed, the innermost (last installed) serves it; uninstalling it hands the model back to
+    the outer one. A provider is bound to its ``MjModel`` object; a copy of it (``copy.copy``,
+    the models of a ``mujoco.batch.Batch``) gets the forces once given to :meth:`serve`.
+    A ``Flexures`` pickles (for process pools, Dask, Ray): it is rebuilt from its model on
+    unpickling, with its switches and served copies, and arrives uninstalled.
+
+    Sleeping (``<flag sleep="enable"/>``): MuJoCo ignores forces on sleeping trees and wakes
+    trees only in the position stage, so a passive callback cannot wake one. Trees joined by an
+    element to another tree (or to a mocap body) therefore never sleep: their automatic policy
+    is set to "never" here, as MuJoCo's compiler does for trees coupled by stiff tendons; an
+    explicit ``sleep="allowed"`` or ``"init"`` on such a tree is kept, with a warning at install.
+
+    Contacts: MuJoCo collides the bodies an element joins unless their pair is excluded
+    (``<contact><exclude body1 body2/></contact>``, which :func:`mjflex.add_flexure` writes) or
+    their geoms cannot collide. At construction a warning names the elements whose two bodies
+    MuJoCo's own collision detection finds in contact at ``qpos0`` (every collision rule counts:
+    contype/conaffinity, the parent filter, excludes, explicit pairs, margins).
 
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
@@ -81,141 +80,228 @@ class Flexures:
     (tested). Under ``discrete`` the velocity-stepping solve treats them like any applied force:
     first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
     map ``(v+ - v)/h``.
+
+    Divergence: an element whose wrench is not finite, or alone would accelerate one of its
+    bodies beyond 1e10 (MuJoCo's ``mjMAXVAL``), is reported with its name, the time and the
+    step, and ``qfrc_passive`` is set to NaN so that MuJoCo's own handling follows: with
+    MuJoCo's auto-reset on (its default) a warning, then MuJoCo's reset; with auto-reset
+    disabled ``mujoco.FatalError`` from ``mj_step`` (``mujoco.batch.SimulationError`` from a
+    ``Batch``), or a warning in ``mujoco.rollout``'s worker threads, where an error would end
+    the process.
     """
 
     def __init__(self, model: mujoco.MjModel):
+        if not isinstance(model, mujoco.MjModel):
+            hint = " (pass data.model, or the model you made the data from)" if isinstance(model, mujoco.MjData) else ""
+            raise TypeError(f"Flexures expects a mujoco.MjModel; got {type(model).__name__}{hint}")
         self.model = model
-        texts = _text_records(model)
-        self.names = tuple(texts)
+        self._copies = ()
+        self._depth = 0
+        self._tables = _tables.derive(model)
+        t = self._tables
+        self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
-        self.records = [self._record(name, texts[name]) for name in self.names]
-        self._build_tables()
-
-    # ------------------------------------------------------------------ parsing
-
-    def _error(self, element, problem, fix):
-        return ModelError(f"flexure '{element}': {problem}. {fix}")
-
-    def _record(self, element, data):
-        try:
-            rec = schema.parse_text(element, data)
-        except ValueError as exc:
-            raise self._error(element, f"text record '{schema.PREFIX}{element}' is malformed: {exc}", "Fix the JSON "
-                              "data (see mjflex.mj.schema for the keys).") from None  # fmt: skip
-        for key in ("K", "B"):
-            M = getattr(rec, key)
-            if M is None:
-                continue
-            try:
-                validation.check_psd_matrix(M, key, M.shape[0], what="stiffness" if key == "K" else "damping")
-            except ValueError as exc:
-                raise self._error(element, str(exc).rstrip("."), "Fix its text record.") from None
-        return rec
-
-    def _site(self, element, name, all_sites):
-        sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name)
-        if sid < 0:
-            others = set(schema.site_names(element))
-            close = difflib.get_close_matches(name, [s for s in all_sites if s not in others], n=3, cutoff=0.6)
-            hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-            raise self._error(
-                element, f"site '{name}' not found",
-                f"Add <site name=\"{name}\"/> at the element frame ({'body A' if name.endswith('/a') else 'body B'})"
-                f" or rename the existing site.{hint}",
-            )  # fmt: skip
-        return sid
-
-    def _build_tables(self):
-        m, n = self.model, len(self.names)
-        all_sites = _names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite)
-        ref = mujoco.MjData(m)
-        ref.qpos[:] = m.qpos0
-        mujoco.mj_kinematics(m, ref)
-        self._ints = np.zeros((n, k.NI), dtype=np.int64)
-        self._floats = np.zeros((n, k.NF))
-        chain = []
-        for e, rec in enumerate(self.records):
-            sa, sb = (self._site(rec.name, s, all_sites) for s in schema.site_names(rec.name))
-            ba, bb = int(m.site_bodyid[sa]), int(m.site_bodyid[sb])
-            if ba == bb:
-                body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, ba) or f"#{ba}"
-                fix = "Put site '/a' on one body and '/b' on the other (use 'world' to ground)."
-                raise self._error(rec.name, f"both sites are on body '{body}'", fix)
-            R0, p0 = self._rest_offset(rec.name, ref, sa, sb)
-            row = self._ints[e]
-            row[[k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B]] = sa, sb, ba, bb
-            row[k.METHOD] = validation.METHOD_CODES[rec.method]
-            row[k.ENABLED], row[k.VISCOUS] = rec.enabled, rec.viscous and rec.B is not None
-            row[k.OFFSET] = not (np.array_equal(R0, np.eye(3)) and not p0.any())
-            for body, free, c0, c1 in ((ba, k.FREE_A, k.CHAIN_A0, k.CHAIN_A1), (bb, k.FREE_B, k.CHAIN_B0, k.CHAIN_B1)):
-                row[free] = _free_dofadr(m, body)
-                dofs = [] if row[free] >= 0 else _dof_chain(m, body)
-                row[c0], row[c1] = len(chain), len(chain) + len(dofs)
-                chain.extend(dofs)
-            K = schema.embed_planar(rec.K) if rec.planar else rec.K
-            B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
-            self._floats[e, k.K_AT : k.K_AT + 36] = K.ravel()
-            self._floats[e, k.B_AT : k.B_AT + 36] = B.ravel()
-            self._floats[e, k.R0_AT : k.R0_AT + 9] = R0.ravel()
-            self._floats[e, k.P0_AT : k.P0_AT + 3] = p0
-        self._chain = np.array(chain + [0], dtype=np.int64)  # never empty: a valid address
-        self._rootid = np.ascontiguousarray(m.body_rootid, dtype=np.int64)
+        self._ints, self._floats, self._chain, self._rootid = t.ints, t.floats, t.chain, t.rootid
+        self._exps, self._coefs = t.exps, t.coefs
+        self._fingerprints = {}
+        self._warn_contacts(model)
+        self._sleep_policy(model)
+        self._fingerprints[model._address] = _tables.fingerprint(model)
         self._messages = [self._message(name) for name in self.names]
         self._message_addresses = np.array([np.frombuffer(b, np.uint8).ctypes.data for b in self._messages] or [0])
 
-    def _rest_offset(self, element, ref, sa, sb):
-        """Relative pose ``X_ab0`` of the sites at ``qpos0``; must be (numerically) identity."""
-        R_a, R_b = ref.site_xmat[sa].reshape(3, 3), ref.site_xmat[sb].reshape(3, 3)
-        R0 = R_a.T @ R_b
-        p0 = R_a.T @ (ref.site_xpos[sb] - ref.site_xpos[sa])
-        dist = float(np.linalg.norm(p0))
-        angle = float(np.linalg.norm(twist_from_transform(R0, p0, check=False)[:3]))
-        tol = schema.COINCIDENCE_RTOL * max(float(self.model.stat.extent), 1e-3)
-        if dist > tol or angle > schema.COINCIDENCE_ANGLE:
-            a, b = schema.site_names(element)
-            raise self._error(
-                element,
-                f"sites '{a}' and '{b}' are {dist:.3g} m apart and {angle:.3g} rad apart at qpos0 "
-                f"(tolerance {tol:.3g} m, {schema.COINCIDENCE_ANGLE:g} rad)",
-                "Both frames must coincide in the reference configuration: place both at the same world "
-                "pose (mjflex.add_flexure does this).",
-            )
-        return R0, p0
+    def __reduce__(self):
+        ints = self._ints
+        switches = (ints[:, k.ENABLED].copy(), ints[:, k.VISCOUS].copy(), ints[:, k.METHOD].copy())
+        return _restore, (self.model, tuple(self._copies), *switches)
+
+    # ------------------------------------------------------------------ building
 
     def _message(self, element):
         name = self.model.names[: self.model.names.index(b"\x00")].decode() or "unnamed"
         text = (
-            f"mjflex: flexure '{element}' of model '{name}' produced a non-finite wrench: the pose or velocity of "
-            "its bodies is NaN/inf or the simulation diverged. Reduce the time step, or check the qpos/qvel you set."
+            f"mjflex: flexure '{element}' of model '{name}'".replace("%", "%%")
+            + " diverged at time %.9g s (step %.0f): its wrench is not finite or would alone accelerate a body "
+            "beyond 1e10 (MuJoCo's mjMAXVAL). Reduce the time step (mjflex.mj.linearize.normal_modes gives the "
+            "stiffest mode), or check the qpos/qvel you set."
         )
-        return text.replace("%", "%%").encode() + b"\x00"
+        return text.encode() + b"\x00"
+
+    def _warn_contacts(self, model):
+        """Warn about elements whose bodies MuJoCo finds in contact at rest (:func:`._tables.contacts_at_rest`)."""
+        touching = _tables.contacts_at_rest(model, self._tables)
+        if not touching:
+            return
+        element, g1, g2 = touching[0]
+        a, b = (
+            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
+            for i in self._ints[self._index[element], [k.BODY_A, k.BODY_B]]
+        )
+        more = f" (and {len(touching) - 1} more elements: {', '.join(t[0] for t in touching[1:4])}...)"
+        warnings.warn(
+            f"mjflex: the bodies '{a}' and '{b}' joined by flexure '{element}'{more if len(touching) > 1 else ''} are "
+            f"in contact in the reference configuration (geoms '{g1}' and '{g2}'): MuJoCo's contact pushes them "
+            "apart while the element holds them together, which usually diverges. Exclude the pair: "
+            f'<contact><exclude body1="{a}" body2="{b}"/></contact> (mjflex.add_flexure does this by default), '
+            "or give the geoms contype/conaffinity that cannot collide.",
+            UserWarning,
+            stacklevel=3,
+        )
+
+    def _sleep_policy(self, model):
+        """Keep trees joined to another tree awake (see the class notes); returns what stays sleepy."""
+        sleepy = {}
+        for tree, element in self._tables.joined_trees.items():
+            policy = int(model.tree_sleep_policy[tree])
+            if policy in _AUTO:
+                model.tree_sleep_policy[tree] = int(_SLEEP.mjSLEEP_AUTO_NEVER)
+            elif policy in _SLEEPY:
+                sleepy[tree] = element
+        return sleepy
+
+    def _warn_sleepy(self, model):
+        sleepy = self._sleep_policy(model)
+        if sleepy and model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP:
+            tree, element = next(iter(sleepy.items()))
+            root = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.tree_bodyadr[tree]) or f"#{tree}"
+            warnings.warn(
+                f"mjflex: flexure '{element}' joins tree '{root}' (and {len(sleepy) - 1} more), whose sleep policy "
+                "allows sleeping: MuJoCo ignores forces on a sleeping tree and a passive callback cannot wake it "
+                "(MuJoCo wakes trees in the position stage), so the element's force is lost while it sleeps. "
+                'Set sleep="auto" or "never" on the tree\'s root body, or disable sleeping.',
+                UserWarning,
+                stacklevel=4,
+            )
+
+    def _check_model(self, model, what):
+        """Raise unless ``model`` still holds this provider's elements where they were built."""
+        digest = _tables.fingerprint(model)
+        if self._fingerprints.get(model._address) == digest or (
+            model is not self.model and self._fingerprints.get(self.model._address) == digest
+        ):  # unchanged, or a byte-identical copy of flex.model
+            return
+        fix = (
+            "An element is unstressed at the pose its sites had when the Flexures was built (mjflex has no "
+            "pre-stress), and a provider serves only copies of its model: build a new mjflex.Flexures(model) "
+            "after editing site, body or record data"
+        )
+        try:
+            other = _tables.derive(model)
+        except ModelError as exc:
+            raise ModelError(f"{what} changed since this Flexures was built: {exc} {fix}") from None
+        diff = _tables.difference(self._tables, other, self.model, model)
+        if diff is not None:
+            raise ModelError(f"{what}: {diff} since this Flexures was built. {fix}")
+        self._fingerprints[model._address] = digest
 
     # ------------------------------------------------------------------ installation
 
-    def _slot_words(self):
+    @property
+    def models(self) -> tuple:
+        """The models this provider adds forces to: its own, then the copies given to :meth:`serve`."""
+        return (self.model, *self._copies)
+
+    def serve(self, models) -> "Flexures":
+        """Also add the forces to these copies of the model; returns ``self``.
+
+        Parameters
+        ----------
+        models : mujoco.MjModel, sequence of mujoco.MjModel, or mujoco.batch.Batch
+            Copies of ``flex.model`` (``copy.copy``, a pickled and restored model, a model
+            compiled again from the same spec) that may differ in anything mjflex does not read
+            (masses, options, ...) but must hold the same elements, sites and dofs; each is
+            checked (:class:`ModelError` names the first difference). They replace the copies
+            served before. A ``Batch`` is served on the models it steps: ``batch.models`` if set,
+            else ``batch.set_models(flex.model)`` is called first (a Batch's own copy of the
+            model is invisible to callbacks; a Batch with expanded per-simulation fields needs
+            per-simulation copies: make them, edit them, ``set_models`` them, then serve the batch).
+
+        Notes
+        -----
+        Serving ``n`` copies takes ``n`` of the process's ``mjflex.mj._callback.CAPACITY``
+        (1024) model slots; identical copies are best served as one model
+        (``batch.set_models(flex.model)``). The run-time switches (``set_enabled``, ...) act on
+        all served models. The provider keeps the copies alive; ``serve(())`` drops them.
+        """
+        models = self._models_of(models)
+        for i, model in enumerate(models):
+            self._check_model(model, f"model {i} given to serve()")
+            self._sleep_policy(model)
+        copies = tuple(m for m in dict.fromkeys(models) if m is not self.model)
+        with _callback._LOCK:
+            if self._depth and self.names:
+                _callback.unregister(self, [m for m in self._copies if m not in copies])
+                _callback.register(self, [m for m in copies if m not in self._copies])
+            self._copies = copies
+        return self
+
+    def _models_of(self, models):
+        batch = getattr(models, "set_models", None)
+        if batch is not None:
+            if models.models is None:
+                self._check_model(models.model, "the Batch's model")
+                try:
+                    models.set_models(self.model)
+                except (ValueError, mujoco.FatalError) as exc:
+                    raise ValueError(
+                        f"this Batch has per-simulation fields ({exc}); mjflex cannot see the model copies a Batch "
+                        "makes for them. Give each simulation a copy (copies = [copy.copy(model) ...], edit them), "
+                        "call batch.set_models(copies), then flex.serve(batch)"
+                    ) from None
+            models = models.models
+        models = [models] if isinstance(models, mujoco.MjModel) else list(models)
+        for model in models:
+            if not isinstance(model, mujoco.MjModel):
+                raise TypeError(f"serve() expects mujoco.MjModel copies of flex.model; got {type(model).__name__}")
+        return models
+
+    def _slot_words(self, model):
         words = np.zeros(k.SLOT, dtype=np.int64)
+        words[k.S_MODEL] = model._address
         words[k.S_N] = len(self.names)
         words[k.S_INTS], words[k.S_FLOATS] = self._ints.ctypes.data, self._floats.ctypes.data
         words[k.S_CHAIN], words[k.S_NCHAIN] = self._chain.ctypes.data, len(self._chain)
         words[k.S_ROOTID] = self._rootid.ctypes.data
-        words[k.S_NSITE], words[k.S_NBODY], words[k.S_NV] = self.model.nsite, self.model.nbody, self.model.nv
+        words[k.S_NSITE], words[k.S_NBODY], words[k.S_NV] = model.nsite, model.nbody, model.nv
         words[k.S_MESSAGES] = self._message_addresses.ctypes.data
+        words[k.S_EXPS], words[k.S_COEFS], words[k.S_NTERMS] = (
+            self._exps.ctypes.data,
+            self._coefs.ctypes.data,
+            len(self._coefs),
+        )
         return words
 
     def install(self) -> "Flexures":
-        """Start adding this model's flexure forces in ``mj_step`` / ``mj_forward``."""
-        if self.names:
-            _callback.register(self, self._slot_words())
+        """Start adding the forces in ``mj_step`` / ``mj_forward`` of the served models (counted, see Notes).
+
+        Checks first that the models still hold the elements as built (edited site or body
+        poses raise :class:`ModelError`) and warns about trees that may sleep.
+        """
+        with _callback._LOCK:
+            if self._depth == 0 and self.names:
+                for i, model in enumerate(self.models):
+                    self._check_model(model, "flex.model" if i == 0 else f"served model {i - 1}")
+                    self._warn_sleepy(model)
+                _callback.register(self, self.models)
+            self._depth += 1
         return self
 
     def uninstall(self) -> None:
-        """Stop; when no model is left, restore the passive callback that was there before."""
-        _callback.unregister(self)
+        """Undo one ``install``; the last one stops the forces (an outer provider of the model takes over).
+
+        When no model is served any more, the passive callback that was there before is restored.
+        """
+        with _callback._LOCK:
+            if self._depth == 0:
+                return
+            self._depth -= 1
+            if self._depth == 0 and self.names:
+                _callback.unregister(self, self.models)
 
     @property
     def installed(self) -> bool:
-        """Whether the forces are currently added (False if another callback replaced ours)."""
-        return bool(self.names) and _callback.is_installed(self)
+        """Whether this provider adds the forces to its model now (False if another callback replaced ours)."""
+        return bool(self.names) and _callback.serving(self.model) is self and _callback.dispatcher_installed()
 
     def __enter__(self):
         return self.install()
@@ -231,23 +317,43 @@ class Flexures:
 
     # ------------------------------------------------------------------ evaluation
 
-    def _run(self, data, mode, out6=None, out1=None, qfrc=None):
+    def _check_data(self, data):
+        if not isinstance(data, mujoco.MjData):
+            raise TypeError(f"expected a mujoco.MjData of flex.model; got {type(data).__name__}")
         m = self.model
-        if data.qpos.shape != (m.nq,) or data.site_xpos.shape != (m.nsite, 3):
-            raise ValueError("data does not belong to this model (sizes differ); pass mujoco.MjData(flex.model)")
-        flags = m.opt.disableflags
-        status = k.flexure_loop(
-            mode, self._ints, self._floats, self._chain, self._rootid, data.site_xpos, data.site_xmat, data.xpos,
+        sizes, expected = (data.qpos.size, data.qvel.size, data.xpos.shape[0], data.site_xpos.shape[0]), (
+            m.nq, m.nv, m.nbody, m.nsite,
+        )  # fmt: skip
+        if sizes != expected:
+            raise ValueError(
+                f"data belongs to another model: (nq, nv, nbody, nsite) = {sizes}, but flex.model has {expected}; "
+                "pass mujoco.MjData(flex.model), or build a Flexures for the data's model"
+            )
+
+    def _run(self, data, mode, out6=None, out1=None, qfrc=None, model=None, accel_limit=np.inf):
+        """Evaluate the elements on ``data``; returns -1 or the index of the first diverging element."""
+        flags = (model or self.model).opt.disableflags
+        return k.flexure_loop(
+            mode, self._ints, self._floats, self._chain, self._rootid, self._exps, self._coefs, data.site_xpos,
+            data.site_xmat, data.xpos,
             data.xmat, data.cvel, data.subtree_com, data.cdof,
             not flags & mujoco.mjtDisableBit.mjDSBL_SPRING, not flags & mujoco.mjtDisableBit.mjDSBL_DAMPER,
-            np.zeros(0) if qfrc is None else qfrc, np.zeros((0, 6)) if out6 is None else out6,
+            accel_limit, np.zeros(0) if qfrc is None else qfrc, np.zeros((0, 6)) if out6 is None else out6,
             np.zeros(0) if out1 is None else out1,
         )  # fmt: skip
-        if status >= 0:
-            raise mujoco.FatalError(self._messages[status][:-1].decode().replace("%%", "%"))
 
-    def _apply_in_callback(self, data):
-        self._run(data, k.APPLY, qfrc=data.qfrc_passive)
+    def _query(self, data, mode, out6=None, out1=None, qfrc=None):
+        self._check_data(data)
+        status = self._run(data, mode, out6, out1, qfrc)
+        if status >= 0:
+            raise mujoco.FatalError(_callback.message_text(self.model, data, self._messages[status]))
+
+    def _apply_in_callback(self, model, data):
+        """The Python dispatcher's work: add the forces; report a diverging element like the native one."""
+        status = self._run(data, k.APPLY, qfrc=data.qfrc_passive, model=model, accel_limit=k.ACCEL_LIMIT)
+        if status >= 0:
+            data.qfrc_passive[:] = np.nan
+            _callback.report_in_python(model, data, self._messages[status])
 
     def index(self, name: str) -> int:
         """Row of element ``name`` in the per-element arrays."""
@@ -260,19 +366,19 @@ class Flexures:
     def wrenches(self, data) -> np.ndarray:
         """Wrench of each element on its body B, ``(n, 6)``: ``[moment about site b; force]``, world axes [N m; N]."""
         out = np.empty((len(self), 6))
-        self._run(data, k.WRENCH, out6=out)
+        self._query(data, k.WRENCH, out6=out)
         return out
 
     def generalized_forces(self, data) -> np.ndarray:
         """Generalized forces ``(nv,)`` the elements add to ``qfrc_passive`` in this state."""
         out = np.zeros(self.model.nv)
-        self._run(data, k.APPLY, qfrc=out)
+        self._query(data, k.APPLY, qfrc=out)
         return out
 
     def potential_energies(self, data) -> np.ndarray:
         """Elastic energy of each element, ``(n,)`` [J]."""
         out = np.empty(len(self))
-        self._run(data, k.ENERGY, out1=out)
+        self._query(data, k.ENERGY, out1=out)
         return out
 
     def potential_energy(self, data) -> float:
@@ -282,7 +388,7 @@ class Flexures:
     def dissipation_powers(self, data) -> np.ndarray:
         """Power dissipated by each element's damping, ``(n,)`` [W] (non-negative)."""
         out = np.empty(len(self))
-        self._run(data, k.POWER, out1=out)
+        self._query(data, k.POWER, out1=out)
         return out
 
     def dissipation_power(self, data) -> float:
@@ -292,8 +398,37 @@ class Flexures:
     def displacements(self, data) -> np.ndarray:
         """Finite twist ``[tau; t]`` of frame b relative to frame a for each element, ``(n, 6)`` [rad; m]."""
         out = np.empty((len(self), 6))
-        self._run(data, k.COORDS, out6=out)
+        self._query(data, k.COORDS, out6=out)
         return out
+
+    def table(self, data) -> np.ndarray:
+        """Every per-element result in one labelled table: a structured array, one row per element.
+
+        Fields (dtype ``TABLE_DTYPE``): ``name``; ``wrench`` (6,) as :meth:`wrenches`;
+        ``displacement`` (6,) as :meth:`displacements`; ``energy`` [J]; ``power`` [W];
+        ``enabled``; ``method``. Select by name, e.g. ``t[t["name"] == "hinge"]["energy"]``;
+        ``pandas.DataFrame({f: list(t[f]) for f in t.dtype.names})`` makes a data frame.
+        """
+        out = np.zeros(len(self), dtype=TABLE_DTYPE)
+        out["name"] = self.names
+        out["wrench"] = self.wrenches(data)
+        out["displacement"] = self.displacements(data)
+        out["energy"] = self.potential_energies(data)
+        out["power"] = self.dissipation_powers(data)
+        out["enabled"], out["method"] = self.enabled, self.methods
+        return out
+
+    # ------------------------------------------------------------------ element data
+
+    @property
+    def site_ids(self) -> np.ndarray:
+        """Site ids ``(n, 2)`` of the frames a and b of each element."""
+        return self._ints[:, [k.SITE_A, k.SITE_B]].copy()
+
+    @property
+    def body_ids(self) -> np.ndarray:
+        """Body ids ``(n, 2)`` of the bodies A and B of each element."""
+        return self._ints[:, [k.BODY_A, k.BODY_B]].copy()
 
     # ------------------------------------------------------------------ run-time switches
 
@@ -309,8 +444,15 @@ class Flexures:
         self._ints[i, k.VISCOUS] = bool(viscous)
 
     def set_method(self, name: str, method: str) -> None:
-        """Use ``"twist"`` or ``"dualquat"`` for element ``name``."""
-        self._ints[self.index(name), k.METHOD] = validation.method_code(method)
+        """Use ``"twist"`` or ``"dualquat"`` for element ``name`` (not for one with polynomial terms)."""
+        i, code = self.index(name), validation.method_code(method)
+        terms = self.records[i].terms
+        if terms is not None and code != validation.METHOD_CODES[terms.method]:
+            raise ValueError(
+                f"flexure {name!r} has polynomial terms in {terms.method} coordinates, which do not carry over to "
+                f"{method}: fit (mjflex.fit_potential) or write terms for {method} in its record instead"
+            )
+        self._ints[i, k.METHOD] = code
 
     @property
     def enabled(self) -> np.ndarray:
@@ -322,4 +464,4 @@ class Flexures:
 
     @property
     def methods(self) -> tuple[str, ...]:
-        return tuple("twist" if c == 0 else "dualquat" for c in self._ints[:, k.METHOD])
+        return tuple(validation.METHOD_NAMES[int(c)] for c in self._ints[:, k.METHOD])

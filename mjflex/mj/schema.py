@@ -3,7 +3,8 @@
 An element named ``E`` (any text) is
 
 * two sites, ``E/a`` on body A and ``E/b`` on body B, at the same world pose in the model's
-  reference configuration (``qpos0``): the element frame; and
+  reference configuration (``qpos0``): the element frame. ``E.a`` and ``E.b`` are read as
+  well: dm_control's ``mjcf`` rejects ``/`` in names (it reserves it for its scopes);
 * a custom text record ``<text name="mjflex:E" data="{...}"/>`` whose data is a JSON object
   with the keys
 
@@ -13,6 +14,14 @@ An element named ``E`` (any text) is
     diagonal); 3x3 / 3 numbers for a planar element ``[theta_z; x; y]`` in the frame's x-y
     plane;
   - ``"B"``: damping, same layout as ``K`` (default: none, purely elastic);
+  - ``"order"`` and ``"terms"``: a higher-order potential (:mod:`mjflex.core.polynomial`):
+    ``"order"`` is its order N (an integer >= 2, even for ``"dualquat"``; default 2, the
+    quadratic potential of ``K``) and ``"terms"`` the polynomial terms added to ``K``'s energy,
+    ``{"exponents": [[...], ...], "coefficients": [...]}``: one row of 6 (twist: ``tau, t``) or
+    8 (dual quaternion: ``sigma, xi, s', x'``) exponents per term, in the coordinates of
+    ``"method"`` (also for planar elements), degrees at most ``"order"``. ``"terms"`` needs
+    ``"order"``; what :func:`mjflex.fit_potential` returns goes in as
+    ``fit.terms.to_dict()`` (less its ``"method"``);
   - ``"enabled"``, ``"viscous"``: run-time switches, ``true`` (default) or ``false``;
   - ``"strain_per_radian"``: peak bending strain per radian about the frame's z axis, used in
     reports (optional);
@@ -27,6 +36,11 @@ digits by those writers; :class:`mjflex.Flexures` accepts frames that coincide w
 ``COINCIDENCE_RTOL`` of the model extent (and ``COINCIDENCE_ANGLE`` rad) and takes the measured
 residual as the rest offset, so a saved and reloaded model is unstressed at ``qpos0`` too.
 
+Composed models: ``MjSpec.attach(child, prefix=P, suffix=S)`` renames the child's records to
+``P + "mjflex:" + E + S`` and its sites to ``P + E + "/a" + S``; dm_control's ``attach``
+prefixes both with ``"model_name/"``. Such a record is matched to its sites by the name around
+``mjflex:`` (:func:`match_record`), and the element is called ``P + E + S``.
+
 Example (hand-written)::
 
     <site name="hinge/a" pos="0 0 0.1"/>           <!-- in body A -->
@@ -37,18 +51,32 @@ Example (hand-written)::
     </custom>
 """
 
+import difflib
 import json
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core import validation
+from ..core.polynomial import PolynomialTerms
+
 PREFIX = "mjflex:"
 SITE_A_SUFFIX = "/a"
 SITE_B_SUFFIX = "/b"
+#: Separators between an element's name and the ``a`` / ``b`` of its sites, in order of preference.
+SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
-KEYS = ("mjflex", "method", "K", "B", "enabled", "viscous", "strain_per_radian", "source")
-#: Relative (to the model extent) distance below which the two sites count as coincident.
+KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "source")
+TERMS_KEYS = ("exponents", "coefficients")
+#: The two sites count as coincident when they are closer than this times the element's own
+#: length scale: the summed lengths of the site and body positions that place both sites,
+#: whose 6-significant-digit rounding by MuJoCo's XML writers (relative error <= 5e-6 per
+#: number) is what the rest offset absorbs.
 COINCIDENCE_RTOL = 1e-5
+#: Largest magnitude of a K or B entry: the element's energy ``x^T K x / 2`` and power stay
+#: finite in float64 for every displacement and velocity MuJoCo accepts (``|x| <= 1e10``,
+#: its ``mjMAXVAL``).
+MAX_MATRIX_ENTRY = 1e280
 #: Angle [rad] below which the two site frames count as aligned.
 COINCIDENCE_ANGLE = 1e-5
 #: Indices of the planar coordinates ``[theta_z; x; y]`` within ``[rx, ry, rz, x, y, z]``.
@@ -59,7 +87,8 @@ PLANAR_INDEX = (2, 3, 4)
 class FlexureRecord:
     """The parameters of one element as stored in the model file.
 
-    ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar); ``B`` is None without damping.
+    ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar); ``B`` is None without damping; ``terms``
+    (in the coordinates of ``method``) is None for the quadratic potential.
     """
 
     name: str
@@ -70,6 +99,8 @@ class FlexureRecord:
     viscous: bool = True
     strain_per_radian: float | None = None
     source: dict | None = None
+    terms: PolynomialTerms | None = None
+    order: int = 2
 
     @property
     def planar(self) -> bool:
@@ -80,6 +111,9 @@ class FlexureRecord:
         payload = {"mjflex": SCHEMA_VERSION, "method": self.method, "K": self.K.tolist()}
         if self.B is not None:
             payload["B"] = self.B.tolist()
+        if self.terms is not None:
+            payload["order"] = int(self.order)
+            payload["terms"] = {k: v for k, v in self.terms.to_dict().items() if k != "method"}
         if not self.enabled:
             payload["enabled"] = False
         if not self.viscous:
@@ -92,7 +126,58 @@ class FlexureRecord:
 
 
 def site_names(element: str) -> tuple[str, str]:
+    """The canonical site names ``E/a``, ``E/b`` of element ``E`` (what ``add_flexure`` writes)."""
     return element + SITE_A_SUFFIX, element + SITE_B_SUFFIX
+
+
+def match_record(text_name: str, sites) -> tuple[str, str, str, bool] | None:
+    """The element a text record describes: ``(element, site a, site b, found)``, or None.
+
+    ``text_name`` is ``P + "mjflex:" + E + S`` (``P``, ``S``: prefix and suffix added by
+    ``MjSpec.attach`` or dm_control, usually empty); ``sites`` is the set of the model's site
+    names. The sites are ``P + E + sep + "a" + S`` and ``... "b" + S`` for a separator in
+    ``SITE_SEPARATORS``; the longest ``E`` whose two sites exist wins. When none exist,
+    ``found`` is False and the canonical names (empty suffix, ``/``) are returned for the error.
+    Raises ValueError when both spellings of one element exist.
+    """
+    i = text_name.find(PREFIX)
+    if i < 0:
+        return None
+    head, rest = text_name[:i], text_name[i + len(PREFIX) :]
+    for j in range(len(rest), -1, -1):
+        element, tail = rest[:j], rest[j:]
+        both = [
+            (head + element + sep + "a" + tail, head + element + sep + "b" + tail)
+            for sep in SITE_SEPARATORS
+            if head + element + sep + "a" + tail in sites and head + element + sep + "b" + tail in sites
+        ]
+        if len(both) > 1:
+            raise ValueError(f"both {both[0]} and {both[1]} exist; keep one spelling of the element's sites")
+        if both:
+            return head + element + tail, both[0][0], both[0][1], True
+    return head + rest, head + rest + SITE_A_SUFFIX, head + rest + SITE_B_SUFFIX, False
+
+
+def near_miss(text_name: str) -> bool:
+    """Whether a text name without ``mjflex:`` looks like a misspelt record (``mjflx:``, ``MJFLEX:``, ``mjflex-``)."""
+    if PREFIX in text_name:
+        return False
+    lower = text_name.lower()
+    if "mjflex" in lower:
+        return True
+    windows = {lower[i : i + n] for n in (6, 7, 8) for i in range(max(len(lower) - n + 1, 1))}
+    return any(difflib.SequenceMatcher(None, w, PREFIX).ratio() >= 0.8 for w in windows)
+
+
+def orphan_site_pairs(sites, elements_sites) -> list[str]:
+    """Names ``E`` with sites ``E/a`` and ``E/b`` (or ``E.a``, ``E.b``) that no record claims."""
+    out = []
+    for name in sorted(sites):
+        for sep in SITE_SEPARATORS:
+            if name.endswith(sep + "a") and name[:-1] + "b" in sites:
+                if name not in elements_sites:
+                    out.append(name[: -len(sep) - 1])
+    return out
 
 
 def embed_planar(M: np.ndarray) -> np.ndarray:
@@ -102,20 +187,32 @@ def embed_planar(M: np.ndarray) -> np.ndarray:
     return out
 
 
-def _matrix(value, key: str, element: str, n_allowed=(6, 3)) -> np.ndarray:
-    """A square matrix from a nested list or a diagonal list; raises ValueError with the fix."""
+def element_matrix(value, key: str, *, n_allowed=(6, 3), what: str | None = None) -> np.ndarray:
+    """A validated K or B: a square nested list or a diagonal list; raises ValueError with the fix.
+
+    6x6 (6 diagonal entries) for a spatial element, 3x3 (3 entries) for a planar one; finite,
+    entries at most ``MAX_MATRIX_ENTRY`` in magnitude, symmetric and positive semi-definite.
+    """
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f'"{key}" must be a list of numbers or a square nested list; got {value!r}') from None
     if a.ndim == 1 and a.shape[0] in n_allowed:
-        return np.diag(a)
-    if a.ndim == 2 and a.shape[0] == a.shape[1] and a.shape[0] in n_allowed:
-        return a
-    raise ValueError(
-        f'"{key}" must be 6x6 (or 6 diagonal entries) for a spatial element, or 3x3 (3 entries) for a '
-        f"planar one; got shape {a.shape}"
-    )
+        a = np.diag(a)
+    elif not (a.ndim == 2 and a.shape[0] == a.shape[1] and a.shape[0] in n_allowed):
+        raise ValueError(
+            f'"{key}" must be 6x6 (or 6 diagonal entries) for a spatial element, or 3x3 (3 entries) for a '
+            f"planar one; got shape {a.shape}"
+        )
+    finite = np.isfinite(a)
+    if finite.all() and np.abs(a).max(initial=0.0) > MAX_MATRIX_ENTRY:
+        r, c = np.unravel_index(np.argmax(np.abs(a)), a.shape)
+        raise ValueError(
+            f"{key}[{r}, {c}] = {a[r, c]:.3g} is beyond {MAX_MATRIX_ENTRY:g}, where the element's energy and "
+            "forces overflow float64 for displacements MuJoCo accepts; check its units (SI: N m/rad, N/m)"
+        )
+    what = what or ("stiffness" if key.startswith("K") else "damping")
+    return validation.check_psd_matrix(a, key, a.shape[0], what=what)
 
 
 def parse_text(element: str, data: str) -> FlexureRecord:
@@ -124,6 +221,8 @@ def parse_text(element: str, data: str) -> FlexureRecord:
         payload = json.loads(data)
     except json.JSONDecodeError as exc:
         raise ValueError(f"its data is not valid JSON ({exc.msg} at character {exc.pos})") from None
+    except RecursionError:
+        raise ValueError("its data nests JSON arrays or objects too deeply to be a flexure record") from None
     if not isinstance(payload, dict):
         raise ValueError('its data must be a JSON object such as {"mjflex": 1, "K": [...]}')
     unknown = sorted(set(payload) - set(KEYS))
@@ -136,10 +235,10 @@ def parse_text(element: str, data: str) -> FlexureRecord:
         raise ValueError(f'unknown method {method!r}; use "twist" or "dualquat"')
     if "K" not in payload:
         raise ValueError('the stiffness "K" is missing')
-    K = _matrix(payload["K"], "K", element)
+    K = element_matrix(payload["K"], "K")
     B = None
     if payload.get("B") is not None:
-        B = _matrix(payload["B"], "B", element, n_allowed=(K.shape[0],))
+        B = element_matrix(payload["B"], "B", n_allowed=(K.shape[0],))
     for key in ("enabled", "viscous"):
         if not isinstance(payload.get(key, True), bool):
             raise ValueError(f'"{key}" must be true or false; got {payload[key]!r}')
@@ -149,5 +248,37 @@ def parse_text(element: str, data: str) -> FlexureRecord:
     source = payload.get("source")
     if source is not None and not isinstance(source, dict):
         raise ValueError(f'"source" must be a JSON object; got {source!r}')
+    order, terms = order_and_terms(payload, method, K)
     return FlexureRecord(element, method, K, B, payload.get("enabled", True), payload.get("viscous", True),
-                         None if strain is None else float(strain), source)  # fmt: skip
+                         None if strain is None else float(strain), source, terms, order)  # fmt: skip
+
+
+def order_and_terms(payload, method, K):
+    """``(order, terms)`` of a record: validated polynomial terms, or ``(2, None)``."""
+    order = payload.get("order", 2)
+    if isinstance(order, bool) or not isinstance(order, int) or order < 2 or (method == "dualquat" and order % 2):
+        even = " and even for a dualquat element (its potential is even in q)" if method == "dualquat" else ""
+        raise ValueError(f'"order" must be an integer >= 2{even}; got {order!r}')
+    data = payload.get("terms")
+    if data is None:
+        if order != 2:
+            raise ValueError(f'"order" is {order} but there are no "terms"; add the terms or drop "order"')
+        return 2, None
+    if "order" not in payload:
+        raise ValueError('"terms" need the "order" of the potential (the highest degree of its terms)')
+    if not isinstance(data, dict) or sorted(data) != sorted(TERMS_KEYS):
+        raise ValueError(f'"terms" must be an object with exactly the keys {list(TERMS_KEYS)}; got {data!r:.200}')
+    try:
+        terms = PolynomialTerms.from_dict({"method": method, **data})
+    except ValueError as exc:
+        raise ValueError(f'"terms": {str(exc).rstrip(".")}') from None
+    if terms.order > order:
+        row = int(np.argmax(terms.exponents.sum(axis=1)))
+        raise ValueError(
+            f'"terms" exponents[{row}] has degree {terms.order}, above "order" {order}; raise "order" or drop the term'
+        )
+    H = terms.rest_stiffness()
+    if np.any(H):
+        K6 = embed_planar(K) if K.shape == (3, 3) else K
+        validation.check_psd_matrix(K6 + H, "K + the terms' stiffness at rest", 6, what="stiffness")
+    return order, terms

@@ -1,0 +1,342 @@
+"""The study's results: one row per candidate, stability limits, the reference, and their reports.
+
+The table is a list of dataclass rows rather than a pandas or xarray object: the rows are
+heterogeneous records (a variant, an integrator, a step, a status, optional errors, a divergence)
+rather than a dense labelled grid, and the core package should not need pandas. ``records()``
+gives flat dicts, so ``pandas.DataFrame(result.records())`` is one line for those who want it.
+"""
+
+import json
+import math
+import os
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ._run import Divergence
+
+
+def who(variant, integrator, method):
+    """``"[variant: ]integrator[, method]"``: the label of a candidate without its step."""
+    return f"{'' if variant == 'full' else variant + ': '}{integrator}{'' if method == '-' else ', ' + method}"
+
+
+@dataclass
+class Row:
+    """One candidate: a model variant, an element method, an integrator and a time step."""
+
+    variant: str  # "full" for the model as given, else the Variant's name
+    method: str  # "twist", "dualquat", the file's methods ("twist/dualquat" if mixed), "-" without elements
+    integrator: str
+    timestep: float  # [s]
+    status: str  # "ok", "diverged" or "skipped"
+    # Cost: median over interleaved timing repeats of the mj_step wall time per simulated second
+    # (for a diverged or skipped row: over the steps it took before it stopped, one measurement).
+    wall_per_sim_s: float | None = None
+    cpu_per_sim_s: float | None = None  # the same with this thread's CPU time (robust to machine load)
+    cost: float | None = None  # the one of the two the study ranks by (its ``clock``)
+    wall_range: tuple[float, float] | None = None  # min and max over the repeats
+    repeats: int = 0
+    pose_error: float | None = None  # headline error, relative (see _metrics.Errors)
+    position_error: float | None = None
+    rotation_error: float | None = None
+    energy_error: float | None = None
+    frequency_error: float | None = None  # first elastic frequencies vs the reference model's
+    divergence: Divergence | None = None
+    note: str = ""
+    source: str = "grid"  # "grid", "bisection" (stability search) or "model" (the file's own setting)
+    model_setting: bool = False  # the model file's own integrator, step and methods
+    pareto: bool = False
+
+    @property
+    def label(self) -> str:
+        return f"{who(self.variant, self.integrator, self.method)}, h = {self.timestep:.3g} s"
+
+    def to_dict(self):
+        return asdict(self)  # the divergence, a dataclass too, becomes a dict
+
+
+@dataclass
+class Limit:
+    """Largest stable step of one (variant, method, integrator), bracketed by measured runs."""
+
+    variant: str
+    method: str
+    integrator: str
+    largest_stable: float | None  # largest step that ran the whole duration [s]
+    smallest_unstable: float | None  # smallest larger step that diverged [s]
+    divergence: Divergence | None = None  # how the smallest unstable step diverged
+
+    def text(self) -> str:
+        name = who(self.variant, self.integrator, self.method)
+        if self.largest_stable is None:
+            return f"{name}: diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
+        if self.smallest_unstable is None:
+            return f"{name}: stable at every step tried (largest {self.largest_stable:.3g} s); widen with --max-step"
+        return f"{name}: stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
+
+    def to_dict(self):
+        return asdict(self)
+
+
+@dataclass
+class Reference:
+    """RK4 refined until two successive halvings of the step agree."""
+
+    integrator: str
+    method: str
+    timestep: float | None  # the step of the reference run [s]
+    agreement: float | None  # pose error between the last two refinements (relative)
+    error_estimate: float | None  # of the reference itself: agreement / 15 (RK4 is 4th order)
+    converged: bool
+    attempts: list = field(default_factory=list)  # [{timestep, status, agreement_with_previous}]
+    wall_per_sim_s: float | None = None
+    cpu_per_sim_s: float | None = None
+    cost: float | None = None
+    wall_range: tuple[float, float] | None = None
+    repeats: int = 0
+    observed_order: float | None = None  # log2 of the ratio of successive agreements
+
+    def text(self) -> str:
+        if self.timestep is None:
+            return "no reference: every refinement diverged"
+        head = f"reference: {self.integrator.upper()} ({self.method}) at h = {self.timestep:.3g} s"
+        if self.agreement is None:
+            return f"{head}, NOT verified: no second refinement ran through to compare it with"
+        state = "converged" if self.converged else "NOT converged to the requested tolerance"
+        order = f", observed order {self.observed_order:.1f}" if self.observed_order else ""
+        return (
+            f"{head}, {state}: the last two refinements agree to {self.agreement:.2g} (pose), estimated error "
+            f"{self.error_estimate:.2g}{order}"
+        )
+
+
+def _fmt(x, spec=".2g", none="-"):
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return none
+    return format(x, spec)
+
+
+def _percent(x, floor=0.0):
+    if x is None:
+        return "-"
+    if x < floor:
+        return f"< {floor * 100:.1g} %"
+    return f"{x * 100:.2g} %"
+
+
+@dataclass
+class StudyResult:
+    """Everything the study measured; see :func:`mjflex.app.study.study`."""
+
+    model: str
+    initial_state: str = ""
+    duration: float = 0.0  # [s]
+    sample_interval: float = 0.0  # [s]
+    frame: str = ""
+    tracked: list = field(default_factory=list)
+    model_setting: dict = field(default_factory=dict)  # {"integrator", "timestep", "method"} of the model file
+    reference: Reference | None = None
+    rows: list = field(default_factory=list)
+    limits: list = field(default_factory=list)
+    frequencies: dict = field(default_factory=dict)  # "variant/method" -> first elastic frequencies [Hz]
+    highest_frequency: float | None = None  # [Hz], of the model as given
+    fastest_rate: float | None = None  # largest |eigenvalue| of the linearized model with damping [1/s]
+    variants: dict = field(default_factory=dict)  # name -> report of the variant
+    targets: tuple = (0.1, 0.01, 1e-4)
+    clock: str = "cpu"  # what the cost is measured with: "cpu" (thread CPU time) or "wall"
+    notes: list = field(default_factory=list)
+    message: str | None = None  # why the study stopped early, if it did
+
+    # ------------------------------------------------------------------ selections
+
+    @property
+    def floor(self) -> float:
+        """Errors below this are within the reference's own error and not resolved."""
+        r = self.reference
+        return 0.0 if r is None or r.error_estimate is None else 3.0 * r.error_estimate
+
+    def ok_rows(self):
+        return [r for r in self.rows if r.status == "ok" and r.pose_error is not None and r.cost]
+
+    def mark_pareto(self):
+        """Flag the rows no other row beats in both cost and pose error."""
+        best = np.inf
+        for row in self.rows:
+            row.pareto = False
+        for row in sorted(self.ok_rows(), key=lambda r: (r.cost, r.pose_error)):
+            if row.pose_error < best:
+                row.pareto, best = True, row.pose_error
+
+    def cheapest(self, target, key="pose_error"):
+        """The cheapest ok row with ``key`` error at most ``target`` (None if none)."""
+        rows = [r for r in self.ok_rows() if getattr(r, key) is not None and getattr(r, key) <= target]
+        return min(rows, key=lambda r: r.cost) if rows else None
+
+    def model_setting_row(self):
+        return next((r for r in self.rows if r.model_setting), None)
+
+    def _speedups(self, row):
+        parts = []
+        if self.reference is not None and self.reference.cost:
+            parts.append(f"{self.reference.cost / row.cost:.3g}x faster than the reference")
+        own = self.model_setting_row()
+        if own is not None and own.status == "ok" and own is not row:
+            parts.append(f"{own.cost / row.cost:.3g}x the speed of the model's own setting")
+        return ", ".join(parts)
+
+    def recommendation(self) -> list[str]:
+        """One line per error target: the cheapest candidate that meets it."""
+        lines = []
+        for target in self.targets:
+            row = self.cheapest(target)
+            if row is None:
+                lines.append(f"for <= {target * 100:g} % error: no candidate reached it")
+                continue
+            lines.append(
+                f"for <= {target * 100:g} % error: {row.label} ({row.cost:.3g} s per simulated s, "
+                f"error {_percent(row.pose_error, self.floor)}), {self._speedups(row)}"
+            )
+        if self.rows and not any(r.status == "ok" for r in self.rows if r.source != "model"):
+            lines.append("every candidate step diverged or was skipped: see the stability limits and divergences")
+        return lines
+
+    NEEDS_COLUMNS = ("need", "choice", "s per simulated s", "pose error", "energy error", "vs the model's setting")
+
+    def _need(self, need, row, choice=None):
+        own = self.model_setting_row()
+        speed = "-"
+        if row is not None and own is not None and own.status == "ok" and row.cost:
+            speed = "the setting itself" if row is own else f"{own.cost / row.cost:.3g}x faster"
+        if row is None:
+            return (need, choice or "none of the candidates", "-", "-", "-", "-")
+        cost = _fmt(row.cost, ".3g") if row.status == "ok" else row.status
+        return (need, choice or row.label, cost, _percent(row.pose_error, self.floor), _percent(row.energy_error),
+                speed)  # fmt: skip
+
+    def needs(self) -> list[tuple]:
+        """Rows of the "which choice for which need" table (columns: ``NEEDS_COLUMNS``)."""
+        names = ("a quick look", "engineering answers", "validation") + ("",) * len(self.targets)
+        out = [self._need(f"{need or 'error'} (pose error <= {t * 100:g} %)", self.cheapest(t))
+               for t, need in zip(self.targets, names, strict=False)]  # fmt: skip
+        out.append(self._need("energy within 1 %", self.cheapest(0.01, key="energy_error")))
+        for name in self.variants:
+            rows = [r for r in self.ok_rows() if r.variant == name and r.pose_error <= 0.01]
+            best = min(rows, key=lambda r: r.cost) if rows else None
+            out.append(self._need(f"model variant '{name}' (<= 1 %)", best))
+        stable = [lim for lim in self.limits if lim.largest_stable]
+        if stable:
+            lim = max(stable, key=lambda x: x.largest_stable)
+            out.append(("the largest stable step", lim.text(), "-", "-", "-", "-"))
+        own = self.model_setting_row()
+        if own is not None:
+            out.append(self._need("what the model file uses now", own))
+        return out
+
+    # ------------------------------------------------------------------ output
+
+    def records(self) -> list[dict]:
+        """Flat dicts, one per row (``pandas.DataFrame(result.records())`` works)."""
+        out = []
+        for r in self.rows:
+            d = r.to_dict()
+            div = d.pop("divergence")
+            d["divergence"] = None if div is None else Divergence(**div).text()
+            out.append(d)
+        return out
+
+    def to_dict(self):
+        return {
+            "model": self.model,
+            "initial_state": self.initial_state,
+            "duration": self.duration,
+            "sample_interval": self.sample_interval,
+            "frame": self.frame,
+            "tracked": self.tracked,
+            "model_setting": self.model_setting,
+            "reference": None if self.reference is None else asdict(self.reference),
+            "error_floor": self.floor,
+            "rows": [r.to_dict() for r in self.rows],
+            "limits": [lim.to_dict() for lim in self.limits],
+            "frequencies_hz": self.frequencies,
+            "highest_frequency_hz": self.highest_frequency,
+            "fastest_rate_per_s": self.fastest_rate,
+            "clock": self.clock,
+            "variants": self.variants,
+            "recommendation": self.recommendation(),
+            "needs": [dict(zip(self.NEEDS_COLUMNS, row, strict=True)) for row in self.needs()],
+            "notes": self.notes,
+            "message": self.message,
+        }
+
+    def summary_lines(self) -> list[str]:
+        lines = [f"model {self.model}" + (f", initial state: {self.initial_state}" if self.initial_state else "")]
+        if self.duration:
+            clock = "CPU" if self.clock == "cpu" else "wall"
+            lines.append(
+                f"{self.duration * 1e3:.4g} ms simulated, sampled every {self.sample_interval * 1e3:.3g} ms; poses of "
+                f"{len(self.tracked)} tracked item(s) relative to {self.frame}; cost in {clock} seconds of mj_step "
+                "per simulated second"
+            )
+        if self.reference is not None:
+            lines.append(self.reference.text())
+        if self.highest_frequency:
+            first = self.frequencies.get("full", [])[:3]
+            lines.append(
+                f"first elastic frequencies {', '.join(f'{f:.4g}' for f in first)} Hz; highest "
+                f"{self.highest_frequency:.4g} Hz; fastest rate with damping {self.fastest_rate:.4g} 1/s"
+            )
+        return lines + [f"note: {n}" for n in self.notes] + ([f"STOPPED: {self.message}"] if self.message else [])
+
+    def to_markdown(self) -> str:
+        floor = self.floor
+        out = [f"# Speed-accuracy study: {self.model}", ""]
+        out += [f"- {line}" for line in self.summary_lines()]
+        out += ["", "## Recommendation", ""] + [f"- {line}" for line in self.recommendation()]
+        out += ["", "## Which choice for which need", "", "| " + " | ".join(self.NEEDS_COLUMNS) + " |",
+                "|---" * len(self.NEEDS_COLUMNS) + "|"]  # fmt: skip
+        out += ["| " + " | ".join(row) + " |" for row in self.needs()]
+        if self.limits:
+            out += ["", "## Largest stable step", ""] + [f"- {lim.text()}" for lim in self.limits]
+        if self.variants:
+            out += ["", "## Variants", ""] + [f"- **{k}**: {v}" for k, v in self.variants.items()]
+        clock = "CPU" if self.clock == "cpu" else "wall"
+        out += [
+            "", "## Candidates", "",
+            f"Errors are relative to the reference's motion (pose) and energy swing; below {_percent(floor * 1.0001)} "
+            f"they are within the reference's own error. Cost: {clock} seconds of `mj_step` per simulated second, "
+            "median of interleaved repeats (CPU time of the stepping thread is what an idle core's wall time would be; "
+            "the wall time of a shared machine is inflated by its other work). In parentheses: over the steps a "
+            "diverged run took, once. P: on the Pareto front.", "",
+            f"| variant | method | integrator | h [s] | status | {clock} s / sim s | wall s / sim s | pose error | "
+            "energy error | frequency error | P | note |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        ]  # fmt: skip
+        for r in self.rows:
+            note = r.divergence.text() if r.divergence else r.note
+            if r.model_setting:
+                note = ("model's own setting. " + note).strip()
+            cost, wall = _fmt(r.cost, ".3g"), _fmt(r.wall_per_sim_s, ".3g")
+            if r.status != "ok":
+                cost, wall = f"({cost})", f"({wall})"
+            out.append(
+                f"| {r.variant} | {r.method} | {r.integrator} | {r.timestep:.3g} | {r.status} | {cost} | {wall} | "
+                f"{_percent(r.pose_error, floor)} | {_percent(r.energy_error)} | {_percent(r.frequency_error)} | "
+                f"{'*' if r.pareto else ''} | {note} |"
+            )
+        return "\n".join(out) + "\n"
+
+    def write(self, out_dir, *, stem=None, plot=True) -> list[str]:
+        """Write ``<stem>.md``, ``<stem>.json`` and (with candidates) ``<stem>.png``; returns the paths."""
+        os.makedirs(out_dir, exist_ok=True)
+        stem = stem or f"study_{os.path.splitext(os.path.basename(self.model))[0]}"
+        paths = [os.path.join(out_dir, f"{stem}.md"), os.path.join(out_dir, f"{stem}.json")]
+        with open(paths[0], "w") as f:
+            f.write(self.to_markdown())
+        with open(paths[1], "w") as f:
+            json.dump(self.to_dict(), f, indent=1, default=float)
+        if plot and self.rows:
+            from ._plot import pareto_plot
+
+            paths.append(pareto_plot(self, os.path.join(out_dir, f"{stem}.png")))
+        return paths

@@ -1,0 +1,38 @@
+"""The model variants a study compares by default: the one place to plug in new ones.
+
+Each entry is a :class:`mjflex.mj.variant.Variant` or a builder ``source -> Variant`` (or a list
+of them, or None when the builder does not apply to the model), called with the study's source:
+the MJCF path or ``MjSpec`` it was given, else its ``MjModel``. :func:`mjflex.app.study.study`
+runs every entry of :data:`DEFAULT_VARIANTS` unless it is given ``variants=`` (``[]`` for none;
+``python -m mjflex study --no-variants``). A builder that raises (e.g. a weld variant of a model
+given as a compiled ``MjModel`` that MuJoCo cannot write back to XML) is reported in the study's
+notes and skipped; the others still run.
+
+Each is swept over the same integrators and steps as the full model, so each adds about the
+cost of one element method to a study.
+"""
+
+from ...mj.native import pseudo_rigid_body_variant, weld_variant
+from ...mj.reduce import reduce
+from ...mj.variant import VariantNotApplicableError
+
+#: Upper end of the band the default reduction keeps [Hz] (the issue's example figure).
+REDUCE_KEEP_BELOW_HZ = 2000.0
+
+
+def reduced_variant(source):
+    """:func:`mjflex.reduce` of the source, keeping its modes below :data:`REDUCE_KEEP_BELOW_HZ`.
+
+    Raises :class:`VariantNotApplicableError` when the reduction changes nothing (it would only repeat the
+    full model's rows).
+    """
+    variant = reduce(source, REDUCE_KEEP_BELOW_HZ)
+    elements = variant.details["elements"]
+    if all(e["kept"] and not e["damping_dropped"] for e in elements.values()):
+        reasons = sorted({e["reason"] for e in elements.values()})
+        raise VariantNotApplicableError(f"nothing to reduce below {REDUCE_KEEP_BELOW_HZ:g} Hz ({'; '.join(reasons)})")
+    return variant
+
+
+#: Builders (or variants) every study compares with the full model unless told otherwise.
+DEFAULT_VARIANTS: list = [reduced_variant, weld_variant, pseudo_rigid_body_variant]

@@ -1,0 +1,327 @@
+"""What :class:`mjflex.Flexures` reads from a model: its elements, parsed, checked and laid out
+in the tables that the compiled loop uses (columns named in :mod:`._kernels`).
+
+:func:`derive` is the single place where a model is read; the provider runs it once at
+construction, and again on a model it is asked to serve (a copy) to check that the copy holds
+the same elements in the same places.
+"""
+
+import difflib
+import hashlib
+import warnings
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..core import validation
+from ..core.transforms import twist_from_transform
+from . import _kernels as k
+from . import schema
+
+
+class ModelError(ValueError):
+    """A flexure element of a model is malformed; the message names the element and the fix."""
+
+
+def model_error(element, problem, fix):
+    return ModelError(f"flexure '{element}': {problem}. {fix}")
+
+
+@dataclass
+class Tables:
+    """The elements of one model. ``ints`` (n, NI), ``floats`` (n, NF): see :mod:`._kernels`."""
+
+    names: tuple[str, ...]
+    texts: dict[str, str]  # element -> JSON data of its record
+    records: list
+    sites: list[tuple[str, str]]  # element -> (site a name, site b name)
+    ints: np.ndarray
+    floats: np.ndarray
+    chain: np.ndarray
+    rootid: np.ndarray
+    tolerance: np.ndarray  # (n,) coincidence tolerance [m] of each element
+    joined_trees: dict[int, str]  # tree -> an element that joins it to another tree or a mocap body
+    exps: np.ndarray  # (max(M, 1), 8) int64: the polynomial terms of all elements (rows terms_lo:terms_hi)
+    coefs: np.ndarray  # (max(M, 1),) float64
+
+
+def names(model, objtype, count):
+    return [mujoco.mj_id2name(model, objtype, i) or "" for i in range(count)]
+
+
+def fingerprint(model) -> bytes:
+    """A digest of everything :func:`derive` reads: unchanged digest, unchanged tables."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in (model.text_data, model.text_adr, model.names, model.site_pos, model.site_quat, model.site_bodyid,
+              model.body_pos, model.body_quat, model.body_parentid, model.qpos0, model.jnt_pos, model.jnt_axis,
+              model.body_mass, model.body_inertia):  # fmt: skip
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.digest()
+
+
+def _records(model, site_ids):
+    """``[(element, data, site a, site b, found)]`` of the model's records; warns about near misses."""
+    out = []
+    for i, tname in enumerate(names(model, mujoco.mjtObj.mjOBJ_TEXT, model.ntext)):
+        try:
+            match = schema.match_record(tname, site_ids)
+        except ValueError as exc:
+            raise ModelError(f"flexure record '{tname}': {exc}") from None
+        if match is None:
+            if schema.near_miss(tname):
+                warnings.warn(
+                    f"mjflex: text record '{tname}' looks like a flexure record but is not one (records are "
+                    f"named '{schema.PREFIX}<element>'); rename it if it should be an element",
+                    UserWarning,
+                    stacklevel=4,
+                )
+            continue
+        adr, size = model.text_adr[i], model.text_size[i]
+        out.append((*match[:1], bytes(model.text_data[adr : adr + size - 1]).decode("utf-8"), *match[1:]))
+    claimed = {r[2] for r in out}
+    for element in schema.orphan_site_pairs(site_ids, claimed):
+        warnings.warn(
+            f"mjflex: sites of an element '{element}' have no text record '{schema.PREFIX}{element}': the element "
+            "is not simulated; add its record (mjflex.add_flexure writes both) or rename the sites",
+            UserWarning,
+            stacklevel=4,
+        )
+    return out
+
+
+def parse(element, data):
+    try:
+        return schema.parse_text(element, data)
+    except ValueError as exc:
+        problem = f"text record '{schema.PREFIX}{element}' is malformed: {str(exc).rstrip('.')}"
+        raise model_error(element, problem, "Fix its text record (see mjflex.mj.schema for the keys).") from None
+
+
+def _site_id(model, element, name, role, all_sites, others):
+    sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+    if sid < 0:
+        close = difflib.get_close_matches(name, [s for s in all_sites if s not in others], n=3, cutoff=0.6)
+        hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        raise model_error(
+            element, f"site '{name}' not found",
+            f"Add <site name=\"{name}\"/> at the element frame ({role}) or rename the existing site.{hint}",
+        )  # fmt: skip
+    return sid
+
+
+def _dof_chain(model, body):
+    """Dofs whose motion moves ``body``, from its own last dof to the root."""
+    while body > 0 and model.body_dofnum[body] == 0:
+        body = model.body_parentid[body]
+    if body == 0:
+        return []
+    j, chain = model.body_dofadr[body] + model.body_dofnum[body] - 1, []
+    while j >= 0:
+        chain.append(int(j))
+        j = model.dof_parentid[j]
+    return chain
+
+
+def _free_dofadr(model, body):
+    """Dof address of a free joint that is the only joint of a child of the world, else -1."""
+    if body > 0 and model.body_parentid[body] == 0 and model.body_jntnum[body] == 1:
+        j = model.body_jntadr[body]
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            return int(model.jnt_dofadr[j])
+    return -1
+
+
+def _length_scale(model, sa, sb):
+    """Summed lengths [m] of the site and body positions that place sites ``sa`` and ``sb``."""
+    total = float(np.linalg.norm(model.site_pos[sa]) + np.linalg.norm(model.site_pos[sb]))
+    for site in (sa, sb):
+        body = int(model.site_bodyid[site])
+        while body > 0:
+            total += float(np.linalg.norm(model.body_pos[body]))
+            body = int(model.body_parentid[body])
+    return total
+
+
+def rest_offset(ref, sa, sb):
+    """Relative pose ``(R0, p0)`` of site b seen from site a in data ``ref`` (at ``qpos0``), and
+    its distance [m] and angle [rad]."""
+    R_a, R_b = ref.site_xmat[sa].reshape(3, 3), ref.site_xmat[sb].reshape(3, 3)
+    R0 = R_a.T @ R_b
+    p0 = R_a.T @ (ref.site_xpos[sb] - ref.site_xpos[sa])
+    angle = float(np.linalg.norm(twist_from_transform(R0, p0, check=False)[:3]))
+    return R0, p0, float(np.linalg.norm(p0)), angle
+
+
+def _check_coincident(element, sites, dist, angle, tol):
+    if dist > tol or angle > schema.COINCIDENCE_ANGLE:
+        raise model_error(
+            element,
+            f"sites '{sites[0]}' and '{sites[1]}' are {dist:.3g} m apart and {angle:.3g} rad apart at qpos0 "
+            f"(tolerance {tol:.3g} m: {schema.COINCIDENCE_RTOL:g} times the {tol / schema.COINCIDENCE_RTOL:.3g} m "
+            f"of site and body positions that place them, which covers their 6-digit rounding in saved files; "
+            f"{schema.COINCIDENCE_ANGLE:g} rad)",
+            "Both frames must coincide in the reference configuration: place both at the same world "
+            "pose (mjflex.add_flexure does this).",
+        )
+
+
+def _inverse_inertia(model, bodies):
+    """Largest inverse mass and inverse principal inertia of the non-world bodies (0 when massless)."""
+    inv_m = inv_i = 0.0
+    for b in bodies:
+        if b > 0 and model.body_mass[b] > 0:
+            inv_m = max(inv_m, 1.0 / float(model.body_mass[b]))
+        if b > 0 and model.body_inertia[b].min() > 0:
+            inv_i = max(inv_i, 1.0 / float(model.body_inertia[b].min()))
+    return inv_m, inv_i
+
+
+def derive(model) -> Tables:
+    """Parse, check and lay out the elements of ``model``; raises :class:`ModelError`."""
+    m = model
+    all_sites = names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite)
+    found = _records(m, {s for s in all_sites if s})
+    n = len(found)
+    ints, floats = np.zeros((n, k.NI), dtype=np.int64), np.zeros((n, k.NF))
+    tolerance, chain, joined, records, sites, terms = np.zeros(n), [], {}, [], [], []
+    ref = mujoco.MjData(m)
+    ref.qpos[:] = m.qpos0
+    mujoco.mj_kinematics(m, ref)
+    for e, (element, data, site_a, site_b, _) in enumerate(found):
+        rec = parse(element, data)
+        records.append(rec)
+        sites.append((site_a, site_b))
+        sa, sb = (
+            _site_id(m, element, s, role, all_sites, {site_a, site_b})
+            for s, role in ((site_a, "body A"), (site_b, "body B"))
+        )
+        ba, bb = int(m.site_bodyid[sa]), int(m.site_bodyid[sb])
+        if ba == bb:
+            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, ba) or f"#{ba}"
+            fix = "Put site a on one body and site b on the other (use 'world' to ground)."
+            raise model_error(element, f"both sites are on body '{body}'", fix)
+        R0, p0, dist, angle = rest_offset(ref, sa, sb)
+        tolerance[e] = schema.COINCIDENCE_RTOL * max(_length_scale(m, sa, sb), 1e-9)
+        _check_coincident(element, (site_a, site_b), dist, angle, tolerance[e])
+        row = ints[e]
+        row[[k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B]] = sa, sb, ba, bb
+        row[k.METHOD] = validation.METHOD_CODES[rec.method]
+        row[k.ENABLED], row[k.VISCOUS] = rec.enabled, rec.viscous and rec.B is not None
+        row[k.OFFSET] = not (np.array_equal(R0, np.eye(3)) and not p0.any())
+        for body, free, c0, c1 in ((ba, k.FREE_A, k.CHAIN_A0, k.CHAIN_A1), (bb, k.FREE_B, k.CHAIN_B0, k.CHAIN_B1)):
+            row[free] = _free_dofadr(m, body)
+            dofs = [] if row[free] >= 0 else _dof_chain(m, body)
+            row[c0], row[c1] = len(chain), len(chain) + len(dofs)
+            chain.extend(dofs)
+        K = schema.embed_planar(rec.K) if rec.planar else rec.K
+        B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
+        floats[e, k.K_AT : k.K_AT + 36] = K.ravel()
+        floats[e, k.B_AT : k.B_AT + 36] = B.ravel()
+        floats[e, k.R0_AT : k.R0_AT + 9] = R0.ravel()
+        floats[e, k.P0_AT : k.P0_AT + 3] = p0
+        floats[e, k.INV_MASS], floats[e, k.INV_INERTIA] = _inverse_inertia(m, (ba, bb))
+        _lay_out_terms(row, rec.terms, terms)
+        trees = [int(m.body_treeid[b]) for b in (ba, bb)]
+        mocap = any(m.body_mocapid[b] >= 0 for b in (ba, bb))
+        if trees[0] != trees[1] and (min(trees) >= 0 or mocap):
+            joined.update({t: element for t in trees if t >= 0})
+    return Tables(
+        names=tuple(r[0] for r in found),
+        texts={r[0]: r[1] for r in found},
+        records=records,
+        sites=sites,
+        ints=ints,
+        floats=floats,
+        chain=np.array(chain + [0], dtype=np.int64),  # never empty: a valid address
+        rootid=np.ascontiguousarray(m.body_rootid, dtype=np.int64),
+        tolerance=tolerance,
+        joined_trees=joined,
+        **_terms_table(terms),
+    )
+
+
+def _lay_out_terms(row, terms, tables):
+    """Give element ``row`` the next rows of the terms' table (``tables``: the (exps, coefs) so far)."""
+    lo = sum(len(c) for _, c in tables)
+    row[k.TERMS_LO] = row[k.TERMS_HI] = lo
+    if terms is None or len(terms) == 0:
+        return
+    exps = np.zeros((len(terms), k.TERM_COLUMNS), dtype=np.int64)
+    exps[:, : terms.exponents.shape[1]] = terms.exponents
+    tables.append((exps, terms.coefficients))
+    row[k.TERMS_HI] = lo + len(terms)
+    row[k.TERMS_TOP] = int(terms.exponents.max())
+
+
+def _terms_table(tables):
+    """The terms of all elements as ``exps`` (M, 8) and ``coefs`` (M,); one zero row when there are none."""
+    if not tables:
+        return {"exps": np.zeros((1, k.TERM_COLUMNS), dtype=np.int64), "coefs": np.zeros(1)}
+    return {"exps": np.concatenate([e for e, _ in tables]), "coefs": np.concatenate([c for _, c in tables])}
+
+
+def contacts_at_rest(model, tables: Tables) -> list[tuple[str, str, str]]:
+    """``(element, geom, geom)`` for elements whose two bodies MuJoCo finds in contact at ``qpos0``.
+
+    The check is MuJoCo's own collision detection (``mj_fwdPosition``) in the reference
+    configuration, so contype/conaffinity, the parent-child filter, ``<exclude>``, ``<pair>``,
+    margins and the contact disable flag count exactly as they do in a step. Bodies welded to
+    an element's body (no joint between them) count as that body. Geoms that only come into
+    contact once the element deflects are not reported.
+    """
+    if not tables.names or model.ngeom < 2 or model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
+        return []
+    weld = model.body_weldid
+    joined = {}
+    for e, row in enumerate(tables.ints):
+        joined.setdefault(frozenset((int(weld[row[k.BODY_A]]), int(weld[row[k.BODY_B]]))), tables.names[e])
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    mujoco.mj_fwdPosition(model, data)
+    found, seen = [], set()
+    for g1, g2 in zip(data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon], strict=True):
+        if g1 < 0 or g2 < 0:  # a contact of a MuJoCo flex, not of two bodies' geoms
+            continue
+        pair = frozenset((int(weld[model.geom_bodyid[g1]]), int(weld[model.geom_bodyid[g2]])))
+        element = joined.get(pair)
+        if element is not None and element not in seen:
+            seen.add(element)
+            geoms = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}" for g in (g1, g2)]
+            found.append((element, *geoms))
+    return found
+
+
+STRUCTURE = (k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B, k.FREE_A, k.FREE_B, k.CHAIN_A0, k.CHAIN_A1, k.CHAIN_B0,
+             k.CHAIN_B1)  # fmt: skip
+
+
+def difference(mine: Tables, other: Tables, mine_model, other_model) -> str | None:
+    """What differs between the elements of two models (None: the same, so one table serves both)."""
+    if (mine_model.nq, mine_model.nv, mine_model.nbody, mine_model.nsite) != (
+        other_model.nq, other_model.nv, other_model.nbody, other_model.nsite,
+    ):  # fmt: skip
+        return "its sizes (nq, nv, nbody, nsite) differ"
+    if mine.names != other.names:
+        return f"its elements are {list(other.names)[:5]}, not {list(mine.names)[:5]}"
+    for e, name in enumerate(mine.names):
+        if mine.texts[name] != other.texts[name]:
+            return f"the text record of flexure '{name}' differs"
+        if not np.array_equal(mine.ints[e, list(STRUCTURE)], other.ints[e, list(STRUCTURE)]):
+            return f"flexure '{name}' joins other sites, bodies or dofs"
+        moved = _rest_moved(mine, other, e)
+        if moved:
+            return f"the sites of flexure '{name}' moved by {moved}"
+    if not (np.array_equal(mine.chain, other.chain) and np.array_equal(mine.rootid, other.rootid)):
+        return "its kinematic trees differ"
+    return None
+
+
+def _rest_moved(mine, other, e):
+    R = mine.floats[e, k.R0_AT : k.R0_AT + 9].reshape(3, 3).T @ other.floats[e, k.R0_AT : k.R0_AT + 9].reshape(3, 3)
+    dp = other.floats[e, k.P0_AT : k.P0_AT + 3] - mine.floats[e, k.P0_AT : k.P0_AT + 3]
+    angle = float(np.linalg.norm(twist_from_transform(R, np.zeros(3), check=False)[:3]))
+    dist = float(np.linalg.norm(dp))
+    if dist > mine.tolerance[e] or angle > schema.COINCIDENCE_ANGLE:
+        return f"{dist:.3g} m and {angle:.3g} rad"
+    return None

@@ -1,0 +1,25 @@
+"""Module-level recipe edits and observers for tests/test_sweep.py (worker processes import them)."""
+
+import numpy as np
+
+from mjflex.app.sweep.recipe import edit_flexure, flexure_matrices
+
+
+def scale_hinge(spec, k_scale=1.0, b_scale=1.0):
+    """Scale the stiffness and damping of ``models/two_body.xml``'s element ``hinge``."""
+    K, B = flexure_matrices(spec, "hinge")
+    edit_flexure(spec, "hinge", K=k_scale * K, B=b_scale * B)
+
+
+def hinge_state(model, flex, data):
+    """Pose and velocity of block B, the hinge's wrench and energy."""
+    return {
+        "qpos": data.qpos[7:].copy(),
+        "qvel": data.qvel[6:].copy(),
+        "wrench": (("component",), flex.wrenches(data)[0]),
+        "energy": flex.potential_energy(data),
+    }
+
+
+def scaled_copy(spec, k_scale=1.0):
+    return scale_hinge(spec, k_scale=k_scale, b_scale=np.sqrt(k_scale))

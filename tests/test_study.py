@@ -1,0 +1,234 @@
+"""``mjflex study``: the sweep against independent expectations, the variant path, the command line on
+models that are not ours, and bad input.
+
+Independent references: convergence orders of RK4 (4) and Euler (1), the closed-form stability
+limits of a linear oscillator (symplectic Euler ``omega h < 2``, RK4 ``omega h < 2 sqrt 2``),
+closed-form natural frequencies, and mjflex's own normal modes for the linearization.
+"""
+
+import contextlib
+import io
+import json
+import os
+
+import mujoco
+import numpy as np
+import pytest
+
+import mjflex
+from mjflex.app.cli import main
+from mjflex.app.study import StudyError, study
+from mjflex.app.study._metrics import linearized_frequencies
+from mjflex.mj.linearize import normal_modes
+from mjflex.mj.variant import Variant
+from tests.models import ARM, B_DEMO, K_DEMO, hinge_arm_variant, hinge_chain_spec, pivot_arm_spec, slide_oscillator_spec
+
+ROOT = os.path.join(os.path.dirname(__file__), "..")
+TWO_BODY = os.path.join(ROOT, "models", "two_body.xml")
+FAST = ["--repeat", "1", "--quiet"]
+
+
+def _cli(*argv):
+    """Run ``python -m mjflex`` in-process; returns ``(exit message or None, stdout)``."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        try:
+            main([str(a) for a in argv])
+        except SystemExit as exc:
+            return str(exc.code), out.getvalue()
+    return None, out.getvalue()
+
+
+@pytest.fixture(scope="module")
+def two_body_run(tmp_path_factory):
+    """``python -m mjflex study models/two_body.xml`` narrowed to RK4 and Euler on four steps."""
+    out = tmp_path_factory.mktemp("study")
+    error, text = _cli("study", TWO_BODY, "--integrators", "rk4", "euler", "--methods", "twist", "--steps", 1.2e-4,
+                       6e-5, 3e-5, 1.5e-5, "--bisect", 0, "--out", out, *FAST)  # fmt: skip
+    assert error is None, error
+    with open(out / "study_two_body.json") as f:
+        return json.load(f), text, out
+
+
+def _errors(rows, integrator, key="pose_error"):
+    full = (r for r in rows if r["variant"] == "full")
+    rows = sorted((r for r in full if r["integrator"] == integrator and r["source"] == "grid"),
+                  key=lambda r: -r["timestep"])  # fmt: skip
+    return np.array([r["timestep"] for r in rows]), np.array([r[key] for r in rows])
+
+
+def test_errors_converge_at_the_integrators_orders(two_body_run):
+    """Halving the step divides the error by ~16 for RK4 and ~2 for Euler.
+
+    An error metric that measured anything but the integration error would not show the orders.
+    Bounds: RK4 pose error ratio 12-20 (measured 16.2, 16.5; the maximum over time of the error
+    at finite h carries higher-order terms), taken while the error is 10x above the error floor
+    (3x the reference's estimated error), which then shifts a ratio by < 10 %. Euler energy error
+    ratio 1.7-2.3 (measured 1.9, 1.95; its pose error ratios, 2.4-3.0, mix in second-order terms
+    at these steps, so the energy shows the order more cleanly).
+    """
+    result, _, _ = two_body_run
+    ref = result["reference"]
+    assert ref["converged"] and ref["agreement"] <= 1e-6
+    assert ref["error_estimate"] == pytest.approx(ref["agreement"] / 15)
+    h, e = _errors(result["rows"], "rk4")
+    np.testing.assert_allclose(h[:-1] / h[1:], 2.0, rtol=1e-9)
+    resolved = e[1:] > 10 * result["error_floor"]
+    assert resolved.sum() >= 2
+    assert np.all((12 < (e[:-1] / e[1:])[resolved]) & ((e[:-1] / e[1:])[resolved] < 20))
+    _, e = _errors(result["rows"], "euler", "energy_error")
+    assert np.all((1.7 < e[:-1] / e[1:]) & (e[:-1] / e[1:] < 2.3))
+
+
+def test_report_pareto_and_recommendation(two_body_run):
+    result, text, out = two_body_run
+    for ext in ("md", "json", "png"):
+        assert os.path.getsize(out / f"study_two_body.{ext}") > 1000
+    ok = [r for r in result["rows"] if r["status"] == "ok"]
+    assert ok and all(r["cost"] > 0 and r["repeats"] == 1 for r in ok)
+    for r in ok:  # the front: rows that no other row beats in both cost and error
+        dominated = any(o["cost"] <= r["cost"] and o["pose_error"] < r["pose_error"] for o in ok if o is not r)
+        assert r["pareto"] == (not dominated)
+    own = [r for r in result["rows"] if r["model_setting"]]
+    assert len(own) == 1 and own[0]["integrator"] == "rk4" and own[0]["timestep"] == pytest.approx(2e-5)
+    assert "for <= 1 % error:" in text and "x faster than the reference" in text
+    needs = {n["need"]: n for n in result["needs"]}
+    assert needs["engineering answers (pose error <= 1 %)"]["choice"].startswith("euler, twist")
+    assert any("'reduced_variant' does not apply: nothing to reduce below 2000 Hz" in n for n in result["notes"])
+    assert needs["what the model file uses now"]["vs the model's setting"] == "the setting itself"
+
+
+def test_stability_limits_match_closed_form():
+    """A linear oscillator (w = 100 rad/s): the bisection brackets the theoretical limits.
+
+    Symplectic Euler (MuJoCo's Euler, and implicitfast/discrete without joint damping) is stable
+    for ``w h < 2``, RK4 for ``w h < 2 sqrt 2``. Above a limit the amplitude grows by a factor
+    per step that tends to 1 at the limit, so a 5 s run cannot see the last ~0.1 %; the brackets
+    must lie within 0.5 % of the limits and the divergence must name the element and the step.
+    """
+    w = 100.0
+    model = slide_oscillator_spec(k=w**2, mass=1.0).compile()
+    result = study(model, duration=5.0, samples=50, methods=("twist",), integrators=("euler", "rk4", "discrete"),
+                   bisect=14, limit_rtol=0.002, repeat=1, progress=False)  # fmt: skip
+    assert result.frequencies["full"][0] == pytest.approx(w / (2 * np.pi), rel=1e-7)
+    for limit in result.limits:
+        exact = (2.0 * np.sqrt(2.0) if limit.integrator == "rk4" else 2.0) / w
+        assert exact * 0.995 <= limit.smallest_unstable and limit.largest_stable <= exact * 1.005
+        assert limit.smallest_unstable / limit.largest_stable <= 1.0025
+        div = limit.divergence
+        assert div.element == "spring" and div.timestep == limit.smallest_unstable and div.time < 5.0
+        assert "spring" in div.text() and f"{div.timestep:.3g}" in div.text()
+    assert not any(r.status == "ok" and r.timestep > 2.84 / w for r in result.rows)
+
+
+def _failing_builder(model):
+    raise RuntimeError("this builder does not apply here")
+
+
+def test_variant_path_hinge_replacing_a_flexure():
+    """A real variant (hinge with the compliant stiffness) through body_map and state_from.
+
+    Closed form: the hinge model's frequency is ``sqrt(k_z / I_pivot)`` (linear joint spring);
+    the full model's lowest one lies ~1e-5 below it (the pivot yields in the stiff directions).
+    Over one period that frequency shift alone gives a pose error ~``2 pi df/f`` (phase drift
+    times the amplitude): the variant's error at fine steps must be that, within a factor 2.
+    """
+    model = pivot_arm_spec().compile()
+    bad = hinge_arm_variant(model)
+    bad = Variant("bad state", bad.model, "wrong state size", bad.body_map, lambda m, d: (np.zeros(3), np.zeros(1)))
+    result = study(model, variants=[hinge_arm_variant, _failing_builder, bad], methods=("twist",),
+                   integrators=("rk4",), steps=[1e-4, 5e-5, 2.5e-5], bisect=0, repeat=1, progress=False)  # fmt: skip
+    assert list(result.variants) == ["hinge"]
+    assert any("this builder does not apply here" in n for n in result.notes)
+    assert any("'bad state' left out" in n and "(1,)" in n for n in result.notes)
+    pivot_inertia = ARM["inertia"][2] + ARM["mass"] * (ARM["length"] / 2) ** 2
+    f_hinge = np.sqrt(ARM["k_z"] / pivot_inertia) / (2 * np.pi)
+    assert result.frequencies["hinge"][0] == pytest.approx(f_hinge, rel=1e-8)
+    f_full = result.frequencies["full"][0]
+    assert 1e-6 < (f_hinge - f_full) / f_hinge < 1e-4
+    hinge = [r for r in result.rows if r.variant == "hinge"]
+    assert len(hinge) == 3 and all(r.status == "ok" and r.method == "-" for r in hinge)
+    assert hinge[-1].frequency_error == pytest.approx((f_hinge - f_full) / f_full, rel=1e-6)
+    assert hinge[-1].note == "has 1 of the reference's first 3 elastic modes"
+    full = [r for r in result.rows if r.variant == "full" and r.status == "ok"]
+    assert hinge[-1].pose_error > 10 * max(r.pose_error for r in full)
+    assert 0.5 < hinge[-1].pose_error / (2 * np.pi * hinge[-1].frequency_error) < 2.0
+
+
+def test_linearization_matches_normal_modes():
+    """The study's linearization of qacc against mjflex's generalized forces + mass matrix + eigh."""
+    model = mujoco.MjModel.from_xml_path(TWO_BODY)
+    flex = mjflex.Flexures(model)
+    freq, highest, _ = linearized_frequencies(model, flex, model.qpos0)
+    reference = normal_modes(model, flex)[0]
+    np.testing.assert_allclose(freq, reference[-len(freq) :], rtol=1e-8)
+    assert highest == pytest.approx(reference[-1], rel=1e-10)
+
+
+def test_cli_on_a_user_chain(tmp_path):
+    """A model that is not ours: a grounded chain of hinge, slide and ball joints with a keyframe."""
+    spec = hinge_chain_spec(n=3, K=K_DEMO, B=B_DEMO)
+    model = spec.compile()
+    rng = np.random.default_rng(3)
+    spec.add_key(name="kick", qvel=rng.normal(size=model.nv))
+    path = tmp_path / "chain.xml"
+    path.write_text(spec.to_xml())
+    error, text = _cli("study", path, "--integrators", "rk4", "euler", "--methods", "twist", "dualquat",
+                       "--step-count", 3, "--bisect", 3, "--duration", 0.05, "--out", tmp_path, *FAST)  # fmt: skip
+    assert error is None, error
+    result = json.loads((tmp_path / "study_chain.json").read_text())
+    assert result["initial_state"] == "keyframe 'kick'" and result["frame"] == "the world"
+    assert result["tracked"] == ["link0", "link1", "link2"]
+    assert sum(r["status"] == "ok" for r in result["rows"]) >= 4
+    assert "for <= 1 % error:" in text
+
+
+def test_no_flexures(tmp_path):
+    path = tmp_path / "plain.xml"
+    path.write_text('<mujoco model="plain"><worldbody><body name="b"><freejoint/><geom size="0.1"/></body>'
+                    '</worldbody><keyframe><key qvel="1 0 0 0 0 0"/></keyframe></mujoco>')  # fmt: skip
+    error, _ = _cli("study", path, "--out", tmp_path, *FAST)
+    assert "has no mjflex elements" in error and "add_flexure" in error and "study_plain.json" in error
+    assert "no mjflex elements" in json.loads((tmp_path / "study_plain.json").read_text())["message"]
+
+
+def test_no_initial_state(tmp_path):
+    with open(TWO_BODY) as f:
+        text = f.read()
+    path = tmp_path / "still.xml"
+    path.write_text(text[: text.index("<keyframe>")] + "</mujoco>\n")
+    with pytest.raises(StudyError, match=r"no initial state.*at rest and in equilibrium.*keyframe") as exc:
+        study(str(path), out=tmp_path, progress=False)
+    assert exc.value.paths and json.loads((tmp_path / "study_still.json").read_text())["message"]
+    with pytest.raises(StudyError, match="no keyframe 'nope'"):
+        study(TWO_BODY, keyframe="nope", progress=False)
+
+
+def test_diverges_at_every_candidate_step(tmp_path):
+    """Steps far past the limit: every candidate diverges, each reported with element and step;
+    the command exits with the message and the partial results are written."""
+    error, _ = _cli("study", TWO_BODY, "--integrators", "euler", "rk4", "--methods", "twist", "--steps", 4e-3, 2e-3,
+                    "--bisect", 0, "--no-variants", "--out", tmp_path, *FAST)  # fmt: skip
+    assert "every candidate step diverged" in error
+    result = json.loads((tmp_path / "study_two_body.json").read_text())
+    grid = [r for r in result["rows"] if r["source"] != "model"]
+    assert len(grid) == 4 and all(r["status"] == "diverged" for r in grid)
+    assert all(r["divergence"]["element"] == "hinge" and r["divergence"]["timestep"] == r["timestep"] for r in grid)
+    assert all(lim["largest_stable"] is None for lim in result["limits"])
+    assert "diverged" in (tmp_path / "study_two_body.md").read_text()
+
+
+def test_reference_diverges(tmp_path):
+    with pytest.raises(StudyError, match=r"reference \(RK4\) did not run through") as exc:
+        study(TWO_BODY, steps=[4e-3], reference_step=4e-3, max_refinements=1, out=tmp_path, progress=False)
+    attempts = exc.value.partial.reference.attempts
+    assert [a["timestep"] for a in attempts] == pytest.approx([4e-3, 2e-3])
+    assert all("flexure 'hinge'" in a["status"] for a in attempts)
+    assert json.loads((tmp_path / "study_two_body.json").read_text())["reference"]["attempts"]
+
+
+def test_bad_choices():
+    with pytest.raises(StudyError, match=r"unknown choice.*'rk5'"):
+        study(TWO_BODY, integrators=("rk5",), progress=False)
+    with pytest.raises(StudyError, match="not found"):
+        study("no/such/model.xml", progress=False)
