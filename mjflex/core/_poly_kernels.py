@@ -24,6 +24,7 @@ from ._kernels import (
     _lin,
     _lin3,
     _mat6_vec,
+    flat_rows,
     force_map,
     generalized_forces,
     load3,
@@ -158,6 +159,7 @@ def work_arrays(exps):
 @njit(**_JIT)
 def spatial_wrench_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB,
                                exps, coefs, pw, grad, out, power):  # fmt: skip
+    R_WA, R_WB, K, B = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K), flat_rows(B)
     hi, top = coefs.shape[0], pw.shape[1] - 1
     for i in range(out.shape[0]):
         m, f, power[i] = spatial_wrench_terms(
@@ -173,6 +175,7 @@ def spatial_wrench_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_
 
 @njit(**_JIT)
 def spatial_potential_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, exps, coefs, pw, grad, out):
+    R_WA, R_WB, K = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K)
     hi, top = coefs.shape[0], pw.shape[1] - 1
     for i in range(out.shape[0]):
         out[i] = spatial_potential_terms(
@@ -188,6 +191,7 @@ def design_batch(method, R_ab, p_ab, exps, factors, pw, grad, wrench_out, value_
     ``wrench_out[i, :, m]``: the wrench that the monomial alone exerts on B, in b coordinates
     about b's origin; ``value_out[i, m]``: its value. ``(R_ab[i], p_ab[i])`` is the pose of b in a.
     """
+    R_ab = flat_rows(R_ab)
     for i in range(R_ab.shape[0]):
         e1, e2, aux = _coords(method, _I9, _Z3, load9(R_ab, i), load3(p_ab, i))
         nvar = fill_powers(method, e1, e2, aux, pw, pw.shape[1] - 1)
