@@ -195,7 +195,7 @@ def study(slenderness, args, rng):
     print(f"\nL/t = {slenderness:g}: {len(loads)} training samples (tip rotation up to "
           f"{np.degrees(np.abs(tips[:, 0]).max()):.0f} deg), {len(tests)} held-out loads (up to {reach:.0f} deg); "
           f"chain solved in {time.perf_counter() - t0:.0f} s")  # fmt: skip
-    K_beam = leaf_spring_stiffness(L, T, WIDTH, E, NU)
+    K_beam = leaf_spring_stiffness(L, T, WIDTH, E, NU, method="beam")
     models = fit_models(R, p, W, K_beam, args.weights)
     table, points = [], {}
     for (method, name), (K, terms, fit) in models.items():
@@ -315,7 +315,8 @@ def write_model(potential, method, slenderness, out):
     import mujoco
 
     K, terms = np.array(potential["K"]), mjflex.PolynomialTerms.from_dict(potential["terms"])
-    K = K + np.diag(np.where(np.diag(K) == 0, leaf_spring_stiffness(L, L / slenderness, WIDTH, E, NU).diagonal(), 0))
+    K_beam = leaf_spring_stiffness(L, L / slenderness, WIDTH, E, NU, method="beam")
+    K = K + np.diag(np.where(np.diag(K) == 0, K_beam.diagonal(), 0))
     spec = mujoco.MjSpec()
     spec.modelname = f"leaf_L{slenderness:g}_{method}_N{terms.order}"
     tip = spec.worldbody.add_body(name="tip", pos=[L + 0.002, 0, 0])

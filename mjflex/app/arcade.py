@@ -82,13 +82,19 @@ class ArcadeParams:
         return self.r_leaf + 0.5 * self.leaf_length
 
 
-def notch_stiffness(p: ArcadeParams) -> np.ndarray:
-    """Stiffness of the paper's notch hinge in its own frame (x along the link, z the hinge axis)."""
-    return notch_hinge_stiffness(p.notch_radius, p.notch_web, p.plate_thickness, p.E, p.nu)
+def notch_stiffness(p: ArcadeParams, method="table") -> np.ndarray:
+    """Stiffness of the paper's notch hinge in its own frame (x along the link, z the hinge axis).
+
+    ``method``: of :func:`mjflex.geometry.notch_hinge_stiffness` (default: the 3-D
+    finite-element table, blocks of the hinge's own height subtracted; ``"beam"``: the
+    closed-form beam model the model used before).
+    """
+    return notch_hinge_stiffness(p.notch_radius, p.notch_web, p.plate_thickness, p.E, p.nu, method=method)
 
 
-def leaf_stiffness(p: ArcadeParams) -> np.ndarray:
-    return leaf_spring_stiffness(p.leaf_length, p.leaf_thickness, p.plate_thickness, p.E, p.nu)
+def leaf_stiffness(p: ArcadeParams, method="table") -> np.ndarray:
+    """Stiffness of the paper's leaf spring at its centre (blocks 10 t high: the link is 10 leaf thicknesses wide)."""
+    return leaf_spring_stiffness(p.leaf_length, p.leaf_thickness, p.plate_thickness, p.E, p.nu, method=method)
 
 
 def _plate_frame(angle):
@@ -273,9 +279,9 @@ def _flexure_kinds(p):
     """Stiffness, strain per radian and provenance of the two flexure kinds."""
     material = {"E": p.E, "nu": p.nu}
     notch = {"kind": "circular notch hinge", "R": p.notch_radius, "t": p.notch_web, "b": p.plate_thickness,
-             **material, "formula": "mjflex.geometry.notch_hinge_stiffness (beam integrals)"}  # fmt: skip
+             **material, "formula": "mjflex.geometry.notch_hinge_stiffness (3-D FE table)"}  # fmt: skip
     leaf = {"kind": "leaf spring", "L": p.leaf_length, "t": p.leaf_thickness, "b": p.plate_thickness, **material,
-            "formula": "mjflex.geometry.leaf_spring_stiffness (Timoshenko beam)"}  # fmt: skip
+            "formula": "mjflex.geometry.leaf_spring_stiffness (3-D FE table, blocks 10 t high)"}  # fmt: skip
     K_n, K_l = notch_stiffness(p), leaf_stiffness(p)
     return {
         "notch": (K_n, bending_strain_per_radian(K_n, p.notch_web, p.plate_thickness, p.E, p.nu), notch),

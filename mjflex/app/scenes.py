@@ -123,7 +123,7 @@ def cantilever_spec(beam=None, n=10, *, tip_speed=0.0, timestep=2e-6, beta=0.0):
                          beam.density)  # fmt: skip
         if k == n:
             body.add_site(name="tip", pos=[0.5 * (x1 - x0), 0, 0])
-    K = leaf_spring_stiffness(seg, beam.t, beam.b, beam.E, beam.nu, wide=False, allow_out_of_range=True)
+    K = leaf_spring_stiffness(seg, beam.t, beam.b, beam.E, beam.nu, method="beam", wide=False, allow_out_of_range=True)
     poses = reference_body_poses(spec)
     for k in range(n):
         add_flexure(spec, f"seg{k}", "world" if k == 0 else f"link{k}", f"link{k + 1}", pos=[edges[k], 0, 0], K=K,

@@ -1,4 +1,10 @@
-"""Stiffness from geometry: notch hinges and leaf springs, and a large-deflection leaf model (no mujoco)."""
+"""Stiffness from geometry: notch hinges and leaf springs, and a large-deflection leaf model (no mujoco).
+
+``notch_hinge_stiffness`` and ``leaf_spring_stiffness`` return the 6x6 at the centre of
+stiffness from stored 3-D finite-element tables (:mod:`.tables`, default), from finite
+elements of the given geometry (:mod:`.fe`, scikit-fem, ``method="fe"``) or from the beam
+formulas (``method="beam"``). Error bands per entry: :func:`.tables.error_bands`.
+"""
 
 from .hinges import (
     bending_strain_per_radian,
