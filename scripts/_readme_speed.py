@@ -142,12 +142,13 @@ def block_native(results):
     r = results["compare_native"]
     rows = _native_bushing(r["bushing"]) + _native_cantilever(r["cantilever"]) + _native_arcade(r["arcade"])
     head = ["scene", "model", "cost per step vs mjflex; stable RK4 step; speed at it", "accuracy"]
+    capped = all(c.get("stable_step_is_search_limit") for c in r["bushing"]["costs"].values())
+    why = " (all its models are stable at the stable-step search's upper limit)" if capped else ""
     return (
         f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}); per-step cost ratios are "
-        "medians of interleaved repeats in one process, bushing with their min–max (all its models run at the "
-        "stable-step search's upper limit); speed = wall time per simulated second at each model's own stable "
-        "step, relative to mjflex (≥: still stable at the search's upper limit, 100× the scene's step):\n\n"
-        + table(head, rows)
+        f"medians of interleaved repeats in one process, for the bushing with their min–max{why}; speed = wall time "
+        "per simulated second at each model's own stable step, relative to mjflex (≥: still stable at the search's "
+        "upper limit, 100× the scene's step):\n\n" + table(head, rows)
     )
 
 
