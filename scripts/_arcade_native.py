@@ -12,7 +12,7 @@ from mjflex.mj.linearize import normal_modes
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ARCADE = os.path.join(HERE, "..", "models", "arcade.xml")
-DURATION = 0.04  # s of the paper run (half a period of the 10.6 Hz guide mode)
+DURATION = 0.04  # s of the paper run: 0.4 period of the guide mode (10.2 Hz, scripts/modes.py)
 SMALL_SPEED = 0.01  # m/s: the small-stroke run (no spin, ~80 um), where the guide is nearly linear
 
 

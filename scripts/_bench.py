@@ -4,10 +4,12 @@ These machines are shared and noisy, so cases are measured *interleaved*: every 
 times each case once (``number`` calls), and each case's ratio to the baseline is taken
 within the same repeat. Reported: median time per call and median same-repeat ratio.
 
-Every script writes its JSON with :func:`write_json`, which adds the command, the date and the
-machine. Run a script with ``MJFLEX_RECORD=1`` in the environment to also record the JSON in
-``docs/results/<script>.json`` (committed): README.md's "What was measured" is generated from
-those files by ``python scripts/readme_results.py``.
+Every script writes its JSON with :func:`write_json`, which adds the command, the date, the
+script's wall time and the machine. Run a script with ``MJFLEX_RECORD=1`` in the environment to
+also record the JSON in ``docs/results/`` under the JSON's own file name (by default
+``<script>.json``; runs of one script with other arguments are recorded side by side when their
+``--json`` names differ, e.g. ``long_run_arcade.json``), committed: README.md's measured figures
+are generated from those files by ``python scripts/readme_results.py``.
 """
 
 import datetime
@@ -19,6 +21,8 @@ import sys
 import time
 
 import numpy as np
+
+_START = time.perf_counter()  # the script's clock: scripts import this module before their work
 
 
 def _calls_for(fn, target):
@@ -75,18 +79,30 @@ RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
 
 
 def write_json(path, payload):
-    """Write ``payload`` with the command, date and machine to ``path``; also to ``docs/results`` if recording.
+    """Write ``payload`` with command, date, wall time and machine to ``path``; also to docs/results if recording.
 
-    Recording (``MJFLEX_RECORD=1``) writes ``docs/results/<name of the running script>.json``.
+    Recording (``MJFLEX_RECORD=1``) writes ``docs/results/<file name of path>``, which must be the
+    running script's name, optionally with a suffix (``long_run_arcade.json`` from
+    ``scripts/long_run.py``), so that every recorded file says which script made it.
     """
     payload = dict(payload)
     script = os.path.relpath(os.path.abspath(sys.argv[0]), os.path.join(RESULTS, "..", ".."))
     payload["command"] = shlex.join(["python", script.replace(os.sep, "/"), *sys.argv[1:]])
     payload["date"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-    payload["machine"] = {"platform": platform.platform(), "python": platform.python_version(), "cpus": os.cpu_count()}
+    payload["script_wall_s"] = round(time.perf_counter() - _START, 1)
+    payload["machine"] = {
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "cpus": os.cpu_count(),
+        "load_average_1min": round(os.getloadavg()[0], 2),
+    }  # at the end of the run
     paths = [path]
     if os.environ.get("MJFLEX_RECORD") == "1":
-        paths.append(os.path.join(RESULTS, os.path.splitext(os.path.basename(sys.argv[0]))[0] + ".json"))
+        name, stem = os.path.basename(path), os.path.splitext(os.path.basename(sys.argv[0]))[0]
+        if name == f"{stem}.json" or (name.startswith(f"{stem}_") and name.endswith(".json")):
+            paths.append(os.path.join(RESULTS, name))
+        else:
+            print(f"\nnot recorded: name the JSON {stem}.json or {stem}_<what>.json to record it", file=sys.stderr)
     for target in paths:
         os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
         with open(target, "w") as f:

@@ -171,6 +171,8 @@ def costs_at_stable_steps(cases, h, repeat, probe, duration):
     for c in cases:
         r = rows[c.name]
         r["stable_step_s"] = stable_step(c, h, duration, probe)
+        # stable_step searches up to 100 h: a model still stable there has a larger stable step (a lower bound)
+        r["stable_step_is_search_limit"] = bool(r["stable_step_s"] >= 100.0 * h)
         r["wall_per_sim_s_at_stable"] = r["median_s"] / r["stable_step_s"] if r["stable_step_s"] else float("inf")
     base = rows[cases[0].name]["stable_step_s"]
     for r in rows.values():

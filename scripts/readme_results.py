@@ -1,4 +1,4 @@
-"""Write the measured figures of README.md from the recorded JSON in docs/results/.
+"""Write the measured figures of README.md from the recorded JSON.
 
 Usage::
 
@@ -6,15 +6,19 @@ Usage::
     python scripts/readme_results.py --check    # exit 1 if README.md is not what the JSON gives
 
 README.md holds blocks ``<!-- results:NAME -->`` ... ``<!-- /results -->`` whose text
-``BLOCKS[NAME]`` renders from the files of ``docs/results/`` (a test checks that README.md is
-what this script makes of them, so the two cannot drift apart). The JSON files are written by
-the measurement scripts themselves: run one with ``MJFLEX_RECORD=1`` in the environment
-(``scripts/_bench.py``'s ``write_json`` then also writes ``docs/results/<script>.json``, with
-the command line and the date), then run this script.
+``BLOCKS[NAME]`` renders from recorded JSON (a test checks that README.md is what this script
+makes of them, so the two cannot drift apart). The sources:
 
-Adding a measurement: make the script write its JSON with ``_bench.write_json``, write a row
-function below (its JSON -> ``(what, result)``) and list it in ``MEASURED`` (or a block of
-its own in ``BLOCKS``), record, regenerate, commit the JSON and README.md.
+* ``docs/results/*.json``, written by the measurement scripts themselves: run one with
+  ``MJFLEX_RECORD=1`` in the environment (``scripts/_bench.py``'s ``write_json`` then also
+  writes ``docs/results/<json name>``, with the command line, the date and the wall time);
+* ``SOURCES``: the reports of the command line (``python -m mjflex study ... --out docs/study``,
+  ``python -m mjflex sweep`` copied to ``docs/``), which record their command line too, and the
+  finite-element tables shipped as package data (``scripts/build_stiffness_tables.py``).
+
+Then run this script. Adding a measurement: make the script write its JSON with
+``_bench.write_json``, write a renderer below (JSON -> text), list it in ``BLOCKS`` (and a row
+in ``MEASURED``), record, regenerate, commit the JSON and README.md.
 """
 
 import argparse
@@ -24,21 +28,40 @@ import os
 import re
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # the renderers' modules, also when imported by path
+from _readme_format import command_note, duration, pct, sci, sig, spread, table
+from _readme_speed import (
+    LONG_RUNS,
+    block_long_run,
+    block_long_run_verdict,
+    block_native,
+    block_native_verdict,
+    block_reduce_arcade,
+    block_study_arcade,
+    block_sweep_arcade,
+    block_sweep_bench,
+    row_bench_sweep,
+    row_compare_native,
+    row_long_run,
+    row_reduce_arcade,
+    row_study_arcade,
+)
+
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 RESULTS = os.path.join(ROOT, "docs", "results")
 README = os.path.join(ROOT, "README.md")
 BLOCK = re.compile(r"(<!-- results:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /results -->)", re.S)
+#: Recorded JSON outside docs/results: name -> path relative to the repository root.
+SOURCES = {
+    "study_arcade": "docs/study/study_arcade.json",
+    "sweep_arcade": "docs/sweep_arcade.json",
+    "table_notch": "mjflex/geometry/data/notch_hinge.json",
+    "table_leaf": "mjflex/geometry/data/leaf_spring.json",
+}
+ENTRIES = ("rot_x", "rot_y", "rot_z", "x", "y", "z")
 
 
-def _sci(x):
-    """``3e-5``, ``3.2e-5``: a short scientific notation (two significant digits at most)."""
-    mantissa, exponent = f"{x:.1e}".split("e")
-    return f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
-
-
-def _spread(row, key="ratio"):
-    """``median× (min–max)`` of a row of scripts/_bench.py's ``compare``."""
-    return f"{row[key + '_median']:.2f}× ({row[key + '_min']:.2f}–{row[key + '_max']:.2f})"
+# ------------------------------------------------------------------------ per-step and core cost
 
 
 def row_bench_core(r):
@@ -47,8 +70,8 @@ def row_bench_core(r):
 
     def cell(method):
         return (
-            f"{_spread(rows[f'{method}: wrench_on_b x{n}, check=False'])}; compiled kernel alone "
-            f"{_spread(rows[f'{method}: compiled batch kernel alone x{n}'])}"
+            f"{spread(rows[f'{method}: wrench_on_b x{n}, check=False'])}; compiled kernel alone "
+            f"{spread(rows[f'{method}: compiled batch kernel alone x{n}'])}"
         )
 
     what = f"{n} wrenches (`wrench_on_b`, elastic + viscous) vs a bare `mj_step` of 35 bodies"
@@ -60,24 +83,52 @@ def row_bench_step(r):
     weld = rows["weld: 48 weld equality constraints"]["median_s"]
     cells = []
     for name, label in (("flexures, twist method", "twist"), ("flexures, dual-quaternion method", "dual quaternion")):
-        cells.append(f"{label} {_spread(rows[name])} the bare step, {rows[name]['median_s'] / weld:.2f}× the weld step")
+        cells.append(f"{label} {spread(rows[name])} the bare step, {rows[name]['median_s'] / weld:.2f}× the weld step")
     bare = rows["bare: same bodies, no elements (baseline)"]["median_s"]
     what = f"`mj_step` with 48 flexures vs no elements vs 48 welds ({r['model']}, Euler)"
     return what, "; ".join(cells) + f" (bare step {bare * 1e6:.1f} µs)"
 
 
-def row_compare_native(r):
-    res, cost = r["results"], r["step_cost"]
-    twist = res["twist"]
-    parts = [
-        f"step cost vs one hinge joint: mjflex {_spread(cost['twist'])}, 6-joint bushing {_spread(cost['bushing'])}, "
-        f"weld {_spread(cost['weld'])}",
-        f"swing {twist['frequency_hz']:.1f} Hz, {twist['peak_rotation_rad']:.2f} rad; largest rotation off mjflex's: "
-        f"bushing {res['bushing']['max_rotation_deviation_rad']:.2g} rad, hinge joint "
-        f"{res['hinge']['max_rotation_deviation_rad']:.2g} rad (no parasitic translation: mjflex "
-        f"{twist['parasitic_translation_um']:.0f} µm), weld swings {res['weld']['peak_rotation_rad']:.2g} rad",
-    ]
-    return "a notch hinge: mjflex vs native joint springs (6-joint bushing, hinge) and a weld", "; ".join(parts)
+def _poly(r):
+    """Per-term costs [ns], quadratic cost per element [ns], and a function: ratio to the method's quadratic."""
+    per_term = [v * 1e9 for v in r["seconds_per_term"].values()]
+    quad = {m: r["quadratic_seconds_per_element"][m] * 1e9 for m in ("twist", "dualquat")}
+    rows = r["rows"]
+
+    def ratio(method, label):
+        name = next(k for k in rows if k.startswith(f"{method}: {label}"))
+        return rows[name]["ratio_median"] / rows[f"{method}: quadratic"]["ratio_median"], r["terms"][name]
+
+    return per_term, quad, ratio
+
+
+def row_bench_polynomial(r):
+    per_term, quad, ratio = _poly(r)
+    (p6, n6), (a6, m6) = ratio("twist", "order 6, plane"), ratio("twist", "order 6, all 6")
+    return (
+        f"polynomial terms: compiled batch of {r['n_elements']} elements vs the quadratic one",
+        f"{min(per_term):.0f}–{max(per_term):.0f} ns per term and element (quadratic wrench {quad['dualquat']:.0f}–"
+        f"{quad['twist']:.0f} ns); twist order 6: {p6:.1f}× in the plane ({n6} terms), {a6:.0f}× in all six "
+        f"coordinates ({m6} terms)",
+    )
+
+
+def block_polynomial_cost(results):
+    r = results["bench_polynomial"]
+    per_term, quad, ratio = _poly(r)
+    cells = []
+    for label in ("order 4, plane", "order 6, plane", "order 6, all 6"):
+        (t, n), (d, m) = ratio("twist", label), ratio("dualquat", label)
+        cells.append(f"{label.replace('all 6', 'all six coordinates')} ({n} / {m} terms) {t:.1f}× / {d:.1f}×")
+    return (
+        f"Per element, each term costs {min(per_term):.0f}–{max(per_term):.0f} ns against {quad['dualquat']:.0f} "
+        f"(dual quaternion) and {quad['twist']:.0f} ns (twist) for the whole quadratic wrench; against the quadratic "
+        f"batch of the same method (twist / dual quaternion), {'; '.join(cells)} (`{r['command']}`, medians of "
+        f"interleaved repeats, recorded {r['date'][:10]}).\n"
+    )
+
+
+# ---------------------------------------------------------------------- stiffness from geometry
 
 
 def row_hinge_fe_check(r):
@@ -98,6 +149,78 @@ def row_hinge_fe_check(r):
         f"beam model {min(excess.values()):.0f}–{max(excess.values()):.0f} % too stiff in the compliant rotation for "
         f"t/R {min(rot):g}–{max(rot):g} ({excess[0.125]:.0f} % at the paper's 0.125)",
     )
+
+
+def block_fe_check(results):
+    r = results["hinge_fe_check"]
+    conv2, conv3, beam = r["convergence_2d"], r["convergence_3d"], r["beam_over_fe"]
+
+    def worst(kind):
+        return max(abs(v) for name, c in conv2.items() if name.startswith(kind) for v in c["level 1"])
+
+    def orders(kind):
+        o = [x for name, c in conv2.items() if name.startswith(kind) for x in c["order"] if x == x and x < 4.5]
+        return f"{min(o):.1f}–{max(o):.1f}"
+
+    mesh3 = {name.split()[0]: max(abs(v) for v in c["tables' mesh"]) for name, c in conv3.items()}
+    notch, leaf = beam["notch t/R=0.125"], beam["leaf L/t=18"]  # K_beam / K_FE in the order of ENTRIES
+    rot = {float(k.split("=")[1]): v[2] for k, v in beam.items() if k.startswith("notch")}
+    short = beam["leaf L/t=2"]
+    return (
+        f"Mesh convergence (`{r['command']}`, {duration(r['wall_s'])}, recorded {r['date'][:10]}): in plane stress "
+        f"the tables' mesh is within {worst('notch'):.2f} % (notch) and {worst('leaf'):.2f} % (leaf, re-entrant "
+        f"corners) of the Richardson limit of four levels, converging at order {orders('notch')} (notch) and "
+        f"{orders('leaf')} (leaf); in 3-D it is within {mesh3['notch']:.2f} % (the paper's hinge) and "
+        f"{mesh3['leaf']:.2f} % (the paper's leaf) of the refined limit in every entry. What the beam model misses "
+        f"(stiffness ratio beam / 3-D FE, the paper's `b` = 9.5 mm and material): the compliant rotation of the "
+        f"paper's hinge (`t/R = 0.125`) is {pct(notch[2] - 1)} too stiff ({pct(rot[0.05] - 1)} at t/R = 0.05, "
+        f"{pct(rot[0.8] - 1)} at 0.8), its torsion {1 / notch[0]:.0f}× too soft (the blocks restrain the short "
+        f"neck's warping), axial and out-of-plane shear {pct(notch[3] - 1)} and "
+        f"{pct(notch[5] - 1)} too stiff; the paper's leaf (`L/t = 18`) is {pct(min(leaf[1:]) - 1)}–"
+        f"{pct(max(leaf[1:]) - 1)} too stiff in bending and shear, a short leaf (`L/t = 2`) "
+        f"{min(short[1:]):.1f}–{max(short[1:]):.1f}× (the roots' compliance in the blocks).\n"
+    )
+
+
+def block_fe_tables(results):
+    rows, notes = [], []
+    for name, label in (("table_notch", "notch hinge"), ("table_leaf", "leaf spring")):
+        t = results[name]
+        band = t["error_band"]
+        rows.append([label] + [pct(band[e]["total"]) if e != "rot_z" else f"**{pct(band[e]['total'])}**"
+                               for e in ENTRIES])  # fmt: skip
+        grid = 1
+        for axis in t["axes"].values():
+            grid *= len(axis)
+        notes.append(
+            f"`{t['command']}` ({label}: {grid} FE solutions, last build {duration(t['grid_wall_time_s'])}, "
+            f"validation {duration(t['validation_wall_time_s'])})"
+        )
+    head = ["entry", "torsion `rot_x`", "out-of-plane bending `rot_y`", "compliant rotation `rot_z`", "axial `x`",
+            "in-plane shear `y`", "out-of-plane shear `z`"]  # fmt: skip
+    return (
+        table(head, rows)
+        + "\nFrom the tables' own records (package data, `mjflex/geometry/data/`): "
+        + "; ".join(notes)
+        + ", one core.\n"
+    )
+
+
+def block_beam_factors(results):
+    """Range of the FE/beam factors the tables hold, per kind: what ``method="beam"`` gets wrong."""
+    import numpy as np
+
+    out = []
+    for name, label in (("table_notch", "notch"), ("table_leaf", "leaf")):
+        ratio = 1.0 / np.asarray(results[name]["factors"], float).reshape(-1, 6)  # K_beam / K_FE per entry
+        rz, others = ratio[:, 2], ratio[:, [1, 3, 4, 5]]
+        soft = f"{pct(1 - rz.min())} too soft to " if rz.min() < 1 else f"{pct(rz.min() - 1)} to "
+        out.append(f"{label}: compliant rotation {soft}{pct(rz.max() - 1)} too stiff, other entries up to "
+                   f"{others.max():.2g}× too stiff, torsion up to {1 / ratio[:, 0].min():.0f}× too soft")  # fmt: skip
+    return "Over the tables' range the beam model's stiffness (`method=\"beam\"`) is, " + "; ".join(out) + ".\n"
+
+
+# -------------------------------------------------------------------------------- the ARCADE model
 
 
 def row_modes(r):
@@ -121,35 +244,12 @@ def stable_steps(r):
 
 def row_timestep_study(r):
     best = stable_steps(r)
-    steps = ", ".join(f"{name} ≤ {_sci(dt)} s" for name, dt in best.items())
+    steps = ", ".join(f"{name} ≤ {sci(dt)} s" for name, dt in best.items())
     w = r["omega_max"]
     return (
         f"stable time step of the ARCADE run ({r['duration'] * 1e3:g} ms, no damping)",
-        f"{steps} (modal limits 2.8/ω_max = {_sci(2.8 / w)} s, 2/ω_max = {_sci(2 / w)} s)",
+        f"{steps} (modal limits 2.8/ω_max = {sci(2.8 / w)} s, 2/ω_max = {sci(2 / w)} s)",
     )
-
-
-#: Rows of the "measured" table, in order: (JSON name in docs/results, row function).
-MEASURED = [
-    ("bench_core", row_bench_core),
-    ("bench_step", row_bench_step),
-    ("compare_native", row_compare_native),
-    ("hinge_fe_check", row_hinge_fe_check),
-    ("modes", row_modes),
-    ("timestep_study", row_timestep_study),
-]
-
-
-def _command(r):
-    return f"`{r['command']}` ({r['date'][:10]})"
-
-
-def block_measured(results):
-    lines = ["| what | result | command (recorded) |", "|---|---|---|"]
-    for name, row in MEASURED:
-        what, result = row(results[name])
-        lines.append(f"| {what} | {result} | {_command(results[name])} |")
-    return "\n".join(lines) + "\n"
 
 
 def block_integrators(results):
@@ -158,24 +258,132 @@ def block_integrators(results):
     return (
         f"For the ARCADE model `{results['modes']['command']}` finds ω_max/2π = "
         f"{modes['highest_frequency_hz'] / 1e3:.1f} kHz, and `{study['command']}` finds RK4 stable up to "
-        f"{_sci(best['RK4'])} s and Euler up to {_sci(best['Euler'])} s (runs of {study['duration'] * 1e3:g} ms, "
+        f"{sci(best['RK4'])} s and Euler up to {sci(best['Euler'])} s (runs of {study['duration'] * 1e3:g} ms, "
         f"recorded {study['date'][:10]}); the model uses RK4 with 1e-5 s.\n"
     )
 
 
-#: Block name -> (JSON files it reads, renderer).
+# ----------------------------------------------------------------------------- large deflections
+
+
+def _fit_cell(e, limit):
+    worst, fails = e[f"worst_tip_error_pct_L_upto_{limit}deg"], e[f"failures_upto_{limit}deg"]
+    text = "–" if worst is None else sig(worst)
+    return text + (f" ({fails} none)" if fails else "")
+
+
+def block_fit_flexure(results):
+    r = results["fit_flexure"]
+    fits = r["table"]
+    reach = max(abs(p["tip_rotation_deg"]) for pts in r["points"].values() for v in pts.values() for p in v)
+    loads = len(next(iter(next(iter(r["points"].values())).values())))
+    bins = sorted({int(k.split("_")[-1][:-3]) for k in fits[0] if k.startswith("worst_")})
+    top = bins[-1]
+    e = {(x["slenderness"], x["model"], x["method"]): x for x in fits}
+    sizes = sorted({x["slenderness"] for x in fits})
+    labels = {"beam theory": "linear beam theory K (not fitted)", "N = 2": "fitted N = 2", "N = 4": "fitted N = 4",
+              "N = 6": "fitted N = 6", "beam K + N = 6": "beam K + fitted N = 6 terms"}  # fmt: skip
+    rows = [[f"{sizes[0]:g}", label, *(_fit_cell(e[(sizes[0], model, m)], b) for m in ("twist", "dualquat")
+                                       for b in bins)] for model, label in labels.items()]  # fmt: skip
+    for size in sizes[1:]:
+        rows.append([f"{size:g}", "fitted N = 2 / 4 / 6", *(" / ".join(_fit_cell(e[(size, f"N = {n}", m)], b)
+                     for n in (2, 4, 6)) for m in ("twist", "dualquat") for b in bins)])  # fmt: skip
+    ranges = [f"≤ {b}°" if b < reach else f"≤ {reach:.0f}°" for b in bins]
+    head = ["L/t", "potential", *(f"twist: {x}" for x in ranges), *(f"dual quaternion: {x}" for x in ranges)]
+
+    def w(size, model, method="twist", limit=top):
+        return e[(size, model, method)][f"worst_tip_error_pct_L_upto_{limit}deg"]
+
+    order4 = [w(size, "N = 4", m) for size in sizes for m in ("twist", "dualquat")]
+    fixed_fails = max(x["failures"] for x in fits if x["model"].startswith("beam K"))
+    slender = sizes[-1]
+    return (
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}): worst tip-position error "
+        f"in % of L over the held-out loads up to {reach:.0f}° of tip rotation, and the number of loads (of "
+        f"{loads}) where the model has no stable equilibrium; all numbers, the other models and the fitted potentials "
+        "are in the JSON:\n\n"
+        + table(head, rows)
+        + f"\nFor L/t = {sizes[0]:g} the fitted order-6 potential errs by at most {sig(w(sizes[0], 'N = 6'))} % of L "
+        f"(twist; {sig(w(sizes[0], 'N = 6', 'dualquat'))} % dual quaternion) against {sig(w(sizes[0], 'N = 2'))} % "
+        f"for the fitted quadratic and {sig(w(sizes[0], 'beam theory'))} % for the beam-theory K; order 4 gets "
+        f"{sig(min(order4))}–{sig(max(order4))} % over all three leaves. Keeping the beam K and fitting only the "
+        f"terms errs by {sig(w(sizes[0], 'beam K + N = 6', limit=bins[0]))} % near rest (≤ {bins[0]}°, against "
+        f"{sig(w(sizes[0], 'N = 6', limit=bins[0]))} % for the full fit) but is fragile for slender leaves: up to "
+        f"{fixed_fails} of {loads} loads without a stable equilibrium. For L/t = {slender:g} order 6 finds no "
+        f"equilibrium for {e[(slender, 'N = 6', 'twist')]['failures']} (twist) and "
+        f"{e[(slender, 'N = 6', 'dualquat')]['failures']} (dual quaternion) of the largest loads.\n"
+    )
+
+
+def row_fit_flexure(r):
+    fits = r["table"]
+    s = min(e["slenderness"] for e in fits)
+    top = max(int(k.split("_")[-1][:-3]) for k in fits[0] if k.startswith("worst_"))
+    w = {(e["model"], e["method"]): e[f"worst_tip_error_pct_L_upto_{top}deg"] for e in fits if e["slenderness"] == s}
+    return (
+        f"a leaf spring (L/t = {s:g}) fitted far beyond its linear range: worst tip error over held-out loads",
+        f"order 6 {sig(w[('N = 6', 'twist')])} % / {sig(w[('N = 6', 'dualquat')])} % of L, fitted quadratic "
+        f"{sig(w[('N = 2', 'twist')])} % / {sig(w[('N = 2', 'dualquat')])} % (twist / dual quaternion)",
+    )
+
+
+# ------------------------------------------------------------------------------------- the index
+
+
+#: Rows of the "What was measured" table, in order: (JSON name, row function).
+MEASURED = [
+    ("bench_core", row_bench_core),
+    ("bench_step", row_bench_step),
+    ("bench_polynomial", row_bench_polynomial),
+    ("hinge_fe_check", row_hinge_fe_check),
+    ("modes", row_modes),
+    ("timestep_study", row_timestep_study),
+    ("study_arcade", row_study_arcade),
+    ("compare_native", row_compare_native),
+    ("reduce_arcade", row_reduce_arcade),
+    ("long_run", row_long_run),
+    ("bench_sweep", row_bench_sweep),
+    ("fit_flexure", row_fit_flexure),
+]
+
+
+def block_measured(results):
+    lines = ["| what | result | command (recorded, wall time) |", "|---|---|---|"]
+    for name, row in MEASURED:
+        what, result = row(results[name])
+        lines.append(f"| {what} | {result} | {command_note(results[name])} |")
+    return "\n".join(lines) + "\n"
+
+
+#: Block name -> (recorded JSON it reads, renderer).
 BLOCKS = {
     "measured": ([name for name, _ in MEASURED], block_measured),
     "integrators": (["modes", "timestep_study"], block_integrators),
+    "fe-tables": (["table_notch", "table_leaf"], block_fe_tables),
+    "beam-factors": (["table_notch", "table_leaf"], block_beam_factors),
+    "fe-check": (["hinge_fe_check"], block_fe_check),
+    "polynomial-cost": (["bench_polynomial"], block_polynomial_cost),
+    "fit-flexure": (["fit_flexure"], block_fit_flexure),
+    "study-arcade": (["study_arcade"], block_study_arcade),
+    "native": (["compare_native"], block_native),
+    "native-verdict": (["compare_native"], block_native_verdict),
+    "reduce-arcade": (["reduce_arcade"], block_reduce_arcade),
+    "long-run": (LONG_RUNS, block_long_run),
+    "long-run-verdict": (LONG_RUNS, block_long_run_verdict),
+    "sweep-arcade": (["sweep_arcade"], block_sweep_arcade),
+    "sweep-bench": (["bench_sweep"], block_sweep_bench),
 }
 
 
-def load_results(folder=RESULTS):
-    """Every recorded JSON of ``folder``, by file name without ``.json``."""
+def load_results(folder=RESULTS, sources=None):
+    """Every recorded JSON of ``folder`` and of ``SOURCES``, by name (file name without ``.json``)."""
     results = {}
     for path in sorted(glob.glob(os.path.join(folder, "*.json"))):
         with open(path) as f:
             results[os.path.splitext(os.path.basename(path))[0]] = json.load(f)
+    for name, path in (SOURCES if sources is None else sources).items():
+        with open(os.path.join(ROOT, path)) as f:
+            results[name] = json.load(f)
     return results
 
 
@@ -189,7 +397,7 @@ def generate(readme, results):
         needs, renderer = BLOCKS[name]
         missing = [n for n in needs if n not in results]
         if missing:
-            raise KeyError(f"block 'results:{name}' needs docs/results/{missing[0]}.json: record it (MJFLEX_RECORD=1)")
+            raise KeyError(f"block 'results:{name}' needs recorded JSON {missing[0]!r}: record it (MJFLEX_RECORD=1)")
         return match.group(1) + renderer(results) + match.group(4)
 
     return BLOCK.sub(render, readme)
@@ -204,8 +412,8 @@ def main():
     new = generate(readme, load_results())
     if args.check:
         if new != readme:
-            sys.exit("README.md differs from what docs/results gives: run python scripts/readme_results.py")
-        print("README.md is what docs/results gives")
+            sys.exit("README.md differs from what the recorded JSON gives: run python scripts/readme_results.py")
+        print("README.md is what the recorded JSON gives")
         return
     with open(README, "w") as f:
         f.write(new)

@@ -1,9 +1,11 @@
 """Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml`` and ``sweep``."""
 
 import argparse
+import datetime
 import json
 import math
 import os
+import shlex
 import sys
 import time
 from contextlib import contextmanager
@@ -145,6 +147,13 @@ def _stop_on_divergence(name):
         raise SystemExit(EXIT_DIVERGED) from None
 
 
+def provenance(argv=None):
+    """``{"command", "date"}``: the command line (``python -m mjflex ...``) and UTC start time, for JSON reports."""
+    args = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    date = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    return {"command": shlex.join(["python", "-m", "mjflex", *args]), "date": date}
+
+
 def _print_command_time(started):
     print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
 
@@ -236,6 +245,7 @@ def _study_command(args):
     from .study import StudyError, study  # tqdm and the study's modules load only for this command
 
     model = arcade_model()[0] if args.model == "arcade" else args.model
+    os.makedirs(args.out, exist_ok=True)
     try:
         result = study(
             model, keyframe=args.keyframe, duration=args.duration, track=args.track, frame=args.frame,
@@ -243,12 +253,14 @@ def _study_command(args):
             max_step=args.max_step, min_step=args.min_step, variants=[] if args.no_variants else None,
             repeat=args.repeat, bisect=args.bisect, reference_tol=args.reference_tol,
             max_refinements=args.max_refinements, reference_step=args.reference_step, samples=args.samples,
-            max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock, out=args.out,
-            progress=not args.quiet,
+            max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock, progress=not args.quiet,
         )  # fmt: skip
     except StudyError as exc:
-        written = f" Partial results written to {', '.join(exc.paths)}." if exc.paths else ""
-        raise SystemExit(f"error: {exc}{written}") from None
+        exc.partial.command = args.provenance["command"]
+        exc.paths = exc.partial.write(args.out)
+        raise SystemExit(f"error: {exc} Partial results written to {', '.join(exc.paths)}.") from None
+    result.command = args.provenance["command"]
+    result.write(args.out)
     print("\n".join(result.summary_lines()))
     print("\n".join(result.recommendation()))
     for limit in result.limits:
@@ -327,6 +339,7 @@ def main(argv=None):
         p.add_argument("--quiet", action="store_true", help="no progress bar")
     _sweep_parser(sub)
     args = ap.parse_args(argv)
+    args.provenance = provenance(argv)
     if args.command == "study":
         for name in ("duration", "step_count", "max_step", "min_step", "repeat", "samples", "max_run_wall"):
             if getattr(args, name) is not None and getattr(args, name) <= 0:

@@ -147,6 +147,9 @@ class StudyResult:
     clock: str = "cpu"  # what the cost is measured with: "cpu" (thread CPU time) or "wall"
     notes: list = field(default_factory=list)
     message: str | None = None  # why the study stopped early, if it did
+    date: str = ""  # UTC start time, ISO 8601
+    wall_s: float | None = None  # wall time of the whole study [s]
+    command: str = ""  # the command line that ran it (set by ``python -m mjflex study``)
 
     # ------------------------------------------------------------------ selections
 
@@ -267,6 +270,9 @@ class StudyResult:
             "needs": [dict(zip(self.NEEDS_COLUMNS, row, strict=True)) for row in self.needs()],
             "notes": self.notes,
             "message": self.message,
+            "command": self.command,
+            "date": self.date,
+            "wall_s": self.wall_s,
         }
 
     def summary_lines(self) -> list[str]:
@@ -286,6 +292,8 @@ class StudyResult:
                 f"first elastic frequencies {', '.join(f'{f:.4g}' for f in first)} Hz; highest "
                 f"{self.highest_frequency:.4g} Hz; fastest rate with damping {self.fastest_rate:.4g} 1/s"
             )
+        if self.wall_s is not None:
+            lines.append(f"study wall time {self.wall_s:.0f} s" + (f" (`{self.command}`)" if self.command else ""))
         return lines + [f"note: {n}" for n in self.notes] + ([f"STOPPED: {self.message}"] if self.message else [])
 
     def to_markdown(self) -> str:

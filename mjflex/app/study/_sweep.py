@@ -1,7 +1,9 @@
 """The study itself: plan the steps, build the reference, sweep the candidates, bisect the limits."""
 
+import datetime
 import math
 import os
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -289,7 +291,9 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
     """Measure the speed-accuracy trade of simulating ``model``'s flexures; see the package docstring."""
     opts = {k: v for k, v in locals().items() if k not in ("model", "out", "progress")}
     label = os.fspath(model) if isinstance(model, str | os.PathLike) else "model"
-    result = StudyResult(str(label), targets=tuple(targets), clock=clock)
+    result = StudyResult(str(label), targets=tuple(targets), clock=clock,
+                         date=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"))  # fmt: skip
+    started = time.perf_counter()
     bar = tqdm(total=max_refinements + 1, unit="run", disable=not progress, leave=False)
     try:
         with quiet_mujoco_warnings():
@@ -302,6 +306,7 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
         raise
     finally:
         bar.close()
+        result.wall_s = time.perf_counter() - started
     result.mark_pareto()
     swept = [r for r in result.rows if r.source != "model"]
     if swept and not any(r.status == "ok" for r in swept):

@@ -11,6 +11,7 @@ duration 0 gives the guide's first (undamped) natural frequency for each leaf st
 import json
 import os
 import sys
+import time
 import warnings
 
 import numpy as np
@@ -152,6 +153,7 @@ def run(args):
     """The ``sweep`` command (arguments as parsed by :mod:`mjflex.app.cli`)."""
     from .api import sweep
 
+    started = time.perf_counter()
     os.makedirs(args.out, exist_ok=True)
     executor, close = make_executor(args.executor, args.workers)
     recipe = arcade_recipe()
@@ -168,7 +170,7 @@ def run(args):
     stem = os.path.join(args.out, "sweep_arcade")
     ds.to_netcdf(stem + ".nc")
     plot(ds, modes, stem + ".png")
-    info = summary(ds, modes)
+    info = {**args.provenance, "command_wall_s": round(time.perf_counter() - started, 1), **summary(ds, modes)}
     with open(stem + ".json", "w") as f:
         json.dump(info, f, indent=2)
     print("first natural frequency [Hz] by leaf scale:", ", ".join(f"x{k}: {v:.2f}" for k, v in

@@ -1,0 +1,393 @@
+"""README blocks of the speed-accuracy measurements: the study, reduce, native alternatives, long runs, sweeps.
+
+Renderers of scripts/readme_results.py: each takes the recorded JSON (by name) and returns README text.
+"""
+
+import re
+
+from _readme_format import command_note, duration, join_and, pct, sci, sig, table
+
+#: The recorded runs of scripts/long_run.py, in the README's order.
+LONG_RUNS = ["long_run", "long_run_arcade", "long_run_arcade_1e-5", "long_run_arcade_damped"]
+
+
+# ---------------------------------------------------------------------------- speed vs accuracy
+
+
+def _study_limit(r, variant="full", method="twist"):
+    return {lim["integrator"]: lim for lim in r["limits"] if lim["variant"] == variant and lim["method"] == method}
+
+
+def row_study_arcade(r):
+    need = {n["need"].split(" (")[0]: n for n in r["needs"]}
+    eng = need["engineering answers"]
+    faster = eng["vs the model's setting"]
+    return (
+        "speed against accuracy on the ARCADE run (`mjflex study`)",
+        f"for ≤ 1 % pose error: {eng['choice']}, {eng['s per simulated s']} CPU s per simulated s, "
+        f"{faster} than the model's own RK4 at 1e-5 s; RK4 stable to "
+        f"{sci(_study_limit(r)['rk4']['largest_stable'])} s",
+    )
+
+
+def block_study_arcade(results):
+    r = results["study_arcade"]
+    ref, lim = r["reference"], _study_limit(r)
+    full = [x for x in r["rows"] if x["variant"] == "full" and x["status"] == "ok"]
+    dq = [x["pose_error"] for x in full if x["method"] == "dualquat" and x["pose_error"] is not None]
+
+    def bracket(i):
+        return f"{sci(lim[i]['largest_stable'], 3)} s and diverges at {sci(lim[i]['smallest_unstable'], 3)} s"
+
+    others = [i for i in lim if i != "rk4"]
+    if len({(lim[i]["largest_stable"], lim[i]["smallest_unstable"]) for i in others}) == 1:
+        implicit = (
+            f"{join_and(others)} are all stable up to {bracket(others[0]).replace('diverges', 'diverge')}: the "
+            "implicit ones gain nothing, as mjflex forces enter every MuJoCo integrator explicitly"
+        )
+    else:
+        implicit = "; ".join(f"{i} is stable up to {bracket(i)}" for i in others)
+    best = {v: min(x["pose_error"] for x in r["rows"] if x["variant"] == v and x["pose_error"] is not None)
+            for v in r["variants"]}  # fmt: skip
+    notes = {}
+    for v, report in r["variants"].items():
+        lines = report.splitlines()[1:]
+        kept = sum("kept as an element" in line for line in lines)
+        if v.startswith("reduced") and kept:
+            notes[v] = f" (keeps {kept} elements, drops the damping of {sum('damping dropped' in x for x in lines)})"
+    variants = (
+        "Best pose error of the default variants (any method, integrator and step): "
+        + ", ".join(f"{v} {pct(e)}{notes.get(v, '')}" for v, e in best.items())
+        + "."
+    )
+    elements = sorted({lim[i]["divergence"]["element"] for i in lim if lim[i]["divergence"]})
+    text = (
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['wall_s'])} of wall time on 2 cores, the "
+        f"{len(r['variants'])} default variants included): the "
+        f"paper's run for {r['duration'] * 1e3:.1f} ms, one period of the guide mode, {len(r['tracked'])} bodies "
+        f"tracked relative to the {r['frame']}. The reference is RK4 at {sci(ref['timestep'], 3)} s (successive "
+        f"refinements agree to {sci(ref['agreement'])}, estimated error {sci(ref['error_estimate'])}, observed "
+        f"order {ref['observed_order']:.1f}). Over this run RK4 (twist) is stable up to {bracket('rk4')}; {implicit}; "
+        f"each divergence names its element ({', '.join(f'`{e}`' for e in elements)}) and step. The dual-quaternion "
+        f"runs differ from the (twist) reference by {pct(min(dq))}–{pct(max(dq))}: the difference between the two "
+        f"element models at ARCADE's finite rotations, not integration error. {variants}\n\nWhich choice for which "
+        "need (CPU seconds of `mj_step` per simulated second):\n\n"
+    )
+    cols = list(r["needs"][0])
+    return text + table(cols, [[n[c] for c in cols] for n in r["needs"]])
+
+
+# ------------------------------------------------------------------- native alternatives, reduce
+
+
+def _stable(cost):
+    bound = "≥ " if cost.get("stable_step_is_search_limit") else ""
+    return f"{bound}{sci(cost['stable_step_s'])} s", f"{bound}{sig(cost['speedup_at_stable'])}×"
+
+
+def _native_cost(cost, stable=True):
+    if not stable:
+        return f"{cost['ratio_median']:.2f}× ({cost['ratio_min']:.2f}–{cost['ratio_max']:.2f})"
+    step, speed = _stable(cost)
+    return f"{cost['ratio_median']:.2f}×; {step}; {speed}"
+
+
+def _native_bushing(s):
+    rows = []
+    for name, r in s["results"].items():
+        dyn = f"{r['dynamic_rotation_error_deg']:.0f}° / {r['dynamic_position_error_mm']:.0f} mm in motion"
+        if r.get("static_rotation_error_deg", float("nan")) == r.get("static_rotation_error_deg"):
+            rest = f"{r['static_rotation_error_deg']:.1f}° / {r['static_position_error_mm']:.1f} mm at rest"
+        else:
+            rest = "no equilibrium under the static load"
+        acc = "the reference (the 6×6 law on the finite twist)" if name == "mjflex twist" else f"{dyn}; {rest}"
+        rows.append(["", name, _native_cost(s["costs"][name], stable=False), acc])
+    twist = s["results"]["mjflex twist"]
+    force, torque = (sum(x * x for x in part) ** 0.5 for part in (s["static_wrench"][:3], s["static_wrench"][3:]))
+    rows[0][0] = (
+        f"bushing: coupled 6×6, {twist['peak_rotation_deg']:.0f}° peak rotation in {s['duration']:g} s; static "
+        f"{force / 1e3:.2g} kN + {torque:.2g} N m ({twist['static_rotation_deg']:.0f}° under the twist law)"
+    )
+    return rows
+
+
+def _native_cantilever(s):
+    rows = []
+    for name, r in s["results"].items():
+        acc = f"{100 * r['small_error']:.2f} %, {100 * r['large_error']:.2f} %, f1 {100 * r['f1_error']:+.2f} %"
+        rows.append(["", name, _native_cost(s["costs"][name]), acc])
+    rows[0][0] = (
+        f"cantilever: {s['segments']} elements; tip under a small load (Timoshenko), a large one (elastica), "
+        "first frequency (Euler-Bernoulli)"
+    )
+    return rows
+
+
+def _native_arcade(s):
+    rows, full = [], next(iter(s["results"]))
+    for name, r in s["results"].items():
+        p, q = r["paper_run"], r["small_stroke"]
+        acc = (
+            f"stroke {p['stroke_mm']:.2f} mm, radial {sig(p['radial_um'])} µm, axial error {pct(p['axial_error'])}; "
+            f"small stroke {pct(q['axial_error'])}; second mode {s['modes_hz'][name][1]:.1f} Hz"
+        )
+        rows.append(["", name, _native_cost(s["costs"][name]), acc])
+    rows[0][0] = f"ARCADE: paper run ({s['duration'] * 1e3:g} ms), and a 0.01 m/s stroke without spin"
+    rows[0][3] = rows[0][3].replace(", axial error 0 %", "").replace("small stroke 0 %; ", "")
+    assert full == rows[0][1]
+    return rows
+
+
+def block_native(results):
+    r = results["compare_native"]
+    rows = _native_bushing(r["bushing"]) + _native_cantilever(r["cantilever"]) + _native_arcade(r["arcade"])
+    head = ["scene", "model", "cost per step vs mjflex; stable RK4 step; speed at it", "accuracy"]
+    capped = all(c.get("stable_step_is_search_limit") for c in r["bushing"]["costs"].values())
+    why = " (all its models are stable at the stable-step search's upper limit)" if capped else ""
+    return (
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}); per-step cost ratios are "
+        f"medians of interleaved repeats in one process, for the bushing with their min–max{why}; speed = wall time "
+        "per simulated second at each model's own stable step, relative to mjflex (≥: still stable at the search's "
+        "upper limit, 100× the scene's step):\n\n" + table(head, rows)
+    )
+
+
+def block_native_verdict(results):
+    r = results["compare_native"]
+    b, c, a = r["bushing"], r["cantilever"], r["arcade"]
+    ar, ac, cc = a["results"], a["costs"], c["costs"]
+    full = next(iter(ar))
+    red = next(k for k in ar if k.startswith("reduced(50 Hz)"))
+    best = min(ar[k]["paper_run"]["axial_error"] for k in ar if k != full)
+    welds = [s["costs"][k]["ratio_median"] for s in (b, c, a) for k in s["costs"] if k.startswith("weld")]
+    bush = [s["costs"]["bushing"]["ratio_median"] for s in (c, a)]
+    small = {k: pct(ar[k]["small_stroke"]["axial_error"]) for k in ar}
+    prb = "pseudo-rigid-body"
+    return (
+        "Verdict. For small motions every alternative that keeps the compliant directions is accurate (ARCADE's "
+        f"0.01 m/s stroke: weld {small['weld(compliant)']}, 6-joint bushing {small['bushing']}, `reduce(50 Hz)` "
+        f"{small[red]}), and only a reduction is also cheaper on a closed-loop mechanism without locking it "
+        f"(`reduce(50 Hz)`: {sig(ac[red]['speedup_at_stable'])}× mjflex's speed, each at its stable step). Welds cost "
+        f"{min(welds):.1f}–{max(welds):.1f}× mjflex per step and misstate anything anisotropic: a weld holds one "
+        "isotropic rotational stiffness, so ARCADE's welded notches are as soft out of plane as about their axis, a "
+        "spurious "
+        f"{a['modes_hz']['weld(compliant)'][1]:.1f} Hz second mode (mjflex {a['modes_hz'][full][1]:.1f} Hz). The "
+        "6-joint bushing is exact for small motion of a diagonal `K` but drops coupling, errs by "
+        f"{b['results']['bushing']['dynamic_rotation_error_deg']:.0f}° in the bushing scene's large motion and costs "
+        f"{min(bush):.1f}–{max(bush):.0f}× per step in chains. The pseudo-rigid-body model is the cheapest for open "
+        f"chains ({sig(cc[prb]['speedup_at_stable'])}× mjflex's speed at {pct(abs(c['results'][prb]['small_error']))} "
+        f"tip error on the cantilever) and locks closed ones (ARCADE: small stroke {small[prb]} off, paper-run stroke "
+        f"{ar[prb]['paper_run']['stroke_mm']:.2f} mm instead of {ar[full]['paper_run']['stroke_mm']:.2f} mm). On "
+        "ARCADE's paper run (1000 rpm) no cheaper model in this comparison follows the full model's axial trajectory "
+        f"within {pct(best)} of its stroke: the straight legs and over-constrained plates turn stroke into "
+        "second-order stretch and shear of the flexures, which only the full 6×6 elements carry (the scene analysis "
+        "of `reduce` above measures it).\n"
+    )
+
+
+def _scene_directions(report, details):
+    """Directions the scene analysis keeps compliant (its report says); largest leaf-shear, notch-stretch shares."""
+    n = int(re.search(r"scene '[^']*' for [\d.e-]+ s: (\d+) directions stay compliant", report)[1])
+    leaf = max(e["scene_share"]["y"] for k, e in details["elements"].items() if k.startswith("leaf"))
+    notch = max(e["scene_share"]["x"] for k, e in details["elements"].items() if k.startswith("notch"))
+    return n, leaf, notch
+
+
+def block_reduce_arcade(results):
+    r = results["reduce_arcade"]
+    rows = []
+    for name, row in r["rows"].items():
+        d = r["details"].get(name)
+        p, q, cost = row["guide"]["paper_run"], row["guide"]["small_stroke"], row["cost"]
+        step, speed = _stable(cost)
+        highest = d["modes"]["highest_hz"] if d else next(iter(r["details"].values()))["modes"]["highest_full_hz"]
+        rows.append([name, row["nv"], f"{highest / 1e3:.3g} kHz" if highest >= 1e3 else f"{highest:.0f} Hz", step,
+                     speed, f"{cost['ratio_median']:.2f}×", f"{p['stroke_mm']:.2f} mm / {pct(p['axial_error'])}",
+                     pct(q["axial_error"])])  # fmt: skip
+    head = ["model", "nv", "highest mode", "stable RK4 step", "speed-up at it", "cost per step",
+            "paper run: stroke / axial error", "0.01 m/s stroke: axial error"]  # fmt: skip
+    details = r["details"]
+    name = max(details, key=lambda k: sum(sum(e["scene_share"].values()) for e in details[k]["elements"].values()))
+    n, leaf_y, notch_x = _scene_directions(r["reports"][name], details[name])
+    return (
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}; cost ratios are medians of "
+        "interleaved repeats in one process):\n\n"
+        + table(head, rows)
+        + f"\nThe scene analysis (`scene=`) keeps {n} directions compliant that the paper run strains beyond 2 % of "
+        f"its peak strain energy: each leaf's shear holds up to {pct(leaf_y)}, each notch's axial stretch up to "
+        f"{pct(notch_x)} of it.\n"
+    )
+
+
+def row_compare_native(r):
+    c, a = r["cantilever"]["costs"], r["arcade"]["costs"]
+    reduced = next(k for k in a if k.startswith("reduced(50 Hz)"))
+    return (
+        "mjflex vs MuJoCo-native models (welds, joint springs, 6-joint bushing, flexcomp rod) and `reduce`",
+        f"cantilever: pseudo-rigid-body {_stable(c['pseudo-rigid-body'])[1]} mjflex's speed, 6-joint bushing "
+        f"{_stable(c['bushing'])[1]}, weld {_stable(c['weld(compliant)'])[1]}; ARCADE: `reduce(50 Hz)` "
+        f"{_stable(a[reduced])[1]}, welds {a['weld(compliant)']['ratio_median']:.1f}× the cost per step",
+    )
+
+
+def row_reduce_arcade(r):
+    rows = r["rows"]
+    full = next(iter(rows.values()))
+    return (
+        "ARCADE reduced by `mjflex.reduce` (nv, speed-up, accuracy)",
+        "; ".join(
+            f"{name.removeprefix('reduced(').removesuffix(')')}: nv {row['nv']}, {_stable(row['cost'])[1]}, small "
+            f"stroke {pct(row['guide']['small_stroke']['axial_error'])}"
+            for name, row in rows.items()
+            if row is not full
+        ),
+    )
+
+
+# ------------------------------------------------------------------------------------- long runs
+
+
+def _verdict(run):
+    if run["diverged"]:
+        step = re.search(r"\(step (\d+)\)", run["diverged"])
+        return f"**diverged** at step {int(step[1]) if step else run['steps']:,}".replace(",", " ")
+    trend = "bounded" if run["last_over_first"] <= 3 else "growing" if run["final_rel_error"] > 0 else "steady loss"
+    return f"{trend} (last/first {sig(run['last_over_first'])})"
+
+
+def _long_run_rows(r, methods):
+    rows = []
+    for run in r["runs"]:
+        if run["method"] not in methods:
+            continue
+        err = "–" if run["diverged"] else sig(run["max_rel_error"])
+        drift = "–" if run["diverged"] else sig(run["drift_per_1e6_steps"])
+        rows.append([run["integrator"], run["method"], err, drift, _verdict(run), f"{run['cpu_us_per_step']:.1f}"])
+    return rows
+
+
+def block_long_run(results):
+    head = ["integrator", "method", "max \\|ΔE\\|/E0", "drift / 1e6 steps", "verdict", "CPU µs / step"]
+    out = []
+    for name in LONG_RUNS:
+        r = results[name]
+        damping = "damping on (the model as given)" if r["damping"] else "damping off"
+        out.append(
+            f"{r['model']}, {sci(r['steps'])} steps of {sci(r['timestep'])} s = {r['steps'] * r['timestep']:g} s, "
+            f"{damping}: {command_note(r)}\n\n" + table(head, _long_run_rows(r, ("twist", "dualquat")))
+        )
+    return "\n".join(out)
+
+
+def _fates(r, method="twist"):
+    """integrator -> its verdict (without the ratio) in one long run."""
+    return {x["integrator"]: _verdict(x).split(" (")[0] for x in r["runs"] if x["method"] == method}
+
+
+def _named(fates, kinds):
+    return [k for k, v in fates.items() if v.split(" at ")[0].strip("*") in kinds]
+
+
+def block_long_run_verdict(results):
+    two, a2, a1, damped = (results[k] for k in LONG_RUNS)
+    rk4 = next(x for x in two["runs"] if x["integrator"] == "rk4" and x["method"] == "twist")
+    first = [x for x in two["runs"] if x["integrator"] != "rk4"]
+    two_text = (
+        f"On two_body RK4's energy error is a {_verdict(rk4).split(' (')[0]} ({sig(rk4['drift_per_1e6_steps'])} "
+        "per 1e6 steps: RK4's numerical damping) and the first-order integrators' stays "
+        f"{'bounded' if all(x['last_over_first'] <= 3 for x in first) else 'NOT bounded'} (at most "
+        f"{sig(max(x['max_rel_error'] for x in first))}), both element methods alike."
+    )
+    parts = []
+    for r in (a2, a1):
+        fates = _fates(r)
+        diverged = [k for k, v in fates.items() if v.startswith("**")]
+        steps = ", ".join(fates[k].split("step ")[1] for k in diverged)
+        text = f"at {sci(r['timestep'])} s " + (
+            f"{join_and(diverged)} diverged (step{'s' * (len(diverged) > 1)} {steps})" if diverged else "none diverged"
+        )
+        for kinds, verb in ((("growing",), "grew to"), (("bounded", "steady loss"), "stayed within")):
+            names = _named(fates, kinds)
+            if names:
+                worst = max(x["max_rel_error"] for x in r["runs"] if x["integrator"] in names)
+                text += f"; {join_and(names)} {verb} {sig(worst)}"
+        parts.append(text)
+    d = _fates(damped)
+    return (
+        f"{two_text} Undamped and spinning at 1000 rpm, ARCADE is another matter: {'; '.join(parts)} (largest "
+        f"energy error relative to E0). With the model's own damping, {join_and(list(d))} ran {sci(damped['steps'])} "
+        f"steps of {sci(damped['timestep'])} s: " + ", ".join(f"{k} {v}" for k, v in d.items()) + ". So stable over "
+        "a study's run is not stable for ever: MuJoCo's first-order integrators need a margin below their short-run "
+        "limit on an undamped, fast-spinning mechanism (the cause, presumably the explicit treatment of the fast "
+        "rotation, was not isolated). For long undamped runs, use RK4.\n"
+    )
+
+
+def row_long_run(r):
+    runs = {(x["integrator"], x["method"]): x for x in r["runs"]}
+    rk4 = runs[("rk4", "twist")]
+    eu = runs[("euler", "twist")]
+    return (
+        f"energy over {sci(r['steps'])} steps ({r['model']}, {sci(r['timestep'])} s, no damping)",
+        f"RK4 {sig(rk4['max_rel_error'])} (drift {sig(rk4['drift_per_1e6_steps'])} per 1e6 steps), Euler "
+        f"{sig(eu['max_rel_error'])}, {_verdict(eu)}; ARCADE in the long-run tables",
+    )
+
+
+# ---------------------------------------------------------------------------------------- sweeps
+
+
+def block_sweep_arcade(results):
+    r = results["sweep_arcade"]
+    freq = r["first_frequency_hz"]
+    bad = [v for v in r["variants"] if v["status"] != "ok"]
+    if bad:
+        betas = ", ".join(f"{b:g}" for b in sorted({v["beta"] for v in bad}))
+        scales = ", ".join(f"×{v['leaf_scale']:g}" for v in bad)
+        message = bad[0]["error"].split(" (mjflex.mj")[0]
+        outcome = (
+            f"With `beta = {betas} s` the damping of the stiffest modes is too large for the explicit 1e-5 s RK4 step "
+            f"at leaf stiffness {scales}: those variants diverge and are reported (`{message}`), drawn as crosses on "
+            "the axis, and have no result."
+        )
+    else:
+        outcome = (
+            f"Every variant ran (`beta` up to {sci(max(v['beta'] for v in r['variants']))} s at the explicit 1e-5 s "
+            "RK4 step); a variant that diverges is reported with the element, time and step, drawn as a cross on the "
+            "axis, and has no result."
+        )
+    return (
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['command_wall_s'])}; the figure is "
+        f"`out/sweep_arcade.png`, copied to `docs/` with its JSON) finds the guide's first natural frequency "
+        f"{', '.join(f'{v:.2f} Hz at ×{k}' for k, v in freq.items())} (leaf stiffness scale). {outcome}\n"
+    )
+
+
+def block_sweep_bench(results):
+    r = results["bench_sweep"]
+    n = r["workers"]
+    labels = {"serial": "serial `mj_step` loop", "batch": f"`Batch`, {n} threads (default path)",
+              "pool": f"spawn process pool, {n} workers", "dask": f"Dask `LocalCluster` {n}×1"}  # fmt: skip
+    rows = []
+    for name, c in r["cases"].items():
+        ratio = "1.00×" if name == "serial" else f"{c['ratio_to_serial_median']:.2f}× ({c['ratio_min']:.2f}–"
+        ratio += "" if name == "serial" else f"{c['ratio_max']:.2f})"
+        rows.append([labels[name], f"{c['wall_median_s']:.2f} s", ratio, f"{c['overhead_per_variant_s'] * 1e3:.0f} ms"])
+    load = r["load_average_before_after"]
+    return (
+        f"`{r['command']}` ({r['variants']} ARCADE variants × {r['duration_s'] * 1e3:g} ms = {r['steps']} RK4 steps "
+        f"each, {r['repeat']} interleaved repeats; recorded {r['date'][:10]}, {duration(r['script_wall_s'])}, "
+        f"1-minute load average {load[0]:.1f} before and {load[1]:.1f} after). All paths gave bit-identical strokes "
+        "(the script checks):\n\n"
+        + table(["path", "wall median", "vs serial loop, same repeat: median (min–max)", "overhead per variant"], rows)
+    )
+
+
+def row_bench_sweep(r):
+    c = r["cases"]
+    return (
+        f"a sweep of {r['variants']} ARCADE variants: serial loop vs `Batch` vs process pool vs Dask "
+        f"({r['workers']} workers)",
+        ", ".join(f"{k} {v['ratio_to_serial_median']:.2f}×" for k, v in c.items() if k != "serial")
+        + " the serial wall time (medians of same-repeat ratios); bit-identical",
+    )
