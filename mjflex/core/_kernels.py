@@ -420,7 +420,7 @@ def _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB):
     return _lin(0.5, b1, -0.5, a1), _lin(0.5, b2, -0.5, a2)
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
 def generalized_forces(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
     """Coordinates of one element and the quadratic generalized forces on them.
 
@@ -439,7 +439,7 @@ def generalized_forces(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA
     return e1, e2, aux, y1, y2, power
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
 def force_map(method, e1, e2, aux, y1, y2):
     """``(m, f, scale)``: the wrench on B in b coordinates is ``scale * [m; f]``.
 
@@ -453,7 +453,7 @@ def force_map(method, e1, e2, aux, y1, y2):
     return m, f, -2.0
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
+@njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
 def to_world(scale, m, f, R_WB):
     """``scale * [R_WB m; R_WB f]``."""
     m = _mat_vec(R_WB, m)
