@@ -199,15 +199,28 @@ def scene_shares(model, flex, dirs, scene):
     return peak / max(total, 1e-300)
 
 
-def _drop_damping(ratios, freq_sel, duration, tol):
-    """Elements whose damping can go: smallest effect first, within ``tol`` per mode."""
+def _drop_damping(ratios, freq_sel, duration, tol, rtol=1e-6):
+    """Elements whose damping can go: smallest effect first, within ``tol`` per mode.
+
+    Elements whose effects are equal within ``rtol`` (mirror-symmetric ones, equal up to
+    round-off) are dropped together or not at all, so a symmetric model stays symmetric.
+    """
     effect = ratios * (2.0 * np.pi * freq_sel * duration) if duration is not None else ratios
+    peak = effect.max(axis=1, initial=0.0)
+    order = np.argsort(peak, kind="stable")
     used = np.zeros(effect.shape[1])
     drop = np.zeros(effect.shape[0], dtype=bool)
-    for e in np.argsort(effect.max(axis=1, initial=0.0), kind="stable"):
-        if np.all(used + effect[e] <= tol):
-            drop[e] = True
-            used += effect[e]
+    start = 0
+    while start < len(order):
+        stop = start + 1
+        while stop < len(order) and peak[order[stop]] <= peak[order[start]] * (1.0 + rtol) + 1e-300:
+            stop += 1
+        group = order[start:stop]
+        total = effect[group].sum(axis=0)
+        if np.all(used + total <= tol):
+            drop[group] = True
+            used += total
+        start = stop
     return drop, float(used.max(initial=0.0))
 
 
