@@ -232,3 +232,22 @@ def test_bad_choices():
         study(TWO_BODY, integrators=("rk5",), progress=False)
     with pytest.raises(StudyError, match="not found"):
         study("no/such/model.xml", progress=False)
+
+
+def test_a_spec_is_studied_and_reaches_the_variant_builders():
+    """Builders get what the study was given (here an MjSpec, which MuJoCo cannot recover from a
+    compiled model), so mjflex's own weld variant can rebuild the model from it; a builder with
+    nothing to build is noted, not run."""
+    seen = []
+
+    def nothing_to_do(source):
+        seen.append(type(source))
+        raise mjflex.VariantNotApplicableError("nothing here")
+
+    result = study(pivot_arm_spec(), variants=[mjflex.weld_variant, nothing_to_do], methods=("twist",),
+                   integrators=("rk4",), steps=[1e-4], bisect=0, repeat=1, progress=False)  # fmt: skip
+    assert seen == [mujoco.MjSpec]
+    assert list(result.variants) == ["weld(compliant)"]
+    assert any("'nothing_to_do' does not apply: nothing here" in n for n in result.notes)
+    weld = [r for r in result.rows if r.variant == "weld(compliant)"]
+    assert weld and all(r.status == "ok" for r in weld)

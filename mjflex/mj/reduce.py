@@ -12,7 +12,7 @@ and returns a :class:`~mjflex.mj.variant.Variant` in which
   jointless body of the parent's tree);
 * an element with more than ``max_joints`` compliant directions, coupled directions, a planar
   record or a body that is not a free body **stays** an mjflex element;
-* **damping** is dropped where it is negligible for the retained modes;
+* **damping** is dropped where it is negligible for every elastic mode the reduced model keeps;
 * a **planar scene** (``plane=``, checks in :mod:`mjflex.mj._planar`) puts the free bodies on
   planar joints, holds every out-of-plane direction rigid, drops the out-of-plane modes from
   the band, and turns the elements that stay into 3x3 planar records;
@@ -44,10 +44,13 @@ stretch directions that no low mode uses (ARCADE's paper run does, see the READM
 ``scene=(initial state, duration)`` the full model is simulated and directions that store a
 noticeable part of that scene's strain energy stay compliant (:func:`scene_shares`).
 
-Damping: the damping ratio each element adds to each retained mode (``phi^T B phi / 2 omega``)
-is measured; elements' damping is dropped, smallest first, while every retained mode loses
-less than ``viscous_tol`` of damping ratio (or, with ``duration`` given, while the amplitude
-change ``zeta omega duration`` it causes stays below ``viscous_tol``).
+Damping: the damping ratio each element adds to each elastic mode through its kept directions
+(``phi^T B phi / 2 omega``) is measured, over all the full model's elastic modes, not only the
+retained band: modes above the band stay in the reduced model wherever compliant directions
+stay, and would ring undamped. Elements' damping is dropped, smallest first (mirror-equal
+elements together), while every mode loses less than ``viscous_tol`` of damping ratio (or, with
+``duration`` given, while the amplitude change ``zeta omega duration`` it causes stays below
+``viscous_tol``).
 """
 
 from dataclasses import dataclass
@@ -345,7 +348,13 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         if len(soft) > 1 and c.max() > COUPLING_TOL:
             reasons[e] = f"its compliant directions are coupled ({c.max():.1e} > {COUPLING_TOL:g})"
     keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(len(dirs))]
-    drop, dropped = _drop_damping(damping_ratios(dirs, freq, modes, mask, keep), freq[mask], duration, viscous_tol)
+    # damping: judged on every elastic mode the kept directions still carry, not only the resolved band (modes
+    # above it stay in the model and would ring undamped; the viscous part costs little to keep)
+    elastic = freq > _rigid_floor(freq)
+    if normal is not None:
+        elastic &= in_plane_modes(model, modes, normal)
+    ratios = damping_ratios(dirs, freq, modes, elastic, keep)
+    drop, dropped = _drop_damping(ratios, freq[elastic], duration, viscous_tol)
     drop &= np.array([bool(np.any(d.B_P)) for d in dirs], dtype=bool)  # nothing to drop without damping
     peak = shares.max(axis=2, initial=0.0)
     report = [

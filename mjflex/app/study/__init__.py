@@ -37,8 +37,8 @@ measure deformation, not the rigid motion of the whole) or the world for a groun
 
 Parameters
 ----------
-model : str or mujoco.MjModel
-    MJCF path or compiled model, with mjflex elements.
+model : str, os.PathLike, mujoco.MjSpec or mujoco.MjModel
+    MJCF path, spec or compiled model, with mjflex elements.
 keyframe : str or int, optional
     Initial state (default: the first keyframe). ``qpos`` (nq,), ``qvel`` (nv,) override it.
 duration : float, optional
@@ -55,7 +55,8 @@ steps : sequence of float, optional
     (default twice RK4's limit for the highest natural frequency) down by factors of 2
     (``min_step`` sets the lower end). Steps are rounded to divisors of the sample interval.
 variants : list, optional
-    Variants or builders to compare (default :data:`~mjflex.app.study.variants.DEFAULT_VARIANTS`).
+    Variants or builders ``source -> Variant`` to compare, a builder being called with ``model``
+    as given (default :data:`~mjflex.app.study.variants.DEFAULT_VARIANTS`).
 repeat : int
     Interleaved timing rounds (median reported).
 bisect : int

@@ -69,7 +69,11 @@ class Recipe:
 
     def describe(self) -> str:
         """One line for the result's attributes: source, edit function and keyframe."""
-        src = self.source if self.is_file else f"MJCF text ({len(self.source)} characters)"
+        if self.is_file:
+            rel = os.path.relpath(self.source)
+            src = self.source if rel.startswith("..") else rel  # no machine-specific prefix in records
+        else:
+            src = f"MJCF text ({len(self.source)} characters)"
         edit = "none" if self.edit is None else f"{self.edit.__module__}.{getattr(self.edit, '__qualname__', '?')}"
         return f"source: {src}; edit: {edit}; keyframe: {self.keyframe!r}"
 
