@@ -309,10 +309,9 @@ def test_diverging_rollout_threads_warn_instead_of_ending_the_process(chained):
     result = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert "survived True" in result.stdout
-    assert (
-        "WARNING: mjflex: flexure 'link' of model 'two_body' diverged at time 0 s (step 0)"
-        in result.stdout + result.stderr
-    )
+    # a warning (the process survived); without its "WARNING: " prefix, which MuJoCo writes separately and two
+    # threads printing at once can move away from the message
+    assert "mjflex: flexure 'link' of model 'two_body' diverged at time 0 s (step 0)" in result.stdout + result.stderr
 
 
 def test_layout_error_falls_back_to_the_python_dispatcher(monkeypatch):
