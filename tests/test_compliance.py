@@ -16,7 +16,16 @@ import scipy.linalg
 import mjflex
 from mjflex.mj.damping import displacement_jacobian, element_dofs
 from mjflex.mj.linearize import mass_matrix, state, stiffness_matrix
-from tests.robots import ARM_JOINTS, K_HAND, arm_spec, body_id, decay_ratio, free_vibration, solve_statics, subtree_wrench
+from tests.robots import (
+    ARM_JOINTS,
+    K_HAND,
+    arm_spec,
+    body_id,
+    decay_ratio,
+    free_vibration,
+    solve_statics,
+    subtree_wrench,
+)
 
 NEIGHBOUR = r"bodies 'hand' and 'link2' touch in the reference configuration \(geoms 'cuff' and 'g2'\)"
 
@@ -44,7 +53,9 @@ def test_one_call_gives_the_hand_six_clean_dofs_and_valid_keyframes():
         jid = model.joint(j).id
         dofs = slice(model.jnt_dofadr[jid], model.jnt_dofadr[jid] + (3 if j.endswith("ball") else 1))
         assert not model.jnt_limited[jid] and model.jnt_stiffness[jid] == 0
-        assert not (model.dof_armature[dofs].any() or model.dof_damping[dofs].any() or model.dof_frictionloss[dofs].any())
+        assert not (
+            model.dof_armature[dofs].any() or model.dof_damping[dofs].any() or model.dof_frictionloss[dofs].any()
+        )
     arm = [model.joint(j).id for j in ARM_JOINTS]
     assert model.dof_armature[arm].tolist() == [0.01] * 3  # the arm's own joints keep theirs
     # keyframes: the arm's values where they were, the hand at rest; every body where the rigid model had it
@@ -84,7 +95,7 @@ def test_the_neighbour_contact_the_weld_filtered_is_excluded_by_name():
 
 def test_kept_neighbour_contact_is_reported_once_by_name():
     with pytest.warns(UserWarning, match=NEIGHBOUR) as record:
-        spec, c = _compliant(collide=[("hand", "link2")])
+        _, c = _compliant(collide=[("hand", "link2")])
     assert c.excludes == () and c.kept == (("link2", "hand"),)
     assert sum("touch" in str(w.message) for w in record) == 1
     assert 'Restore the filtering: <contact><exclude body1="hand" body2="link2"/></contact>' in str(record[0].message)

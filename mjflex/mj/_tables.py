@@ -196,7 +196,7 @@ def _check_frame_site(model, ref, element, site, site_a, tol):
             element,
             f"its frame is {dist:.3g} m and {angle:.3g} rad away from the site '{site}' its record names (at qpos0)",
             "The site was moved without the element: place the element again at the site "
-            "(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop \"site\" from its record.",
+            '(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop "site" from its record.',
         )
 
 

@@ -101,7 +101,9 @@ def _directions(directions) -> tuple[str, ...]:
     try:
         asked = list(directions)
     except TypeError:
-        raise ValueError(f"directions must be names of {DIRECTIONS} (or 'all', 'rotations'); got {directions!r}") from None
+        raise ValueError(
+            f"directions must be names of {DIRECTIONS} (or 'all', 'rotations'); got {directions!r}"
+        ) from None
     unknown = [d for d in asked if d not in DIRECTIONS]
     if unknown:
         raise ValueError(
@@ -400,7 +402,9 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False, **place)
         element = name
         compliant = compile_spec(spec, "make a body compliant")
-        exposed = [tuple(_contacts.body_name(compliant, b) for b in p) for p in _contacts.exposed_pairs(rigid, compliant)]
+        exposed = [
+            tuple(_contacts.body_name(compliant, b) for b in p) for p in _contacts.exposed_pairs(rigid, compliant)
+        ]
         for pair in exposed:
             if not _kept(pair, wanted):
                 excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
@@ -462,7 +466,10 @@ def make_rigid(spec, compliance: Compliance) -> None:
     qadr = sorted(int(a) + k for j in compliance.joints for a, n in [_joint_span(model, j, "q")] for k in range(n))
     vadr = sorted(int(a) + k for j in compliance.joints for a, n in [_joint_span(model, j, "v")] for k in range(n))
     shrunk = [
-        (np.delete(qpos, qadr) if qpos.size == model.nq else qpos, np.delete(qvel, vadr) if qvel.size == model.nv else qvel)
+        (
+            np.delete(qpos, qadr) if qpos.size == model.nq else qpos,
+            np.delete(qvel, vadr) if qvel.size == model.nv else qvel,
+        )
         for qpos, qvel in _stash_keys(spec)  # emptied while the joints go (MjSpec checks the keyframes' sizes)
     ]
     for j in compliance.joints:

@@ -31,18 +31,22 @@ def _restore(model, copies, enabled, viscous, methods):
     return flex.serve(copies) if copies else flex
 
 
-def _neighbour_message(touches):
-    """The warning for bodies that touch because an element's joints un-welded one of them."""
+def _neighbour_message(touches, joined):
+    """The warning for bodies that touch because the joints under an element un-welded one of them.
+
+    ``joined``: element -> the names of its two bodies."""
     t = touches[0]
-    excludes = "".join(f'<exclude body1="{u.body1}" body2="{u.body2}"/>' for u in touches[:4])
-    more = f" ({len(touches) - 1} more such contacts below)" if len(touches) > 1 else ""
+    excludes = "".join(f'<exclude body1="{u.body1}" body2="{u.body2}"/>' for u in touches[:8])
+    more = f" ({len(touches) - 1} more such pairs listed below)" if len(touches) > 1 else ""
+    a, b = joined[t.element]
     return (
-        f"mjflex: bodies '{t.body1}' and '{t.body2}' touch in {t.where} (geoms '{t.geom1}' and '{t.geom2}'), "
-        f"which MuJoCo filtered in the rigid model: the joints under flexure '{t.element}' un-weld a body from its "
-        "parent, and MuJoCo's parent filter works on weld groups, so the body now collides with its grandparent "
-        f"and other neighbours{more}. A resting contact carries part of the load and spoils the element's statics. "
-        f"Restore the filtering: <contact>{excludes}</contact> (mjflex.make_compliant writes these), or keep the "
-        "contact on purpose. All: " + "; ".join(f"'{u.body1}'-'{u.body2}' in {u.where} ({u.element})" for u in touches)
+        f"mjflex: bodies '{t.body1}' and '{t.body2}' touch in {t.where} (geoms '{t.geom1}' and '{t.geom2}'), a "
+        f"contact MuJoCo filtered while '{a}' and '{b}' were welded together: the joints between the bodies of "
+        f"flexure '{t.element}' make separate weld groups of them, and MuJoCo's parent filter works on weld groups, "
+        f"so they now collide with their grandparent and other neighbours{more}. A resting contact carries part of the "
+        f"load and spoils the element's statics. Restore the filtering: <contact>{excludes}</contact> "
+        "(mjflex.make_compliant writes these), or keep the contact on purpose. All: "
+        + "; ".join(f"'{u.body1}'-'{u.body2}' in {u.where} (flexure '{u.element}')" for u in touches)
     )
 
 
@@ -169,7 +173,14 @@ class Flexures:
             )
         neighbours = [t for t in touching if not t.own]
         if neighbours:
-            warnings.warn(_neighbour_message(neighbours), UserWarning, stacklevel=3)
+            joined = {
+                t.element: [
+                    mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
+                    for i in self._ints[self._index[t.element], [k.BODY_A, k.BODY_B]]
+                ]
+                for t in neighbours
+            }
+            warnings.warn(_neighbour_message(neighbours, joined), UserWarning, stacklevel=3)
 
     def _sleep_policy(self, model):
         """Keep trees joined to another tree awake (see the class notes); returns what stays sleepy."""
