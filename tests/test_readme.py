@@ -22,7 +22,7 @@ def python_blocks(heading=None):
     out = []
     for section in sections:
         title = section.splitlines()[0] if section else ""
-        if heading is None and title in DEDICATED or heading is not None and title != heading:
+        if (title in DEDICATED) if heading is None else (title != heading):
             continue
         out += re.findall(r"```python\n(.*?)```", section, flags=re.S)
     return out

@@ -406,6 +406,12 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
             tuple(_contacts.body_name(compliant, b) for b in p) for p in _contacts.exposed_pairs(rigid, compliant)
         ]
         for pair in exposed:
+            unnamed = [b for b in pair if b.startswith("#")]
+            if unnamed and not _kept(pair, wanted):
+                raise ValueError(
+                    f"body {unnamed[0]} (an id) has no name, and its contacts with {pair} must be excluded once "
+                    f"{target.name!r} has joints; name it in the model, or keep the pair with collide="
+                )
             if not _kept(pair, wanted):
                 excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
         edits = _grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)

@@ -39,13 +39,19 @@ def checked_ratios(ratios, n, what="damping_ratio") -> np.ndarray:
     return r
 
 
+def _moving_dofs(model, body) -> set:
+    """The dofs of ``body`` and of its ancestors: every dof whose motion moves it."""
+    out = set()
+    while body > 0:
+        out.update(range(model.body_dofadr[body], model.body_dofadr[body] + model.body_dofnum[body]))
+        body = int(model.body_parentid[body])
+    return out
+
+
 def element_dofs(model, flex, element) -> np.ndarray:
     """Dofs that move one of the element's bodies but not the other: those on the tree path between them."""
-    from ._tables import _dof_chain  # the provider's own definition of the dofs that move a body
-
     a, b = (int(x) for x in flex.body_ids[flex.index(element)])
-    ca, cb = set(_dof_chain(model, a)), set(_dof_chain(model, b))
-    return np.array(sorted(ca ^ cb), dtype=int)
+    return np.array(sorted(_moving_dofs(model, a) ^ _moving_dofs(model, b)), dtype=int)
 
 
 def displacement_jacobian(model, flex, element, base, step=1e-6) -> np.ndarray:
