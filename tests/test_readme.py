@@ -5,18 +5,53 @@ import importlib.util
 import os
 import re
 
+import numpy as np
+
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 
 
-def test_readme_python_blocks_run(monkeypatch, capsys):
+#: Sections whose python blocks a test of their own runs and checks.
+DEDICATED = ("### A compliant joint in your robot",)
+
+
+def python_blocks(heading=None):
+    """The README's fenced python blocks: all of them, or those of the section under ``heading``."""
     with open(os.path.join(ROOT, "README.md")) as f:
-        blocks = re.findall(r"```python\n(.*?)```", f.read(), flags=re.S)
+        readme = f.read()
+    sections = re.split(r"^(?=#{2,4} )", readme, flags=re.M)  # level 2-4 headings (a code comment is "# ")
+    out = []
+    for section in sections:
+        title = section.splitlines()[0] if section else ""
+        if (title in DEDICATED) if heading is None else (title != heading):
+            continue
+        out += re.findall(r"```python\n(.*?)```", section, flags=re.S)
+    return out
+
+
+def test_readme_python_blocks_run(monkeypatch, capsys):
+    blocks = python_blocks()
     assert blocks
     monkeypatch.chdir(ROOT)
     for code in blocks:
         exec(compile(code, "README.md", "exec"), {})
     out = capsys.readouterr().out
     assert "flexure energy" in out and "dissipating" in out
+
+
+def test_readme_compliant_joint_example_runs(monkeypatch, capsys):
+    """The 'compliant joint in your robot' example, on gymnasium's pusher file: compliant, simulated, rigid again."""
+    (code,) = python_blocks("### A compliant joint in your robot")
+    monkeypatch.chdir(ROOT)
+    namespace = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    out = capsys.readouterr().out
+    assert "Compliance(body='r_forearm_link' on 'r_forearm_roll_link'" in out and "forearm modes [" in out
+    freq = namespace["freq"]
+    assert (freq > 1).sum() == 6  # the forearm's six modes; the arm's other joints are free
+    deflection = namespace["flex"].displacements(namespace["data"])[0]
+    assert np.isfinite(deflection).all() and 1e-5 < np.abs(deflection).max() < 0.1  # loaded, bounded
+    rigid = namespace["spec"].compile()
+    assert rigid.nq == namespace["model"].nq - 7 and rigid.ntext == 0  # make_rigid took it all back
 
 
 def test_readme_test_command_is_what_ci_runs():

@@ -1,7 +1,11 @@
-"""MuJoCo layer: flexure elements in MJCF, model building with MjSpec, the passive-force provider, and the
-cheaper or MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
+"""MuJoCo layer: flexure elements in MJCF, model building with MjSpec (compliant parts in existing models:
+:func:`make_compliant`), the passive-force provider, linearization (:func:`normal_modes`, damping from ratios),
+and the cheaper or MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
 
-from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, reference_body_poses
+from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, reference_body_poses, remove_flexure
+from .compliance import Compliance, make_compliant, make_rigid
+from .damping import damping_from_ratios
+from .linearize import normal_modes
 from .native import bushing_variant, pseudo_rigid_body_variant, weld_variant
 from .provider import Flexures, ModelError
 from .reduce import reduce
@@ -9,6 +13,7 @@ from .schema import FlexureRecord
 from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
+    "Compliance",
     "FlexureHandle",
     "FlexureRecord",
     "Flexures",
@@ -18,8 +23,13 @@ __all__ = [
     "add_flexure",
     "add_flexure_in_body_frame",
     "bushing_variant",
+    "damping_from_ratios",
+    "make_compliant",
+    "make_rigid",
+    "normal_modes",
     "pseudo_rigid_body_variant",
     "reduce",
     "reference_body_poses",
+    "remove_flexure",
     "weld_variant",
 ]

@@ -10,14 +10,15 @@ import difflib
 import hashlib
 import warnings
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
 
 from ..core import validation
 from ..core.transforms import twist_from_transform
+from . import _contacts, schema
 from . import _kernels as k
-from . import schema
 
 
 class ModelError(ValueError):
@@ -166,6 +167,39 @@ def _check_coincident(element, sites, dist, angle, tol):
         )
 
 
+def _frame_site_id(model, element, site, site_a):
+    """Id of the record's frame site ``site``, or -1: under ``MjSpec.attach`` it carries the element's
+    prefix and suffix (``element = P + E + S``, ``site_a = P + E + "/a" + S``), so ``P + site + S``
+    is tried for every split of ``P + E``."""
+    c = next((i for i, (x, y) in enumerate(zip(element, site_a, strict=False)) if x != y), len(element))
+    names = [element[:i] + site + t for i in range(c, -1, -1) for t in (element[c:], "")]
+    for name in dict.fromkeys(names):
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+        if sid >= 0:
+            return sid
+    return -1
+
+
+def _check_frame_site(model, ref, element, site, site_a, tol):
+    """The record names the site that gives the element frame: frame a must still coincide with it."""
+    sid = _frame_site_id(model, element, site, site_a[0])
+    if sid < 0:
+        raise model_error(
+            element, f"its record names the frame site '{site}', which the model does not have",
+            "Restore the site, or drop \"site\" from the record if the element's own sites are right.",
+        )  # fmt: skip
+    R_s, R_a = ref.site_xmat[sid].reshape(3, 3), ref.site_xmat[site_a[1]].reshape(3, 3)
+    dist = float(np.linalg.norm(ref.site_xpos[sid] - ref.site_xpos[site_a[1]]))
+    angle = float(np.linalg.norm(twist_from_transform(R_s.T @ R_a, np.zeros(3), check=False)[:3]))
+    if dist > tol or angle > schema.COINCIDENCE_ANGLE:
+        raise model_error(
+            element,
+            f"its frame is {dist:.3g} m and {angle:.3g} rad away from the site '{site}' its record names (at qpos0)",
+            "The site was moved without the element: place the element again at the site "
+            '(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop "site" from its record.',
+        )
+
+
 def _inverse_inertia(model, bodies):
     """Largest inverse mass and inverse principal inertia of the non-world bodies (0 when massless)."""
     inv_m = inv_i = 0.0
@@ -204,6 +238,8 @@ def derive(model) -> Tables:
         R0, p0, dist, angle = rest_offset(ref, sa, sb)
         tolerance[e] = schema.COINCIDENCE_RTOL * max(_length_scale(m, sa, sb), 1e-9)
         _check_coincident(element, (site_a, site_b), dist, angle, tolerance[e])
+        if rec.site is not None:
+            _check_frame_site(m, ref, element, rec.site, (site_a, sa), tolerance[e])
         row = ints[e]
         row[[k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B]] = sa, sb, ba, bb
         row[k.METHOD] = validation.METHOD_CODES[rec.method]
@@ -261,34 +297,65 @@ def _terms_table(tables):
     return {"exps": np.concatenate([e for e, _ in tables]), "coefs": np.concatenate([c for _, c in tables])}
 
 
-def contacts_at_rest(model, tables: Tables) -> list[tuple[str, str, str]]:
-    """``(element, geom, geom)`` for elements whose two bodies MuJoCo finds in contact at ``qpos0``.
+class Touch(NamedTuple):
+    """Two geoms in contact that an element makes suspicious (see :func:`contacts_at_rest`)."""
+
+    element: str
+    own: bool  # True: the element's own two bodies; False: a pair its un-welding exposed
+    geom1: str
+    geom2: str
+    body1: str
+    body2: str
+    where: str  # "the reference configuration" or "keyframe 'name'"
+
+
+def contacts_at_rest(model, tables: Tables) -> list[Touch]:
+    """Contacts that MuJoCo finds at ``qpos0`` and at the keyframes and that an element makes suspicious.
+
+    * ``own``: the element's two bodies touch (bodies welded to either count as it);
+    * neighbour (``own=False``): the element's bodies sit in one kinematic tree, the joints
+      between them un-weld the lower one, and two bodies touch whose pair MuJoCo's weld rules
+      filtered in the rigid model (those joints removed; :func:`._contacts.rigid_weld`), e.g. a
+      hand with the link before its parent. Explicit ``<pair>`` contacts are not neighbours.
 
     The check is MuJoCo's own collision detection (``mj_fwdPosition``) in the reference
-    configuration, so contype/conaffinity, the parent-child filter, ``<exclude>``, ``<pair>``,
-    margins and the contact disable flag count exactly as they do in a step. Bodies welded to
-    an element's body (no joint between them) count as that body. Geoms that only come into
+    configuration and the first ``_contacts.MAX_KEYFRAMES`` keyframes, so contype/conaffinity,
+    the parent filter, ``<exclude>``, ``<pair>``, margins and the contact disable flag count
+    exactly as in a step; it costs one ``mj_fwdPosition`` per configuration plus a look-up per
+    contact. One touch is returned per element for its own pair, and per element and body pair
+    for neighbours. Geoms that only come into
     contact once the element deflects are not reported.
     """
     if not tables.names or model.ngeom < 2 or model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
         return []
-    weld = model.body_weldid
-    joined = {}
+    weld, parent, filterparent = model.body_weldid, model.body_parentid, _contacts.filterparent(model)
+    joined, rigid = {}, []
     for e, row in enumerate(tables.ints):
         joined.setdefault(frozenset((int(weld[row[k.BODY_A]]), int(weld[row[k.BODY_B]]))), tables.names[e])
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0
-    mujoco.mj_fwdPosition(model, data)
+        merged = _contacts.rigid_weld(model, row[k.BODY_A], row[k.BODY_B])
+        if merged is not None:
+            rigid.append((tables.names[e], merged))
+    pairs = _contacts.explicit_pairs(model) if rigid else set()
     found, seen = [], set()
-    for g1, g2 in zip(data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon], strict=True):
-        if g1 < 0 or g2 < 0:  # a contact of a MuJoCo flex, not of two bodies' geoms
-            continue
-        pair = frozenset((int(weld[model.geom_bodyid[g1]]), int(weld[model.geom_bodyid[g2]])))
-        element = joined.get(pair)
-        if element is not None and element not in seen:
-            seen.add(element)
-            geoms = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}" for g in (g1, g2)]
-            found.append((element, *geoms))
+    for where, data in _contacts.configurations(model):
+        for g1, g2 in zip(data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon], strict=True):
+            if g1 < 0 or g2 < 0:  # a contact of a MuJoCo flex, not of two bodies' geoms
+                continue
+            b1, b2 = int(model.geom_bodyid[g1]), int(model.geom_bodyid[g2])
+            owner = joined.get(frozenset((int(weld[b1]), int(weld[b2]))))
+            if owner is not None:
+                hits = [(owner, True)]
+            elif frozenset((int(g1), int(g2))) in pairs:  # explicit pairs collide in the rigid model too
+                continue
+            else:
+                hits = [(e, False) for e, w in rigid if _contacts.weld_filtered(w, parent, b1, b2, filterparent)]
+            for element, own in hits:
+                key = (element, True) if own else (element, False, frozenset((b1, b2)))
+                if key not in seen:
+                    seen.add(key)
+                    names = [_contacts.geom_name(model, g) for g in (g1, g2)]
+                    bodies = [_contacts.body_name(model, b) for b in (b1, b2)]
+                    found.append(Touch(element, own, *names, *bodies, where))
     return found
 
 

@@ -1,6 +1,7 @@
 """Adding flexure elements to a model with ``mujoco.MjSpec``."""
 
 import ctypes
+import difflib
 from dataclasses import dataclass
 
 import mujoco
@@ -62,31 +63,63 @@ def _body(spec, body, role):
     return found
 
 
-def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """World positions ``(nbody, 3)``, rotation matrices ``(nbody, 3, 3)`` and names of the
-    bodies of ``spec`` in its reference configuration (``qpos0``)."""
+def compile_spec(spec, why="place flexures in world coordinates") -> mujoco.MjModel:
+    """``spec.compile()``, also while a Python passive callback is installed (MuJoCo cannot compile then).
+
+    Raises ValueError saying ``why`` the spec had to compile.
+    """
     previous = mujoco.get_mjcb_passive()
     python_callback = previous is not None and not isinstance(previous, ctypes._CFuncPtr)
     if python_callback:  # MuJoCo cannot compile while a Python passive callback is installed
         mujoco.set_mjcb_passive(None)
     try:
-        model = spec.compile()
+        return spec.compile()
     except ValueError as exc:
         raise ValueError(
-            f"the spec must compile to place flexures in world coordinates ({exc}); add the bodies' geoms or "
-            "inertias before the flexures"
+            f"the spec must compile to {why} ({exc}); add the bodies' geoms or inertias before the flexures"
         ) from None
     finally:
         if python_callback:
             mujoco.set_mjcb_passive(previous)
+
+
+def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """World positions ``(nbody, 3)``, rotation matrices ``(nbody, 3, 3)`` and names of the
+    bodies of ``spec`` in its reference configuration (``qpos0``)."""
+    model = compile_spec(spec)
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(model.nbody)]
     return data.xpos.copy(), data.xmat.reshape(-1, 3, 3).copy(), names
 
 
+def site_pose(spec, site) -> tuple[np.ndarray, np.ndarray]:
+    """World position ``(3,)`` and rotation matrix ``(3, 3)`` of a site of ``spec`` at ``qpos0``.
+
+    ``site``: its name or the ``mujoco.MjsSite``. Raises ValueError naming close matches.
+    """
+    name = _site(spec, site).name
+    model = compile_spec(spec, f"find site {name!r} in world coordinates")
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+    return data.site_xpos[i].copy(), data.site_xmat[i].reshape(3, 3).copy()
+
+
+def _site(spec, site):
+    if not isinstance(site, str):
+        if not isinstance(site, mujoco.MjsSite) or not site.name:
+            raise ValueError(f"site must be the name of a site of the spec (or a named MjsSite); got {site!r}")
+        site = site.name
+    found = spec.site(site)
+    if found is None:
+        close = difflib.get_close_matches(site, [s.name for s in spec.sites if s.name], n=3)
+        raise ValueError(f"site {site!r} is not a site of the spec" + (f"; did you mean {close}?" if close else ""))
+    return found
+
+
 def add_flexure(
-    spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist", terms=None,
+    spec, name, body_a, body_b, *, pos=None, quat=None, site=None, K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
     exclude_contact=True,
 ):  # fmt: skip
@@ -103,8 +136,15 @@ def add_flexure(
         The two bodies; ``"world"`` grounds the other one.
     pos : array_like, shape (3,)
         Origin of the element frame in world coordinates at the reference configuration [m].
-    quat : array_like, shape (4,)
-        Orientation of the element frame in world coordinates, w-first (normalized like MJCF).
+    quat : array_like, shape (4,), optional
+        Orientation of the element frame in world coordinates, w-first (normalized like MJCF);
+        default: the world's axes.
+    site : str or mujoco.MjsSite, optional
+        Instead of ``pos`` and ``quat``: a site of body A or body B (e.g. a robot's
+        ``"wrist_site"``) whose frame is the element frame; both element sites are placed at its
+        pose, which holds at any configuration of a robot, not only at ``qpos0``. Its name is
+        stored in the record (``"site"``), and :class:`mjflex.Flexures` reports an element whose
+        frame no longer coincides with it.
     K : array_like, shape (6, 6) or (6,)
         Stiffness in the element frame about its origin, ``[rotation; translation]`` rows
         (``N m/rad``, ``N/rad``, ``N/m``); a 6-vector is the diagonal. 3x3 / 3-vector: planar
@@ -150,8 +190,10 @@ def add_flexure(
     B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
         raise ValueError(f"flexure {name!r}: B has shape {B.shape} but K has {K.shape}; both 6x6 or both 3x3")
-    p_WE = validation.as_array(pos, "pos", (3,))
-    R_WE = _rotation(_unit_quat(quat, "quat"))
+    bodies = _body(spec, body_a, "body_a"), _body(spec, body_b, "body_b")
+    if bodies[0] is bodies[1]:
+        raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
+    p_WE, R_WE, frame_site = _element_frame(spec, name, bodies, pos, quat, site)
     if stiffness_frame is not None:
         if K.shape != (6, 6):
             raise ValueError("stiffness_frame is supported for spatial (6x6) elements only")
@@ -163,9 +205,6 @@ def add_flexure(
             K, terms = potential_in_frame(K, terms, R_FE, p_FE)
         else:
             K = stiffness_in_frame(K, R_FE, p_FE)
-    bodies = _body(spec, body_a, "body_a"), _body(spec, body_b, "body_b")
-    if bodies[0] is bodies[1]:
-        raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
     xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
     sites = []
     for b, site_name in zip(bodies, site_names, strict=True):
@@ -178,9 +217,44 @@ def add_flexure(
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
-                                  *_checked_terms(terms, method, K, name))  # fmt: skip
+                                  *_checked_terms(terms, method, K, name), site=frame_site)  # fmt: skip
     text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def _element_frame(spec, name, bodies, pos, quat, site):
+    """``(p_WE, R_WE, site name or None)``: the element frame at ``qpos0`` from ``pos``/``quat`` or ``site``."""
+    if site is None:
+        if pos is None:
+            raise ValueError(f"flexure {name!r}: give the element frame, pos=... (and quat=...) or site=...")
+        q = (1.0, 0.0, 0.0, 0.0) if quat is None else quat
+        return validation.as_array(pos, "pos", (3,)), _rotation(_unit_quat(q, "quat")), None
+    if pos is not None or quat is not None:
+        raise ValueError(f"flexure {name!r}: give either site=... or pos=/quat=, not both")
+    found = _site(spec, site)
+    owner = found.parent
+    if all(owner is not b and owner.name != b.name for b in bodies):
+        names = ["world" if b is spec.worldbody else b.name for b in bodies]
+        raise ValueError(
+            f"flexure {name!r}: site {found.name!r} is on body {owner.name or 'world'!r}, not on {names[0]!r} or "
+            f"{names[1]!r}; use a site of one of the two bodies, or give the frame as pos=/quat="
+        )
+    p_WE, R_WE = site_pose(spec, found)
+    return p_WE, R_WE, found.name
+
+
+def remove_flexure(spec, name) -> None:
+    """Remove element ``name`` (its sites and record, as :func:`add_flexure` wrote them) from ``spec``.
+
+    The ``<exclude>`` that ``add_flexure`` may have written is left alone (other elements may
+    join the same pair). Raises ValueError when the spec holds no such element.
+    """
+    parts = [spec.site(s) for s in schema.site_names(name)] + [spec.text(schema.PREFIX + name)]
+    if any(p is None for p in parts):
+        raise ValueError(f"flexure {name!r} is not in the spec (sites {schema.site_names(name)}, record "
+                         f"{schema.PREFIX + name!r})")  # fmt: skip
+    for part in parts:
+        spec.delete(part)
 
 
 def _checked_terms(terms, method, K, name):

@@ -23,17 +23,57 @@ def _check_constraints(constraints):
         raise ValueError(f"constraints={constraints!r}: use one of {CONSTRAINT_MODES}")
 
 
-def _forces(model, data, flex, joint_springs, constraints):
+def keyframe_id(model, keyframe) -> int:
+    """Index of ``keyframe`` (a name or an index) of ``model``; raises ValueError naming the keyframes."""
+    if isinstance(keyframe, str):
+        i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+    elif isinstance(keyframe, int | np.integer) and not isinstance(keyframe, bool):
+        i = int(keyframe) if 0 <= keyframe < model.nkey else -1
+    else:
+        raise TypeError(f"keyframe must be a keyframe's name or index; got {keyframe!r}")
+    if i < 0:
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, k) or str(k) for k in range(model.nkey)]
+        raise ValueError(f"keyframe {keyframe!r} is not in the model (its keyframes: {names or 'none'})")
+    return i
+
+
+def state(model, keyframe=None, qpos=None) -> mujoco.MjData:
+    """An ``MjData`` at rest (``qvel = 0``) in the configuration to linearize at.
+
+    ``keyframe`` (name or index) sets ``qpos``, ``act``, ``ctrl`` and the mocap poses from that
+    keyframe (``mj_resetDataKeyframe``); ``qpos`` (nq,) then overrides the configuration.
+    Default: ``qpos0``, zero controls.
+    """
+    data = mujoco.MjData(model)
+    if keyframe is not None:
+        mujoco.mj_resetDataKeyframe(model, data, keyframe_id(model, keyframe))
+    if qpos is not None:
+        q = np.asarray(qpos, dtype=float)
+        if q.shape != (model.nq,) or not np.isfinite(q).all():
+            raise ValueError(f"qpos must be {model.nq} finite numbers (the model's nq); got shape {q.shape}")
+        data.qpos[:] = q
+    data.qvel[:] = 0.0
+    return data
+
+
+def _forces(model, data, flex, options):
     """Generalized forces at the configuration in ``data.qpos``, zero velocity; and equality residuals."""
+    joint_springs, constraints, actuators, gravity = options
     data.qvel[:] = 0.0
     if constraints == "ignore":
         mujoco.mj_fwdPosition(model, data)
         mujoco.mj_fwdVelocity(model, data)
+        if actuators:
+            mujoco.mj_fwdActuation(model, data)
     else:
         mujoco.mj_forward(model, data)
     f = np.zeros(model.nv) if flex is None else flex.generalized_forces(data)
     if joint_springs:
         f = f + data.qfrc_spring
+    if actuators:
+        f = f + data.qfrc_actuator
+    if gravity:  # at zero velocity qfrc_bias is the gravity term; gravity compensation offsets it
+        f = f - data.qfrc_bias + data.qfrc_gravcomp
     residual = np.zeros(0)
     if constraints != "ignore":
         eq = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
@@ -43,10 +83,12 @@ def _forces(model, data, flex, joint_springs, constraints):
     return f, residual
 
 
-def _jacobians(model, flex, qpos, step, joint_springs, constraints):
-    """Central differences of the forces (stiffness, sign flipped) and of the equality residuals."""
-    q0 = model.qpos0.copy() if qpos is None else np.asarray(qpos, dtype=float)
+def _jacobians(model, flex, base, step, options):
+    """Central differences of the forces (stiffness, sign flipped) and of the equality residuals about ``base``."""
+    q0 = base.qpos.copy()
     data = mujoco.MjData(model)
+    data.ctrl[:], data.act[:] = base.ctrl, base.act
+    data.mocap_pos[:], data.mocap_quat[:] = base.mocap_pos, base.mocap_quat
     K = np.zeros((model.nv, model.nv))
     G = None
     for i in range(model.nv):
@@ -56,7 +98,7 @@ def _jacobians(model, flex, qpos, step, joint_springs, constraints):
             dq[i] = sign * step
             data.qpos[:] = q0
             mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
-            out.append(_forces(model, data, flex, joint_springs, constraints))
+            out.append(_forces(model, data, flex, options))
         K[:, i] = -(out[0][0] - out[1][0]) / (2.0 * step)
         if G is None:
             G = np.zeros((len(out[0][1]), model.nv))
@@ -66,27 +108,34 @@ def _jacobians(model, flex, qpos, step, joint_springs, constraints):
     return K, (np.zeros((0, model.nv)) if G is None else G)
 
 
-def stiffness_matrix(model, flex, qpos=None, *, step=1e-6, joint_springs=False, constraints="ignore"):
-    """Tangent stiffness ``K = -d(qfrc)/dq`` ``(nv, nv)`` at ``qpos`` (default ``qpos0``).
+def stiffness_matrix(model, flex, qpos=None, *, keyframe=None, step=1e-6, joint_springs=False, constraints="ignore",
+                     actuator_stiffness=False, gravity=False):  # fmt: skip
+    """Tangent stiffness ``K = -d(qfrc)/dq`` ``(nv, nv)`` at ``qpos`` or ``keyframe`` (default ``qpos0``).
 
     Central differences of the generalized forces at zero velocity along each tangent
     direction of the configuration (``mj_integratePos``, so free and ball joints are
     differentiated on their rotation manifold). The forces are the flexures'
     (:meth:`Flexures.generalized_forces`; ``flex`` may be None for a model without elements),
     plus MuJoCo's joint and tendon springs if ``joint_springs``, plus equality-constraint forces
-    if ``constraints="spring"``. ``step`` [m or rad]: the forces are smooth and nearly linear
-    near the reference, so 1e-6 gives ~1e-9 relative accuracy. At an unstressed configuration
-    (``qpos0``) the result is symmetric up to round-off; it is returned symmetrized there.
+    if ``constraints="spring"``, plus the actuators' forces at fixed controls and activations if
+    ``actuator_stiffness`` (a position actuator adds its ``kp`` times the square of its moment
+    arm; any length-dependent actuator force counts), plus gravity (net of gravity
+    compensation) if ``gravity``. ``keyframe`` (name or index) takes the configuration, controls,
+    activations and mocap poses of that keyframe; ``qpos`` then overrides the configuration.
+    ``step`` [m or rad]: the forces are smooth and nearly linear near the reference, so 1e-6
+    gives ~1e-9 relative accuracy. At the unstressed reference (``qpos0``, no keyframe) the result
+    is symmetric up to round-off and returned symmetrized; elsewhere it is returned as computed
+    (a stressed tangent stiffness need not be symmetric).
     """
     _check_constraints(constraints)
-    K, _ = _jacobians(model, flex, qpos, step, joint_springs, constraints)
-    return 0.5 * (K + K.T) if qpos is None else K
+    options = (joint_springs, constraints, actuator_stiffness, gravity)
+    K, _ = _jacobians(model, flex, state(model, keyframe, qpos), step, options)
+    return 0.5 * (K + K.T) if qpos is None and keyframe is None else K
 
 
-def mass_matrix(model, qpos=None):
-    """Joint-space inertia ``M`` ``(nv, nv)`` at ``qpos`` (default ``qpos0``)."""
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0 if qpos is None else qpos
+def mass_matrix(model, qpos=None, *, keyframe=None):
+    """Joint-space inertia ``M`` ``(nv, nv)`` at ``qpos`` or ``keyframe`` (default ``qpos0``)."""
+    data = state(model, keyframe, qpos)
     mujoco.mj_fwdPosition(model, data)
     M = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, data, M)
@@ -101,14 +150,32 @@ def _null_space(G, nv):
     return Vt[rank:].T
 
 
-def normal_modes(model, flex, *, step=1e-6, joint_springs=False, constraints="ignore"):
-    """Undamped normal modes about ``qpos0``: ``K phi = omega^2 M phi``.
+def normal_modes(model, flex, *, keyframe=None, qpos=None, actuator_stiffness=False, gravity=False, step=1e-6,
+                 joint_springs=False, constraints="ignore"):  # fmt: skip
+    """Undamped normal modes ``K phi = omega^2 M phi`` about a configuration: ``qpos0`` by default,
+    or a keyframe, or a given ``qpos``.
+
+    Both matrices are taken at that configuration: ``M`` is MuJoCo's joint-space inertia there,
+    ``K`` the tangent stiffness there (:func:`stiffness_matrix`, symmetrized). Which forces make
+    ``K`` is explicit: the flexures always; MuJoCo's joint and tendon springs with
+    ``joint_springs``; the actuators with ``actuator_stiffness`` (a position actuator holds its
+    joint like a spring of stiffness ``kp``: the derivative of ``qfrc_actuator`` at the
+    keyframe's fixed controls); gravity's load stiffness with ``gravity`` (a pendulum's
+    ``m g l``; it matters for soft elements far from their equilibrium). Without them, a joint
+    that no element or spring holds is a free, zero-frequency mode.
 
     Parameters
     ----------
     model : mujoco.MjModel
     flex : Flexures or None
         The model's elements (None: no elements).
+    keyframe : str or int, optional
+        Linearize at this keyframe (its ``qpos``, and the ``ctrl``, ``act`` and mocap poses that
+        the actuator and element forces see). Default: ``qpos0`` with zero controls.
+    qpos : array_like, shape (nq,), optional
+        Linearize at this configuration (overrides the keyframe's).
+    actuator_stiffness, gravity : bool
+        Include the actuators' stiffness, gravity's (see above). Default: neither.
     step : float
         Finite-difference step [m or rad] (see :func:`stiffness_matrix`).
     joint_springs : bool
@@ -126,9 +193,10 @@ def normal_modes(model, flex, *, step=1e-6, joint_springs=False, constraints="ig
         Mass-normalized mode shapes as columns, in ``qvel`` coordinates.
     """
     _check_constraints(constraints)
-    K, G = _jacobians(model, flex, None, step, joint_springs, constraints)
+    options = (joint_springs, constraints, actuator_stiffness, gravity)
+    K, G = _jacobians(model, flex, state(model, keyframe, qpos), step, options)
     K = 0.5 * (K + K.T)
-    M = mass_matrix(model)
+    M = mass_matrix(model, qpos, keyframe=keyframe)
     N = _null_space(G, model.nv) if constraints == "project" else np.eye(model.nv)
     Kr, Mr = N.T @ K @ N, N.T @ M @ N
     lam, psi = scipy.linalg.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))

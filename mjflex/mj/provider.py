@@ -31,6 +31,25 @@ def _restore(model, copies, enabled, viscous, methods):
     return flex.serve(copies) if copies else flex
 
 
+def _neighbour_message(touches, joined):
+    """The warning for bodies that touch because the joints under an element un-welded one of them.
+
+    ``joined``: element -> the names of its two bodies."""
+    t = touches[0]
+    excludes = "".join(f'<exclude body1="{u.body1}" body2="{u.body2}"/>' for u in touches[:8])
+    more = f" ({len(touches) - 1} more such pairs listed below)" if len(touches) > 1 else ""
+    a, b = joined[t.element]
+    return (
+        f"mjflex: bodies '{t.body1}' and '{t.body2}' touch in {t.where} (geoms '{t.geom1}' and '{t.geom2}'), a "
+        f"contact MuJoCo filtered while '{a}' and '{b}' were welded together: the joints between the bodies of "
+        f"flexure '{t.element}' make separate weld groups of them, and MuJoCo's parent filter works on weld groups, "
+        f"so they now collide with their grandparent and other neighbours{more}. A resting contact carries part of the "
+        f"load and spoils the element's statics. Restore the filtering: <contact>{excludes}</contact> "
+        "(mjflex.make_compliant writes these), or keep the contact on purpose. All: "
+        + "; ".join(f"'{u.body1}'-'{u.body2}' in {u.where} (flexure '{u.element}')" for u in touches)
+    )
+
+
 class Flexures:
     """Visco-elastic flexure elements of a MuJoCo model and the passive forces they add.
 
@@ -69,8 +88,12 @@ class Flexures:
     Contacts: MuJoCo collides the bodies an element joins unless their pair is excluded
     (``<contact><exclude body1 body2/></contact>``, which :func:`mjflex.add_flexure` writes) or
     their geoms cannot collide. At construction a warning names the elements whose two bodies
-    MuJoCo's own collision detection finds in contact at ``qpos0`` (every collision rule counts:
-    contype/conaffinity, the parent filter, excludes, explicit pairs, margins).
+    MuJoCo's own collision detection finds in contact at ``qpos0`` or a keyframe (every collision
+    rule counts: contype/conaffinity, the parent filter, excludes, explicit pairs, margins). A
+    second warning names the body pairs that touch there only because the joints under an element
+    un-weld a body from its parent (MuJoCo's parent filter works on weld groups, so the body now
+    meets its grandparent), with the ``<exclude>`` elements that restore the rigid model's
+    filtering (:func:`mjflex.make_compliant` writes them).
 
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
@@ -128,25 +151,36 @@ class Flexures:
         return text.encode() + b"\x00"
 
     def _warn_contacts(self, model):
-        """Warn about elements whose bodies MuJoCo finds in contact at rest (:func:`._tables.contacts_at_rest`)."""
+        """Warn once about elements whose bodies touch, or touch neighbours they were welded away from
+        (:func:`._tables.contacts_at_rest`)."""
         touching = _tables.contacts_at_rest(model, self._tables)
-        if not touching:
-            return
-        element, g1, g2 = touching[0]
-        a, b = (
-            mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
-            for i in self._ints[self._index[element], [k.BODY_A, k.BODY_B]]
-        )
-        more = f" (and {len(touching) - 1} more elements: {', '.join(t[0] for t in touching[1:4])}...)"
-        warnings.warn(
-            f"mjflex: the bodies '{a}' and '{b}' joined by flexure '{element}'{more if len(touching) > 1 else ''} are "
-            f"in contact in the reference configuration (geoms '{g1}' and '{g2}'): MuJoCo's contact pushes them "
-            "apart while the element holds them together, which usually diverges. Exclude the pair: "
-            f'<contact><exclude body1="{a}" body2="{b}"/></contact> (mjflex.add_flexure does this by default), '
-            "or give the geoms contype/conaffinity that cannot collide.",
-            UserWarning,
-            stacklevel=3,
-        )
+        own = [t for t in touching if t.own]
+        if own:
+            t = own[0]
+            a, b = (
+                mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
+                for i in self._ints[self._index[t.element], [k.BODY_A, k.BODY_B]]
+            )
+            more = f" (and {len(own) - 1} more elements: {', '.join(t[0] for t in own[1:4])}...)"
+            warnings.warn(
+                f"mjflex: the bodies '{a}' and '{b}' joined by flexure '{t.element}'{more if len(own) > 1 else ''} "
+                f"are in contact in {t.where} (geoms '{t.geom1}' and '{t.geom2}'): MuJoCo's contact pushes them "
+                "apart while the element holds them together, which usually diverges. Exclude the pair: "
+                f'<contact><exclude body1="{a}" body2="{b}"/></contact> (mjflex.add_flexure does this by default), '
+                "or give the geoms contype/conaffinity that cannot collide.",
+                UserWarning,
+                stacklevel=3,
+            )
+        neighbours = [t for t in touching if not t.own]
+        if neighbours:
+            joined = {
+                t.element: [
+                    mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
+                    for i in self._ints[self._index[t.element], [k.BODY_A, k.BODY_B]]
+                ]
+                for t in neighbours
+            }
+            warnings.warn(_neighbour_message(neighbours, joined), UserWarning, stacklevel=3)
 
     def _sleep_policy(self, model):
         """Keep trees joined to another tree awake (see the class notes); returns what stays sleepy."""

@@ -26,7 +26,12 @@ An element named ``E`` (any text) is
   - ``"strain_per_radian"``: peak bending strain per radian about the frame's z axis, used in
     reports (optional);
   - ``"source"``: any JSON object recording where ``K`` came from (geometry, material,
-    formula); kept verbatim (optional).
+    formula); kept verbatim (optional);
+  - ``"site"``: the name of a site that gives the element frame, e.g. a robot's
+    ``"wrist_site"`` (optional; written by ``add_flexure(..., site=...)``). The element's sites
+    must then coincide with it at ``qpos0`` (the same tolerances as between the two sites), so a
+    site moved in the file without its element is reported rather than silently ignored. Under
+    ``MjSpec.attach`` the name is read with the element's prefix and suffix.
 
 Units are SI and the row order is ``[rotation; translation]`` (``N m/rad``, ``N/rad``,
 ``N/m``; damping per unit rate). A text record rather than ``<numeric>`` keeps every digit:
@@ -66,7 +71,7 @@ SITE_B_SUFFIX = "/b"
 #: Separators between an element's name and the ``a`` / ``b`` of its sites, in order of preference.
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
-KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "source")
+KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "source", "site")
 TERMS_KEYS = ("exponents", "coefficients")
 #: The two sites count as coincident when they are closer than this times the element's own
 #: length scale: the summed lengths of the site and body positions that place both sites,
@@ -101,6 +106,7 @@ class FlexureRecord:
     source: dict | None = None
     terms: PolynomialTerms | None = None
     order: int = 2
+    site: str | None = None
 
     @property
     def planar(self) -> bool:
@@ -122,6 +128,8 @@ class FlexureRecord:
             payload["strain_per_radian"] = float(self.strain_per_radian)
         if self.source is not None:
             payload["source"] = self.source
+        if self.site is not None:
+            payload["site"] = self.site
         return json.dumps(payload)
 
 
@@ -248,9 +256,12 @@ def parse_text(element: str, data: str) -> FlexureRecord:
     source = payload.get("source")
     if source is not None and not isinstance(source, dict):
         raise ValueError(f'"source" must be a JSON object; got {source!r}')
+    site = payload.get("site")
+    if site is not None and not (isinstance(site, str) and site):
+        raise ValueError(f'"site" must be the name of a site of the model; got {site!r}')
     order, terms = order_and_terms(payload, method, K)
     return FlexureRecord(element, method, K, B, payload.get("enabled", True), payload.get("viscous", True),
-                         None if strain is None else float(strain), source, terms, order)  # fmt: skip
+                         None if strain is None else float(strain), source, terms, order, site)  # fmt: skip
 
 
 def order_and_terms(payload, method, K):

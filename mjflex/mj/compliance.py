@@ -1,0 +1,489 @@
+"""A compliant part in an existing model: a welded body given joints and a flexure element, in one call.
+
+:func:`make_compliant` turns the weld between a body and its parent (a robot's hand on its wrist
+link, a sensor on its mount) into a visco-elastic element: it gives the body the degrees of
+freedom the element acts on, with clean joint settings, adds the element at a site (or a pose in
+the parent's frame) through :func:`mjflex.add_flexure`, restores the contact filtering that the
+weld implied, keeps the keyframes valid and reports all of it in a :class:`Compliance`.
+:func:`make_rigid` undoes it.
+
+Why the contact filtering needs restoring: MuJoCo never collides two bodies of one weld group,
+nor a weld group with its parent group. Joints under a body split it from its parent's group, so
+the body now collides with its grandparent and with the parent's other jointed children (a
+gripper's mount with the link before the wrist, which it touches in every pose of a real arm).
+Those pairs get ``<exclude>`` elements, except the ones the user asks to keep (``collide``).
+"""
+
+import difflib
+import warnings
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from . import _contacts, schema
+from .build import _quaternion, _rotation, _unit_quat, add_flexure, compile_spec, remove_flexure
+from .damping import DIRECTIONS, checked_ratios, damping_from_ratios
+from .provider import Flexures
+
+_GROUPS = {"all": DIRECTIONS, "rotations": DIRECTIONS[:3], "translations": DIRECTIONS[3:]}
+_SLIDE, _HINGE, _BALL = mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL
+#: Joint attributes reset to MuJoCo's built-in defaults on the joints added (a body's ``childclass``
+#: or the model's ``<default>`` would otherwise give them armature, ranges, damping, springs...).
+_CLEAN = ("actfrclimited", "actfrcrange", "actgravcomp", "armature", "damping", "frictionloss", "group", "limited",
+          "margin", "range", "ref", "solimp_friction", "solimp_limit", "solref_friction", "solref_limit",
+          "springdamper", "springref", "springyield", "stiffness")  # fmt: skip
+
+
+@dataclass
+class KeyframeEdit:
+    """What :func:`make_compliant` inserted into one keyframe: the new joints' rest values."""
+
+    key: str | int  # the keyframe's name, or its index when unnamed
+    qpos_addresses: tuple[int, ...]  # in the compliant model's qpos
+    qpos_values: tuple[float, ...]
+    qvel_addresses: tuple[int, ...]  # zeros inserted in qvel (empty when the keyframe gives no qvel)
+
+
+@dataclass
+class Compliance:
+    """What :func:`make_compliant` did to a spec (all names as in the spec).
+
+    Attributes
+    ----------
+    element : str
+        The flexure element's name (sites ``element/a``, ``element/b``; record ``mjflex:element``).
+    body, parent : str
+        The body made compliant and the body it is now joined to (``"world"`` possible).
+    directions : tuple of str
+        The element directions the body may move in, of ``("rx", "ry", "rz", "x", "y", "z")``
+        (rotations about and translations along the element frame's axes).
+    joints : tuple of str
+        The joints added to the body, in order: slides, then a ball (three rotations) or hinges.
+    frame : str or tuple
+        The site that gives the element frame, or ``(pos, quat)`` of the frame in the parent's frame.
+    K, B : ndarray, shape (6, 6)
+        The element's stiffness and damping (None without damping), element frame.
+    damping_ratio : ndarray, shape (6,), or None
+        The ratios ``B`` was computed from (:func:`mjflex.damping_from_ratios`), per direction.
+    excludes : tuple of (str, str)
+        The ``<exclude>`` body pairs added: the pairs the weld had filtered.
+    kept : tuple of (str, str)
+        Pairs the weld had filtered that were left colliding (``collide``).
+    keyframes : tuple of KeyframeEdit
+        The rest values inserted into each keyframe.
+    """
+
+    element: str
+    body: str
+    parent: str
+    directions: tuple[str, ...]
+    joints: tuple[str, ...]
+    frame: object
+    K: np.ndarray
+    B: np.ndarray | None
+    damping_ratio: np.ndarray | None
+    excludes: tuple[tuple[str, str], ...] = ()
+    kept: tuple[tuple[str, str], ...] = ()
+    keyframes: tuple[KeyframeEdit, ...] = field(default_factory=tuple)
+
+    def __repr__(self):
+        return (
+            f"Compliance(body={self.body!r} on {self.parent!r}, element={self.element!r}, "
+            f"directions={''.join(f'{d} ' for d in self.directions).strip()!r}, joints={list(self.joints)}, "
+            f"excludes={list(self.excludes)}, kept={list(self.kept)}, keyframes edited={len(self.keyframes)})"
+        )
+
+
+def _directions(directions) -> tuple[str, ...]:
+    if isinstance(directions, str):
+        directions = _GROUPS.get(directions, (directions,))
+    try:
+        asked = list(directions)
+    except TypeError:
+        raise ValueError(
+            f"directions must be names of {DIRECTIONS} (or 'all', 'rotations'); got {directions!r}"
+        ) from None
+    unknown = [d for d in asked if d not in DIRECTIONS]
+    if unknown:
+        raise ValueError(
+            f"directions {unknown} unknown: use names of {DIRECTIONS} (rotations about and translations along the "
+            "element frame's axes), or 'all', 'rotations', 'translations'"
+        )
+    if not asked:
+        raise ValueError(
+            "directions is empty: the body would keep no degree of freedom, and the element would act on nothing; "
+            "name at least one of " + ", ".join(DIRECTIONS)
+        )
+    return tuple(d for d in DIRECTIONS if d in asked)
+
+
+def _matrix6(value, directions, what):
+    """A K or B given for the six directions or for the chosen ones only, as 6x6 (zero elsewhere)."""
+    a = np.asarray(value, dtype=float)
+    n = len(directions)
+    if n < 6 and a.shape in ((n,), (n, n)):
+        idx = [DIRECTIONS.index(d) for d in directions]
+        out = np.zeros((6, 6))
+        out[np.ix_(idx, idx)] = np.diag(a) if a.ndim == 1 else a
+        return out
+    if a.shape in ((6,), (6, 6)):
+        return np.diag(a) if a.ndim == 1 else a
+    raise ValueError(f"{what} must be 6 numbers or 6x6 (or {n} / {n}x{n} for the directions {directions}); "
+                     f"got shape {a.shape}")  # fmt: skip
+
+
+def _find_body(spec, body):
+    if isinstance(body, mujoco.MjsBody):
+        found, label = body, body.name
+    elif isinstance(body, str):
+        found, label = (spec.worldbody if body == "world" else spec.body(body)), body
+    else:
+        raise TypeError(f"body must be a body's name or an MjsBody; got {type(body).__name__}")
+    if found is None:
+        close = difflib.get_close_matches(body, [b.name for b in spec.bodies if b.name], n=3)
+        raise ValueError(f"body {body!r} is not in the spec" + (f"; did you mean {close}?" if close else ""))
+    if found.name == "world" or found.parent is None:
+        raise ValueError("the world body has no parent to be compliant against; name the body to make compliant "
+                         "(e.g. a robot's hand or its mount)")  # fmt: skip
+    if not found.name:
+        raise ValueError(f"body {label!r} has no name; name it (the element and the excludes refer to it by name)")
+    return found
+
+
+def _check_body(spec, body):
+    joints = [j.name or f"#{i}" for i, j in enumerate(body.joints)]
+    if joints:
+        raise ValueError(
+            f"body {body.name!r} already has joints ({', '.join(joints)}): make_compliant turns the weld between a "
+            "body and its parent into an element, and a joint's motion would deflect the element. Make a welded "
+            "body compliant (e.g. the hand rather than the wrist link), or add a body between the joint and the part"
+        )
+    if body.mocap:
+        raise ValueError(f"body {body.name!r} is a mocap body, which cannot have joints; make a child of it compliant")
+
+
+def _element_pose(spec, model, body, parent, site, pos, quat):
+    """World pose ``(p_WE, R_WE)`` of the element frame at ``qpos0``, and the frame as reported."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    if site is not None:
+        if pos is not None or quat is not None:
+            raise ValueError("give the element frame as site=... or as pos=/quat= (in the parent's frame), not both")
+        name = site if isinstance(site, str) else getattr(site, "name", None)
+        found = spec.site(name) if isinstance(name, str) else None
+        if found is None:
+            close = difflib.get_close_matches(str(name), [s.name for s in spec.sites if s.name], n=3)
+            raise ValueError(f"site {name!r} is not in the spec" + (f"; did you mean {close}?" if close else ""))
+        if found.parent.name not in (body.name, parent.name):
+            raise ValueError(
+                f"site {name!r} belongs to body {found.parent.name or 'world'!r}, not to {body.name!r} or its parent "
+                f"{parent.name or 'world'!r}: the element frame must move with one of the two bodies; use a site of "
+                "either, or give pos=/quat= in the parent's frame"
+            )
+        i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+        return data.site_xpos[i].copy(), data.site_xmat[i].reshape(3, 3).copy(), name
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)
+    if pos is None and quat is None:  # the body's own frame
+        return data.xpos[i].copy(), data.xmat[i].reshape(3, 3).copy(), None
+    j = 0 if parent.name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, parent.name)
+    R_WP, p_WP = data.xmat[j].reshape(3, 3), data.xpos[j]
+    p = np.zeros(3) if pos is None else np.asarray(pos, dtype=float)
+    q = _unit_quat((1.0, 0.0, 0.0, 0.0) if quat is None else quat, "quat")
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise ValueError(f"pos must be 3 finite numbers (the element origin in the parent's frame); got {pos!r}")
+    return p_WP + R_WP @ p, R_WP @ _rotation(q), (tuple(p.tolist()), tuple(q.tolist()))
+
+
+def _add_joints(body, element, directions, R_BE, p_BE, attributes):
+    """Slides along the chosen element axes, then a ball (all three rotations) or hinges, at the element origin."""
+    blank = mujoco.MjSpec().worldbody.add_body().add_joint()
+    plan = [(f"{element}/{d}", _SLIDE, R_BE[:, "xyz".index(d)]) for d in directions if d in "xyz"]
+    rotations = [d for d in directions if d.startswith("r")]
+    if len(rotations) == 3:
+        plan.append((f"{element}/ball", _BALL, np.array([0.0, 0.0, 1.0])))
+    else:
+        plan += [(f"{element}/{d}", _HINGE, R_BE[:, "xyz".index(d[1])]) for d in rotations]
+    added = []
+    for name, kind, axis in plan:
+        joint = body.add_joint(name=name, type=kind, axis=axis, pos=p_BE)
+        added.append(joint)
+        for attr in _CLEAN:
+            if hasattr(blank, attr):
+                setattr(joint, attr, getattr(blank, attr))
+        for attr, value in attributes.items():
+            setattr(joint, attr, value)
+    return added
+
+
+def _joint_attributes(attributes):
+    """The user's joint attributes, checked before anything is added: names of ``MjsJoint`` attributes."""
+    attributes = dict(attributes or {})
+    blank = mujoco.MjSpec().worldbody.add_body().add_joint()
+    for attr, value in attributes.items():
+        if attr in ("name", "type", "axis", "pos", "parent", "frame") or not hasattr(blank, attr):
+            raise ValueError(f"joint_attributes: {attr!r} is not a joint attribute make_compliant lets you set "
+                             "(e.g. armature, damping, range with limited)")  # fmt: skip
+        try:
+            setattr(blank, attr, value)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"joint_attributes: {attr}={value!r} is not valid ({exc})") from None
+    return attributes
+
+
+def _stash_keys(spec):
+    """Empty the keyframes' qpos/qvel (so that the spec compiles while joints change); their old values."""
+    saved = []
+    for key in spec.keys:
+        saved.append((np.array(key.qpos, dtype=float), np.array(key.qvel, dtype=float)))
+        key.qpos, key.qvel = [], []
+    return saved
+
+
+def _restore_keys(spec, saved):
+    for key, (qpos, qvel) in zip(spec.keys, saved, strict=True):
+        key.qpos, key.qvel = qpos.tolist(), qvel.tolist()
+
+
+def _grow_keys(spec, saved, model, joints, rigid_nq, rigid_nv):
+    """Insert the new joints' rest values (``qpos0``; zero velocity) into every keyframe that gives qpos/qvel."""
+    qadr = sorted(int(a) + k for j in joints for a, n in [_joint_span(model, j, "q")] for k in range(n))
+    vadr = sorted(int(a) + k for j in joints for a, n in [_joint_span(model, j, "v")] for k in range(n))
+    edits = []
+    for i, (key, (qpos, qvel)) in enumerate(zip(spec.keys, saved, strict=True)):
+        new_q, new_v = qpos, qvel
+        if qpos.size:
+            if qpos.size != rigid_nq:
+                raise ValueError(f"keyframe {key.name or i!r} has {qpos.size} qpos values, the model nq={rigid_nq}")
+            new_q = _insert(qpos, qadr, model.qpos0[qadr], model.nq)
+        if qvel.size:
+            if qvel.size != rigid_nv:
+                raise ValueError(f"keyframe {key.name or i!r} has {qvel.size} qvel values, the model nv={rigid_nv}")
+            new_v = _insert(qvel, vadr, np.zeros(len(vadr)), model.nv)
+        key.qpos, key.qvel = new_q.tolist(), new_v.tolist()
+        if qpos.size or qvel.size:
+            edits.append(KeyframeEdit(key.name or i, tuple(qadr) if qpos.size else (),
+                                      tuple(model.qpos0[qadr].tolist()) if qpos.size else (),
+                                      tuple(vadr) if qvel.size else ()))  # fmt: skip
+    return tuple(edits)
+
+
+def _insert(old, addresses, values, size):
+    out = np.empty(size)
+    mask = np.ones(size, dtype=bool)
+    mask[addresses] = False
+    out[mask], out[addresses] = old, values
+    return out
+
+
+def _joint_span(model, joint, which):
+    j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
+    n = {int(_SLIDE): (1, 1), int(_HINGE): (1, 1), int(_BALL): (4, 3)}[int(model.jnt_type[j])]
+    return (model.jnt_qposadr[j], n[0]) if which == "q" else (model.jnt_dofadr[j], n[1])
+
+
+def _pairs(spec, collide):
+    """``collide`` as a set of frozensets of body names ('*' for any body); raises on unknown bodies."""
+    out = set()
+    for item in collide or ():
+        pair = (item, "*") if isinstance(item, str) else tuple(item)
+        if len(pair) != 2:
+            raise ValueError(f"collide: {item!r} is neither a body name nor a pair of body names")
+        for name in pair:
+            if name not in ("*", "world") and spec.body(name) is None:
+                raise ValueError(f"collide: {name!r} is not a body of the spec")
+        out.add(frozenset(pair))
+    return out
+
+
+def _kept(pair, wanted):
+    a, b = pair
+    return frozenset((a, b)) in wanted or frozenset((a, "*")) in wanted or frozenset((b, "*")) in wanted
+
+
+def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, directions="all",
+                   name=None, method="twist", collide=(), joint_attributes=None, keyframe=None, others="locked",
+                   actuator_stiffness=False) -> Compliance:  # fmt: skip
+    """Make a welded body of ``spec`` compliant relative to its parent, in place; returns what was done.
+
+    The body (a robot's hand, a sensor, a tool; any body of any model, attached or not) gets the
+    degrees of freedom of the chosen ``directions`` of the element frame (three slides and a ball
+    joint for all six), with MuJoCo's built-in joint settings whatever the body's ``childclass``
+    or the model's defaults say (no armature, range, damping, friction loss or spring unless
+    ``joint_attributes`` asks), and a flexure element between it and its parent, written by
+    :func:`mjflex.add_flexure` (so it is whatever element kind ``add_flexure`` writes). The body
+    pairs that MuJoCo filtered in the rigid model and would collide now (the body with its
+    grandparent's weld group, and so on; :mod:`mjflex.mj._contacts`) get ``<exclude>``
+    elements, except those in ``collide``; every keyframe gets the new joints' rest values (zero
+    deflection) at their qpos and qvel addresses. A kept pair that touches at ``qpos0`` or a
+    keyframe is reported by a warning.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The model; it must compile before and after.
+    body : str or mujoco.MjsBody
+        The body to make compliant: welded to its parent (no joints), not the world. Names are
+        the spec's, prefixes of ``MjSpec.attach`` included (``"left/hand"``).
+    K : array_like, shape (6, 6) or (6,), or (n, n) / (n,) for n directions
+        Stiffness in the element frame, rows ``[rx, ry, rz, x, y, z]`` (N m/rad, N/m); a vector
+        is the diagonal. Given for the chosen directions only, it is zero in the others (which
+        the joints do not move).
+    B : array_like, optional
+        Damping, same layout as ``K``. Or:
+    damping_ratio : float or array_like, optional
+        Damping ratios (> 0, e.g. 0.01), one for all or one per chosen direction:
+        ``B`` is computed by :func:`mjflex.damping_from_ratios` at ``keyframe`` with ``others``
+        and ``actuator_stiffness`` (default: the other joints locked, i.e. the inertia of the
+        body and all it carries about the element frame).
+    site : str or mujoco.MjsSite, optional
+        A site of the body or of its parent whose frame is the element frame (e.g. a robot's
+        ``"attachment_site"``). Or:
+    pos, quat : array_like, optional
+        The element frame in the parent body's frame (m; w-first). Default (neither site nor
+        pose): the body's own frame.
+    directions : str or sequence of str
+        ``"all"`` (default), ``"rotations"``, ``"translations"`` or names of
+        ``("rx", "ry", "rz", "x", "y", "z")``: the element-frame directions the body may move in.
+    name : str, optional
+        Element name (default ``body + "_compliance"``); joints are ``name/x``, ``name/ball``, ...
+    method : {"twist", "dualquat"}
+        The element's displacement measure.
+    collide : iterable
+        Body pairs ``(body1, body2)`` (or single body names: all their pairs) to keep colliding
+        although the weld had filtered them.
+    joint_attributes : dict, optional
+        Attributes set on every added joint (e.g. ``{"armature": 1e-4}``).
+    keyframe, others, actuator_stiffness
+        The linearization used for ``damping_ratio`` (:func:`mjflex.damping_from_ratios`).
+
+    Returns
+    -------
+    Compliance
+        Its joints, element, excludes and keyframe edits; :func:`make_rigid` takes it to undo.
+
+    Raises
+    ------
+    ValueError
+        The world or an unknown body, a body with joints or a mocap body, a site of another
+        body, no direction, a ratio <= 0 or NaN, both ``B`` and ``damping_ratio``, a name taken.
+        The spec is left as it was.
+    """
+    target = _find_body(spec, body)
+    _check_body(spec, target)
+    parent = target.parent
+    dirs = _directions(directions)
+    name = name or f"{target.name}_compliance"
+    K6 = _matrix6(K, dirs, "K")
+    if B is not None and damping_ratio is not None:
+        raise ValueError("give B or damping_ratio, not both")
+    B6 = None if B is None else _matrix6(B, dirs, "B")
+    ratios = None
+    if damping_ratio is not None:
+        given = checked_ratios(damping_ratio, len(dirs) if np.ndim(damping_ratio) else 1)
+        ratios = np.full(6, given.mean())
+        ratios[[DIRECTIONS.index(d) for d in dirs]] = given if given.size == len(dirs) else given[0]
+    wanted = _pairs(spec, collide)
+    joint_attributes = _joint_attributes(joint_attributes)
+    taken = [j for j in (f"{name}/{d}" for d in (*DIRECTIONS, "ball")) if spec.joint(j) is not None]
+    if taken:
+        raise ValueError(f"joint(s) {taken} exist already: pick another name= for the element")
+    rigid = compile_spec(spec, "make a body compliant")
+    p_WE, R_WE, frame = _element_pose(spec, rigid, target, parent, site, pos, quat)
+    data = mujoco.MjData(rigid)
+    mujoco.mj_kinematics(rigid, data)
+    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, target.name)
+    R_WB, p_WB = data.xmat[ib].reshape(3, 3), data.xpos[ib]
+    saved, joints, excludes, element = _stash_keys(spec), [], [], None
+    try:
+        joints = _add_joints(target, name, dirs, R_WB.T @ R_WE, R_WB.T @ (p_WE - p_WB), joint_attributes)
+        place = {"site": frame} if isinstance(frame, str) else {"pos": p_WE, "quat": _quaternion(R_WE)}
+        parent_name = "world" if parent.name in ("", "world") else parent.name
+        add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False, **place)
+        element = name
+        compliant = compile_spec(spec, "make a body compliant")
+        exposed = [
+            tuple(_contacts.body_name(compliant, b) for b in p) for p in _contacts.exposed_pairs(rigid, compliant)
+        ]
+        for pair in exposed:
+            unnamed = [b for b in pair if b.startswith("#")]
+            if unnamed and not _kept(pair, wanted):
+                raise ValueError(
+                    f"body {unnamed[0]} (an id) has no name, and its contacts with {pair} must be excluded once "
+                    f"{target.name!r} has joints; name it in the model, or keep the pair with collide="
+                )
+            if not _kept(pair, wanted):
+                excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
+        edits = _grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
+        if ratios is not None:
+            B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness)
+            remove_flexure(spec, name)
+            add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
+                        **place)  # fmt: skip
+        _warn_kept(spec, name)
+    except BaseException:
+        _stash_keys(spec)  # MjSpec checks the keyframes' sizes when joints go
+        for obj in (*excludes, *joints):
+            spec.delete(obj)
+        if element is not None and spec.text(schema.PREFIX + element) is not None:
+            remove_flexure(spec, element)
+        _restore_keys(spec, saved)
+        raise
+    kept = tuple(p for p in exposed if _kept(p, wanted))
+    return Compliance(name, target.name, parent_name, dirs, tuple(j.name for j in joints), frame, K6, B6, ratios,
+                      tuple((e.bodyname1, e.bodyname2) for e in excludes), kept, edits)  # fmt: skip
+
+
+def _damping(spec, name, ratios, keyframe, others, actuator_stiffness):
+    model = compile_spec(spec, "compute the damping from ratios")
+    with warnings.catch_warnings():  # contacts are reported once, by _warn_kept
+        warnings.simplefilter("ignore")
+        flex = Flexures(model)
+    return damping_from_ratios(model, name, ratios, flex=flex, keyframe=keyframe, others=others,
+                               actuator_stiffness=actuator_stiffness)  # fmt: skip
+
+
+def _warn_kept(spec, name):
+    """Validate the new element as :class:`Flexures` reads it, and pass on its contact warnings once."""
+    model = compile_spec(spec, "make a body compliant")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        Flexures(model)
+    for w in caught:
+        if name in str(w.message):
+            warnings.warn(str(w.message), w.category, stacklevel=4)
+
+
+def make_rigid(spec, compliance: Compliance) -> None:
+    """Undo :func:`make_compliant` on ``spec``, in place: back to the rigid body.
+
+    Removes the joints, the element and the ``<exclude>`` elements it added, and the values it
+    inserted into the keyframes (at the addresses the joints have now, so keyframes edited or
+    added since keep their other values). The compiled model then has the rigid model's sizes,
+    body poses and keyframes.
+    """
+    if not isinstance(compliance, Compliance):
+        raise TypeError(f"make_rigid expects the Compliance that make_compliant returned; got {type(compliance)}")
+    missing = [j for j in compliance.joints if spec.joint(j) is None]
+    if missing:
+        raise ValueError(f"the spec has no joint(s) {missing} of {compliance.element!r}: is it compliant (the same "
+                         "spec make_compliant edited), or was make_rigid called already?")  # fmt: skip
+    model = compile_spec(spec, "make a body rigid again")
+    qadr = sorted(int(a) + k for j in compliance.joints for a, n in [_joint_span(model, j, "q")] for k in range(n))
+    vadr = sorted(int(a) + k for j in compliance.joints for a, n in [_joint_span(model, j, "v")] for k in range(n))
+    shrunk = [
+        (
+            np.delete(qpos, qadr) if qpos.size == model.nq else qpos,
+            np.delete(qvel, vadr) if qvel.size == model.nv else qvel,
+        )
+        for qpos, qvel in _stash_keys(spec)  # emptied while the joints go (MjSpec checks the keyframes' sizes)
+    ]
+    for j in compliance.joints:
+        spec.delete(spec.joint(j))
+    _restore_keys(spec, shrunk)
+    remove_flexure(spec, compliance.element)
+    added = {frozenset(p) for p in compliance.excludes}
+    for e in list(spec.excludes):
+        if frozenset((e.bodyname1, e.bodyname2)) in added:
+            added.discard(frozenset((e.bodyname1, e.bodyname2)))
+            spec.delete(e)
