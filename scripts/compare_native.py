@@ -3,7 +3,9 @@
 Usage::
 
     python scripts/compare_native.py [--scenes bushing cantilever arcade] [--json out/compare_native.json]
-                                     [--repeat 11]
+                                     [--repeat 11] [--runs 1]
+
+``--runs N`` repeats everything in N fresh processes and pools the timing repeats (scripts/_bench.py).
 
 Scenes (``mjflex.app.scenes`` and ``models/arcade.xml``) and what each measures:
 

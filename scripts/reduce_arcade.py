@@ -2,7 +2,9 @@
 
 Usage::
 
-    python scripts/reduce_arcade.py [--json out/reduce_arcade.json] [--repeat 11]
+    python scripts/reduce_arcade.py [--json out/reduce_arcade.json] [--repeat 11] [--runs 1]
+
+``--runs N`` repeats everything in N fresh processes and pools the timing repeats (scripts/_bench.py).
 
 For each reduction (frequency band kept, with or without the paper run as the scene, how loops
 are closed) prints what was reduced (elements turned into joints, merged, kept; nv; highest

@@ -30,6 +30,28 @@ def test_readme_test_command_is_what_ci_runs():
     assert command in readme and command in ci
 
 
+def test_tested_with_table_states_the_lower_bounds_of_pyproject():
+    """The README's oldest tested set is what pyproject.toml allows at the least (raise both together)."""
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    from tested_versions import SHOWN, oldest_constraints
+
+    with open(os.path.join(ROOT, "README.md")) as f:
+        readme = f.read()
+    head = f"| set | Python | {' | '.join(SHOWN)} |"
+    assert head in readme, "the Tested-with table has the columns of scripts/tested_versions.py"
+    oldest = next(x for x in readme.splitlines() if x.startswith("| oldest allowed |"))
+    stated = dict(zip(SHOWN, [c.strip() for c in oldest.split("|")[3:-1]], strict=True))
+    bounds = dict(c.split("==") for c in oldest_constraints())
+
+    def padded(version):
+        return tuple(int(x) for x in version.split(".")) + (0,) * (3 - version.count(".") - 1)
+
+    checked = [name for name in SHOWN if name in bounds]
+    assert len(checked) >= 7
+    for name in checked:
+        assert padded(stated[name]) == padded(bounds[name]), f"{name}: README {stated[name]}, pyproject {bounds[name]}"
+
+
 def _generator():
     spec = importlib.util.spec_from_file_location("readme_results", os.path.join(ROOT, "scripts", "readme_results.py"))
     module = importlib.util.module_from_spec(spec)
