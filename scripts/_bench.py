@@ -117,6 +117,13 @@ def add_runs_option(ap, default=1):
                          f"(default {default})")  # fmt: skip
 
 
+def add_timing_options(ap, json_path, *, repeat=21, runs=1):
+    """The options of a benchmark script: ``--json``, ``--repeat`` (per process) and ``--runs``."""
+    ap.add_argument("--json", default=json_path)
+    ap.add_argument("--repeat", type=int, default=repeat, help=f"interleaved repeats per process (default {repeat})")
+    add_runs_option(ap, runs)
+
+
 def _argv_without(argv, options):
     out, skip = [], False
     for arg in argv:

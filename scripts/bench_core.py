@@ -20,7 +20,7 @@ import argparse
 
 import mujoco
 import numpy as np
-from _bench import add_runs_option, compare, measured_in_processes, print_table, write_json
+from _bench import add_timing_options, compare, measured_in_processes, print_table, write_json
 from scipy.spatial.transform import Rotation
 
 import mjflex
@@ -132,10 +132,8 @@ def measure(args):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", default="out/bench_core.json")
     ap.add_argument("--n", type=int, default=48, help="elements in the batch")
-    ap.add_argument("--repeat", type=int, default=21, help="interleaved repeats per process (default 21)")
-    add_runs_option(ap, default=5)
+    add_timing_options(ap, "out/bench_core.json", runs=5)
     args = ap.parse_args()
     payload = measured_in_processes(args) or measure(args)
     rows, n = payload["rows"], payload["n_elements"]

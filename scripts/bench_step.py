@@ -24,7 +24,15 @@ import os
 
 import mujoco
 import numpy as np
-from _bench import add_runs_option, compare, measured_in_processes, print_table, ratio_between, scale_times, write_json
+from _bench import (
+    add_timing_options,
+    compare,
+    measured_in_processes,
+    print_table,
+    ratio_between,
+    scale_times,
+    write_json,
+)
 
 import mjflex
 
@@ -146,9 +154,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default=os.path.join(HERE, "..", "models", "arcade.xml"))
     ap.add_argument("--random", action="store_true", help="random 35-body, 48-element model instead")
-    ap.add_argument("--repeat", type=int, default=21, help="interleaved repeats per process (default 21)")
-    ap.add_argument("--json", default="out/bench_step.json")
-    add_runs_option(ap, default=5)
+    add_timing_options(ap, "out/bench_step.json", runs=5)
     args = ap.parse_args()
     payload = measured_in_processes(args) or measure(args)
     payload["verdict"] = verdicts(payload["rows"])

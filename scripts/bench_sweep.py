@@ -7,7 +7,7 @@ overhead: the wall time of the same sweep with duration 0 (build every variant, 
 observe; no stepping) divided by the number of variants. Results of every case are checked to
 be bit-identical to the serial loop. The machine is shared: read medians and ratios.
 
-    python scripts/bench_sweep.py [--variants 16] [--duration 0.01] [--repeat 5] [--workers 2] [--runs 1]
+    python scripts/bench_sweep.py [--variants 16] [--duration 0.01] [--repeat 7] [--workers 2] [--runs 1]
 
 ``--runs N`` repeats the benchmark in N fresh processes and pools their repeats (scripts/_bench.py).
 """
@@ -57,7 +57,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--variants", type=int, default=16)
     ap.add_argument("--duration", type=float, default=0.01, help="simulated time per variant [s]")
-    ap.add_argument("--repeat", type=int, default=5, help="interleaved repeats per process (default 5)")
+    ap.add_argument("--repeat", type=int, default=7, help="interleaved repeats per process (default 7)")
     ap.add_argument("--workers", type=int, default=2, help="threads (Batch) or processes (pool, Dask)")
     ap.add_argument("--json", default="out/bench_sweep.json")
     add_runs_option(ap)
