@@ -5,7 +5,19 @@ Renderers of scripts/readme_results.py: each takes the recorded JSON (by name) a
 
 import re
 
-from _readme_format import command_note, duration, join_and, pct, sci, sig, table
+from _readme_format import (
+    command_note,
+    cost_ratio,
+    duration,
+    join_and,
+    machine_of,
+    pct,
+    sci,
+    sig,
+    table,
+    timed_on,
+    times,
+)
 
 #: The recorded runs of scripts/long_run.py, in the README's order.
 LONG_RUNS = ["long_run", "long_run_arcade", "long_run_arcade_1e-5", "long_run_arcade_damped"]
@@ -82,14 +94,24 @@ def block_study_arcade(results):
 
 def _stable(cost):
     bound = "≥ " if cost.get("stable_step_is_search_limit") else ""
-    return f"{bound}{sci(cost['stable_step_s'])} s", f"{bound}{sig(cost['speedup_at_stable'])}×"
+    return f"{bound}{sci(cost['stable_step_s'])} s", f"{bound}{_speedup(cost)}"
+
+
+def _speedup(cost):
+    """Speed-up at the stable step, with its spread where the JSON carries it."""
+    return times(cost["speedup_at_stable"], cost, "speedup", sig)
 
 
 def _native_cost(cost, stable=True):
     if not stable:
         return f"{cost['ratio_median']:.2f}× ({cost['ratio_min']:.2f}–{cost['ratio_max']:.2f})"
     step, speed = _stable(cost)
-    return f"{cost['ratio_median']:.2f}×; {step}; {speed}"
+    return f"{cost_ratio(cost)}; {step}; {speed}"
+
+
+def _spread_intro(r, old):
+    """How the cost ratios were measured: ``old`` for JSON without the machine, else medians (min–max) and where."""
+    return f"cost ratios are medians (min–max) of interleaved repeats {timed_on(r)}" if machine_of(r) else old
 
 
 def _native_bushing(s):
@@ -144,11 +166,12 @@ def block_native(results):
     head = ["scene", "model", "cost per step vs mjflex; stable RK4 step; speed at it", "accuracy"]
     capped = all(c.get("stable_step_is_search_limit") for c in r["bushing"]["costs"].values())
     why = " (all its models are stable at the stable-step search's upper limit)" if capped else ""
+    how = _spread_intro(r, f"cost ratios are medians of interleaved repeats in one process, for the bushing with their "
+                           f"min–max{why}")  # fmt: skip
     return (
-        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}); per-step cost ratios are "
-        f"medians of interleaved repeats in one process, for the bushing with their min–max{why}; speed = wall time "
-        "per simulated second at each model's own stable step, relative to mjflex (≥: still stable at the search's "
-        "upper limit, 100× the scene's step):\n\n" + table(head, rows)
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}); per-step {how}; speed = wall "
+        "time per simulated second at each model's own stable step, relative to mjflex (≥: still stable at the "
+        "search's upper limit, 100× the scene's step):\n\n" + table(head, rows)
     )
 
 
@@ -167,7 +190,7 @@ def block_native_verdict(results):
         "Verdict. For small motions every alternative that keeps the compliant directions is accurate (ARCADE's "
         f"0.01 m/s stroke: weld {small['weld(compliant)']}, 6-joint bushing {small['bushing']}, `reduce(50 Hz)` "
         f"{small[red]}), and only a reduction is also cheaper on a closed-loop mechanism without locking it "
-        f"(`reduce(50 Hz)`: {sig(ac[red]['speedup_at_stable'])}× mjflex's speed, each at its stable step). Welds cost "
+        f"(`reduce(50 Hz)`: {_speedup(ac[red])} mjflex's speed, each at its stable step). Welds cost "
         f"{min(welds):.1f}–{max(welds):.1f}× mjflex per step and misstate anything anisotropic: a weld holds one "
         "isotropic rotational stiffness, so ARCADE's welded notches are as soft out of plane as about their axis, a "
         "spurious "
@@ -175,7 +198,7 @@ def block_native_verdict(results):
         "6-joint bushing is exact for small motion of a diagonal `K` but drops coupling, errs by "
         f"{b['results']['bushing']['dynamic_rotation_error_deg']:.0f}° in the bushing scene's large motion and costs "
         f"{min(bush):.1f}–{max(bush):.0f}× per step in chains. The pseudo-rigid-body model is the cheapest for open "
-        f"chains ({sig(cc[prb]['speedup_at_stable'])}× mjflex's speed at {pct(abs(c['results'][prb]['small_error']))} "
+        f"chains ({_speedup(cc[prb])} mjflex's speed at {pct(abs(c['results'][prb]['small_error']))} "
         f"tip error on the cantilever) and locks closed ones (ARCADE: small stroke {small[prb]} off, paper-run stroke "
         f"{ar[prb]['paper_run']['stroke_mm']:.2f} mm instead of {ar[full]['paper_run']['stroke_mm']:.2f} mm). On "
         "ARCADE's paper run (1000 rpm) no cheaper model in this comparison follows the full model's axial trajectory "
@@ -202,16 +225,16 @@ def block_reduce_arcade(results):
         step, speed = _stable(cost)
         highest = d["modes"]["highest_hz"] if d else next(iter(r["details"].values()))["modes"]["highest_full_hz"]
         rows.append([name, row["nv"], f"{highest / 1e3:.3g} kHz" if highest >= 1e3 else f"{highest:.0f} Hz", step,
-                     speed, f"{cost['ratio_median']:.2f}×", f"{p['stroke_mm']:.2f} mm / {pct(p['axial_error'])}",
+                     speed, cost_ratio(cost), f"{p['stroke_mm']:.2f} mm / {pct(p['axial_error'])}",
                      pct(q["axial_error"])])  # fmt: skip
     head = ["model", "nv", "highest mode", "stable RK4 step", "speed-up at it", "cost per step",
             "paper run: stroke / axial error", "0.01 m/s stroke: axial error"]  # fmt: skip
     details = r["details"]
     name = max(details, key=lambda k: sum(sum(e["scene_share"].values()) for e in details[k]["elements"].values()))
     n, leaf_y, notch_x = _scene_directions(r["reports"][name], details[name])
+    how = _spread_intro(r, "cost ratios are medians of interleaved repeats in one process")
     return (
-        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}; cost ratios are medians of "
-        "interleaved repeats in one process):\n\n"
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}; {how}):\n\n"
         + table(head, rows)
         + f"\nThe scene analysis (`scene=`) keeps {n} directions compliant that the paper run strains beyond 2 % of "
         f"its peak strain energy: each leaf's shear holds up to {pct(leaf_y)}, each notch's axial stretch up to "
@@ -222,11 +245,13 @@ def block_reduce_arcade(results):
 def row_compare_native(r):
     c, a = r["cantilever"]["costs"], r["arcade"]["costs"]
     reduced = next(k for k in a if k.startswith("reduced(50 Hz)"))
+    weld = a["weld(compliant)"]
+    welds = times(weld["ratio_median"], weld, "ratio", lambda x: f"{x:.1f}")
     return (
         "mjflex vs MuJoCo-native models (welds, joint springs, 6-joint bushing, flexcomp rod) and `reduce`",
         f"cantilever: pseudo-rigid-body {_stable(c['pseudo-rigid-body'])[1]} mjflex's speed, 6-joint bushing "
         f"{_stable(c['bushing'])[1]}, weld {_stable(c['weld(compliant)'])[1]}; ARCADE: `reduce(50 Hz)` "
-        f"{_stable(a[reduced])[1]}, welds {a['weld(compliant)']['ratio_median']:.1f}× the cost per step",
+        f"{_stable(a[reduced])[1]}, welds {welds} the cost per step",
     )
 
 
@@ -370,15 +395,20 @@ def block_sweep_bench(results):
               "pool": f"spawn process pool, {n} workers", "dask": f"Dask `LocalCluster` {n}×1"}  # fmt: skip
     rows = []
     for name, c in r["cases"].items():
-        ratio = "1.00×" if name == "serial" else f"{c['ratio_to_serial_median']:.2f}× ({c['ratio_min']:.2f}–"
-        ratio += "" if name == "serial" else f"{c['ratio_max']:.2f})"
+        if "ratio_q1" in c:  # recorded with its repeats: the baseline's spread is 1–1 (shown like the others)
+            ratio = times(c["ratio_to_serial_median"], c, "ratio")
+        else:
+            ratio = "1.00×" if name == "serial" else f"{c['ratio_to_serial_median']:.2f}× ({c['ratio_min']:.2f}–"
+            ratio += "" if name == "serial" else f"{c['ratio_max']:.2f})"
         rows.append([labels[name], f"{c['wall_median_s']:.2f} s", ratio, f"{c['overhead_per_variant_s'] * 1e3:.0f} ms"])
     load = r["load_average_before_after"]
+    where = f" on {machine_of(r)}" if machine_of(r) else ""
+    runs = f"{r['processes']} fresh processes × " if r.get("processes", 1) > 1 else ""
     return (
         f"`{r['command']}` ({r['variants']} ARCADE variants × {r['duration_s'] * 1e3:g} ms = {r['steps']} RK4 steps "
-        f"each, {r['repeat']} interleaved repeats; recorded {r['date'][:10]}, {duration(r['script_wall_s'])}, "
-        f"1-minute load average {load[0]:.1f} before and {load[1]:.1f} after). All paths gave bit-identical strokes "
-        "(the script checks):\n\n"
+        f"each, {runs}{r['repeat']} interleaved repeats; recorded {r['date'][:10]}{where}, "
+        f"{duration(r['script_wall_s'])}, 1-minute load average {load[0]:.1f} before and {load[1]:.1f} after). All "
+        "paths gave bit-identical strokes (the script checks):\n\n"
         + table(["path", "wall median", "vs serial loop, same repeat: median (min–max)", "overhead per variant"], rows)
     )
 
@@ -388,6 +418,6 @@ def row_bench_sweep(r):
     return (
         f"a sweep of {r['variants']} ARCADE variants: serial loop vs `Batch` vs process pool vs Dask "
         f"({r['workers']} workers)",
-        ", ".join(f"{k} {v['ratio_to_serial_median']:.2f}×" for k, v in c.items() if k != "serial")
+        ", ".join(f"{k} {times(v['ratio_to_serial_median'], v, 'ratio')}" for k, v in c.items() if k != "serial")
         + " the serial wall time (medians of same-repeat ratios); bit-identical",
     )

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from _bench import compare
+from _bench import compare, scale_times
 
 import mjflex
 
@@ -141,8 +141,7 @@ def step_costs(cases, baseline, h, *, steps=20, repeat=11):
             if c.flex is not None:
                 c.flex.uninstall()
     for r in rows.values():
-        for key in ("median_s", "min_s", "max_s"):
-            r[key] /= steps
+        scale_times(r, 1 / steps)
     return rows
 
 
@@ -173,8 +172,21 @@ def costs_at_stable_steps(cases, h, repeat, probe, duration):
         r["stable_step_s"] = stable_step(c, h, duration, probe)
         # stable_step searches up to 100 h: a model still stable there has a larger stable step (a lower bound)
         r["stable_step_is_search_limit"] = bool(r["stable_step_s"] >= 100.0 * h)
-        r["wall_per_sim_s_at_stable"] = r["median_s"] / r["stable_step_s"] if r["stable_step_s"] else float("inf")
-    base = rows[cases[0].name]["stable_step_s"]
+    return add_speedups(rows, cases[0].name)
+
+
+def add_speedups(rows, baseline):
+    """Each row's wall time per simulated second at its stable step and speed-up over ``rows[baseline]``.
+
+    ``speedup_at_stable`` = (stable step / baseline's) / median same-repeat cost ratio, with its spread
+    (``speedup_q1`` ... ``speedup_max``) from the ratio's. Recompute after pooling runs (scripts/_bench.py).
+    """
+    base = rows[baseline]["stable_step_s"]
     for r in rows.values():
-        r["speedup_at_stable"] = r["stable_step_s"] / base / r["ratio_median"] if base else float("nan")
+        r["wall_per_sim_s_at_stable"] = r["median_s"] / r["stable_step_s"] if r["stable_step_s"] else float("inf")
+        steps = r["stable_step_s"] / base if base else float("nan")
+        r["speedup_at_stable"] = steps / r["ratio_median"]
+        if "ratio_q1" in r:  # a larger cost ratio is a smaller speed-up
+            for mine, theirs in (("q1", "q3"), ("q3", "q1"), ("min", "max"), ("max", "min")):
+                r[f"speedup_{mine}"] = steps / r[f"ratio_{theirs}"]
     return rows

@@ -2,9 +2,10 @@
 
 Usage::
 
-    python scripts/bench_core.py [--json out/bench_core.json] [--n 48]
+    python scripts/bench_core.py [--json out/bench_core.json] [--n 48] [--runs 5] [--repeat 21]
 
-Times, in one process (medians of repeated runs):
+Times, interleaved, in each of ``--runs`` fresh processes (same-repeat ratios to the baseline:
+median, quartiles, min-max over the pooled repeats; scripts/_bench.py):
 
 * ``mjflex.wrench_on_b`` on a batch of ``n`` elements (elastic + viscous), both methods,
   with and without argument validation, and the compiled batch kernel alone;
@@ -19,7 +20,7 @@ import argparse
 
 import mujoco
 import numpy as np
-from _bench import compare, print_table, write_json
+from _bench import add_timing_options, compare, measured_in_processes, print_table, write_json
 from scipy.spatial.transform import Rotation
 
 import mjflex
@@ -111,13 +112,8 @@ def method_cases(method, n, R_WA, p_WA, R_WB, p_WB, K, B, vel):
     return cases, loop, err
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", default="out/bench_core.json")
-    ap.add_argument("--n", type=int, default=48, help="elements in the batch")
-    ap.add_argument("--repeat", type=int, default=21)
-    args = ap.parse_args()
-
+def measure(args):
+    """Time the cases interleaved in this process; check the batch against the per-element loop."""
     R_WA, p_WA, R_WB, p_WB, K, B, vel = random_batch(args.n)
     model = free_bodies_model(35)
     data = mujoco.MjData(model)
@@ -131,11 +127,22 @@ def main():
         slow[f"{method}: per-element numpy loop x{args.n}"] = loop
     rows = compare(cases, base, repeat=args.repeat)
     rows.update({k: v for k, v in compare(slow, base, repeat=5, target=0.05).items() if k != base})
-    print_table(rows, f"Core benchmark: {args.n} elements (elastic + viscous); ratios to mj_step in the same repeat")
-    print(f"\nmax relative difference batch vs per-element loop: {max_err}")
-    goal = {m: rows[f"{m}: wrench_on_b x{args.n}, check=False"]["ratio_median"] <= 2.0 for m in ("twist", "dualquat")}
-    print(f"goal (median ratio of wrench_on_b, check=False, to bare mj_step <= 2): {goal}")
-    write_json(args.json, {"n_elements": args.n, "rows": rows, "goal_met": goal, "max_rel_diff_vs_loop": max_err})
+    return {"n_elements": args.n, "rows": rows, "max_rel_diff_vs_loop": max_err}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=48, help="elements in the batch")
+    add_timing_options(ap, "out/bench_core.json", runs=5)
+    args = ap.parse_args()
+    payload = measured_in_processes(args) or measure(args)
+    rows, n = payload["rows"], payload["n_elements"]
+    print_table(rows, f"Core benchmark: {n} elements (elastic + viscous); ratios to mj_step in the same repeat")
+    print(f"\nmax relative difference batch vs per-element loop: {payload['max_rel_diff_vs_loop']}")
+    payload["goal_met"] = {m: rows[f"{m}: wrench_on_b x{n}, check=False"]["ratio_median"] <= 2.0
+                           for m in ("twist", "dualquat")}  # fmt: skip
+    print(f"goal (median ratio of wrench_on_b, check=False, to bare mj_step <= 2): {payload['goal_met']}")
+    write_json(args.json, payload)
 
 
 if __name__ == "__main__":

@@ -3,10 +3,11 @@
 Usage::
 
     python scripts/bench_step.py [--model models/arcade.xml | --random] [--json out/bench_step.json]
+                                 [--runs 5] [--repeat 21]
 
 The same 35 free bodies are stepped with ``mj_step`` (Euler, the model's time step) from the
-same state in three versions, measured interleaved in one process (medians of same-repeat
-ratios):
+same state in three versions, measured interleaved (same-repeat ratios: median, quartiles,
+min-max) in each of ``--runs`` fresh processes, whose repeats are pooled (scripts/_bench.py):
 
 * **flexures**: the 48 elements installed (twist and dual-quaternion methods, native callback);
 * **bare**: the same model without elements (a separately loaded, unregistered copy);
@@ -23,7 +24,15 @@ import os
 
 import mujoco
 import numpy as np
-from _bench import compare, print_table, write_json
+from _bench import (
+    add_timing_options,
+    compare,
+    measured_in_processes,
+    print_table,
+    ratio_between,
+    scale_times,
+    write_json,
+)
 
 import mjflex
 
@@ -92,13 +101,12 @@ def check_stable(cases):
             raise SystemExit(f"error: case {name!r} diverged ({bad} bad-acceleration warnings); timings invalid")
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", default=os.path.join(HERE, "..", "models", "arcade.xml"))
-    ap.add_argument("--random", action="store_true", help="random 35-body, 48-element model instead")
-    ap.add_argument("--repeat", type=int, default=21)
-    ap.add_argument("--json", default="out/bench_step.json")
-    args = ap.parse_args()
+BARE = "bare: same bodies, no elements (baseline)"
+WELD = "weld: 48 weld equality constraints"
+
+
+def measure(args):
+    """Time the cases interleaved in this process: the payload's ``rows`` (per ``mj_step``)."""
     spec = random_spec() if args.random else mujoco.MjSpec.from_file(args.model)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     models = {k: spec.compile() for k in ("twist", "dualquat", "bare")}
@@ -114,32 +122,48 @@ def main():
         p.install()
     steps = 5
     cases = {
-        "bare: same bodies, no elements (baseline)": stepper(models["bare"], qvel, steps),
+        BARE: stepper(models["bare"], qvel, steps),
         "flexures, twist method": stepper(models["twist"], qvel, steps),
         "flexures, dual-quaternion method": stepper(models["dualquat"], qvel, steps),
-        "weld: 48 weld equality constraints": stepper(models["weld"], qvel, steps),
+        WELD: stepper(models["weld"], qvel, steps),
     }
-    rows = compare(cases, "bare: same bodies, no elements (baseline)", repeat=args.repeat)
+    rows = compare(cases, BARE, repeat=args.repeat)
     check_stable(cases)
     for r in rows.values():  # per mj_step
-        for key in ("median_s", "min_s", "max_s"):
-            r[key] /= steps
-    nb = models["bare"].nbody - 1
-    print_table(
-        rows, f"mj_step (Euler), {nb} free bodies, {len(providers[0])} elements; ratios to bare in the same repeat"
-    )
-    weld = rows["weld: 48 weld equality constraints"]["median_s"]
-    verdict = {}
-    for name in ("flexures, twist method", "flexures, dual-quaternion method"):
-        r = rows[name]
-        verdict[name] = {"vs_bare": r["ratio_median"], "vs_weld": r["median_s"] / weld,
-                         "goal_met": r["ratio_median"] <= 3.0 and r["median_s"] / weld <= 0.5}  # fmt: skip
-        print(f"{name}: {r['ratio_median']:.2f}x bare, {r['median_s'] / weld:.2f}x weld -> goal "
-              f"{'met' if verdict[name]['goal_met'] else 'NOT met'} (<= 3x bare, <= 0.5x weld)")  # fmt: skip
+        scale_times(r, 1 / steps)
     for p in providers:
         p.uninstall()
-    write_json(args.json, {"model": "random" if args.random else os.path.basename(args.model), "rows": rows,
-                           "verdict": verdict, "steps_per_call": steps})  # fmt: skip
+    return {"model": "random" if args.random else os.path.basename(args.model), "rows": rows,
+            "steps_per_call": steps, "bodies": models["bare"].nbody - 1, "elements": len(providers[0])}  # fmt: skip
+
+
+def verdicts(rows):
+    """Goal of each flexure row: <= 3x the bare step and <= 0.5x the weld step (same-repeat ratios)."""
+    verdict = {}
+    for name, r in rows.items():
+        if name in (BARE, WELD):
+            continue
+        weld = ratio_between(r, rows[WELD], "vs_weld") or {"vs_weld_median": r["median_s"] / rows[WELD]["median_s"]}
+        verdict[name] = {"vs_bare": r["ratio_median"], "vs_weld": weld["vs_weld_median"],
+                         "goal_met": r["ratio_median"] <= 3.0 and weld["vs_weld_median"] <= 0.5}  # fmt: skip
+        verdict[name].update({k: v for k, v in weld.items() if k != "vs_weld_median"})
+    return verdict
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", default=os.path.join(HERE, "..", "models", "arcade.xml"))
+    ap.add_argument("--random", action="store_true", help="random 35-body, 48-element model instead")
+    add_timing_options(ap, "out/bench_step.json", runs=5)
+    args = ap.parse_args()
+    payload = measured_in_processes(args) or measure(args)
+    payload["verdict"] = verdicts(payload["rows"])
+    print_table(payload["rows"], f"mj_step (Euler), {payload['bodies']} free bodies, {payload['elements']} elements; "
+                "ratios to bare in the same repeat")  # fmt: skip
+    for name, v in payload["verdict"].items():
+        print(f"{name}: {v['vs_bare']:.2f}x bare, {v['vs_weld']:.2f}x weld -> goal "
+              f"{'met' if v['goal_met'] else 'NOT met'} (<= 3x bare, <= 0.5x weld)")  # fmt: skip
+    write_json(args.json, payload)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@
 Usage::
 
     python scripts/compare_native.py [--scenes bushing cantilever arcade] [--json out/compare_native.json]
-                                     [--repeat 11]
+                                     [--repeat 11] [--runs 1]
+
+``--runs N`` repeats everything in N fresh processes and pools the timing repeats (scripts/_bench.py).
 
 Scenes (``mjflex.app.scenes`` and ``models/arcade.xml``) and what each measures:
 
@@ -34,8 +36,8 @@ import argparse
 import mujoco
 import numpy as np
 import scipy.integrate
-from _bench import write_json
-from _variants import Case, costs_at_stable_steps, rotation_angle, simulate, source_case, variant_case
+from _bench import add_runs_option, measured_in_processes, write_json
+from _variants import Case, add_speedups, costs_at_stable_steps, rotation_angle, simulate, source_case, variant_case
 
 import mjflex
 from mjflex.app.scenes import Beam, bushing_spec, cantilever_flexcomp_spec, cantilever_spec
@@ -249,11 +251,17 @@ def main():
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="+", default=["bushing", "cantilever", "arcade"])
-    ap.add_argument("--repeat", type=int, default=11)
+    ap.add_argument("--repeat", type=int, default=11, help="interleaved repeats per process (default 11)")
     ap.add_argument("--json", default="out/compare_native.json")
+    add_runs_option(ap)
     args = ap.parse_args()
     scenes = {"bushing": bushing_scene, "cantilever": cantilever_scene, "arcade": arcade_scene}
-    out = {name: scenes[name](args.repeat) for name in args.scenes}
+    out = measured_in_processes(args)
+    if out is None:
+        out = {name: scenes[name](args.repeat) for name in args.scenes}
+    else:  # pooled: speed-ups from the pooled ratios; the verdicts' text is the first run's
+        for name in args.scenes:
+            add_speedups(out[name]["costs"], next(iter(out[name]["costs"])))
     print("\nverdicts:")
     for name in args.scenes:
         for line in out[name]["verdicts"]:

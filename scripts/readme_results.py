@@ -29,7 +29,19 @@ import re
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # the renderers' modules, also when imported by path
-from _readme_format import command_note, duration, pct, sci, sig, spread, table
+from _readme_format import (
+    command_note,
+    duration,
+    machines_note,
+    pct,
+    same_repeat,
+    sci,
+    sig,
+    spread,
+    table,
+    timed_on,
+    times,
+)
 from _readme_speed import (
     LONG_RUNS,
     block_long_run,
@@ -80,10 +92,12 @@ def row_bench_core(r):
 
 def row_bench_step(r):
     rows = r["rows"]
-    weld = rows["weld: 48 weld equality constraints"]["median_s"]
+    weld = rows["weld: 48 weld equality constraints"]
     cells = []
     for name, label in (("flexures, twist method", "twist"), ("flexures, dual-quaternion method", "dual quaternion")):
-        cells.append(f"{label} {spread(rows[name])} the bare step, {rows[name]['median_s'] / weld:.2f}× the weld step")
+        vs_weld = same_repeat(rows[name], weld, "weld")  # older JSON: the ratio of the medians, no spread
+        median = vs_weld.get("weld_median", rows[name]["median_s"] / weld["median_s"])
+        cells.append(f"{label} {spread(rows[name])} the bare step, {times(median, vs_weld, 'weld')} the weld step")
     bare = rows["bare: same bodies, no elements (baseline)"]["median_s"]
     what = f"`mj_step` with 48 flexures vs no elements vs 48 welds ({r['model']}, Euler)"
     return what, "; ".join(cells) + f" (bare step {bare * 1e6:.1f} µs)"
@@ -96,8 +110,12 @@ def _poly(r):
     rows = r["rows"]
 
     def ratio(method, label):
+        """``(text(digits), terms)``: the cost against the method's quadratic batch (same repeats: with its spread)."""
         name = next(k for k in rows if k.startswith(f"{method}: {label}"))
-        return rows[name]["ratio_median"] / rows[f"{method}: quadratic"]["ratio_median"], r["terms"][name]
+        row, quadratic = rows[name], rows[f"{method}: quadratic"]
+        within = same_repeat(row, quadratic, "q")  # older JSON: the ratio of the medians, no spread
+        median = within.get("q_median", row["ratio_median"] / quadratic["ratio_median"])
+        return lambda digits: times(median, within, "q", lambda x: f"{x:.{digits}f}"), r["terms"][name]
 
     return per_term, quad, ratio
 
@@ -108,7 +126,7 @@ def row_bench_polynomial(r):
     return (
         f"polynomial terms: compiled batch of {r['n_elements']} elements vs the quadratic one",
         f"{min(per_term):.0f}–{max(per_term):.0f} ns per term and element (quadratic wrench {quad['dualquat']:.0f}–"
-        f"{quad['twist']:.0f} ns); twist order 6: {p6:.1f}× in the plane ({n6} terms), {a6:.0f}× in all six "
+        f"{quad['twist']:.0f} ns); twist order 6: {p6(1)} in the plane ({n6} terms), {a6(0)} in all six "
         f"coordinates ({m6} terms)",
     )
 
@@ -119,12 +137,14 @@ def block_polynomial_cost(results):
     cells = []
     for label in ("order 4, plane", "order 6, plane", "order 6, all 6"):
         (t, n), (d, m) = ratio("twist", label), ratio("dualquat", label)
-        cells.append(f"{label.replace('all 6', 'all six coordinates')} ({n} / {m} terms) {t:.1f}× / {d:.1f}×")
+        cells.append(f"{label.replace('all 6', 'all six coordinates')} ({n} / {m} terms) {t(1)} / {d(1)}")
+    machine = timed_on(r)
     return (
         f"Per element, each term costs {min(per_term):.0f}–{max(per_term):.0f} ns against {quad['dualquat']:.0f} "
         f"(dual quaternion) and {quad['twist']:.0f} ns (twist) for the whole quadratic wrench; against the quadratic "
-        f"batch of the same method (twist / dual quaternion), {'; '.join(cells)} (`{r['command']}`, medians of "
-        f"interleaved repeats, recorded {r['date'][:10]}).\n"
+        f"batch of the same method (twist / dual quaternion), {'; '.join(cells)} (`{r['command']}`, medians "
+        f"{'(min–max) ' if machine else ''}of interleaved repeats, recorded {r['date'][:10]}"
+        f"{' ' + machine if machine else ''}).\n"
     )
 
 
@@ -347,12 +367,17 @@ MEASURED = [
 ]
 
 
+#: The recorded JSON whose figures are timings (ratios of interleaved repeats): their blocks state the machine.
+TIMED = ["bench_core", "bench_step", "bench_polynomial", "compare_native", "reduce_arcade", "bench_sweep"]
+
+
 def block_measured(results):
     lines = ["| what | result | command (recorded, wall time) |", "|---|---|---|"]
     for name, row in MEASURED:
         what, result = row(results[name])
         lines.append(f"| {what} | {result} | {command_note(results[name])} |")
-    return "\n".join(lines) + "\n"
+    note = machines_note(results, [name for name, _ in MEASURED if name in TIMED])
+    return "\n".join(lines) + "\n" + ("\n" + note if note else "")
 
 
 #: Block name -> (recorded JSON it reads, renderer).

@@ -2,7 +2,9 @@
 
 Usage::
 
-    python scripts/reduce_arcade.py [--json out/reduce_arcade.json] [--repeat 11]
+    python scripts/reduce_arcade.py [--json out/reduce_arcade.json] [--repeat 11] [--runs 1]
+
+``--runs N`` repeats everything in N fresh processes and pools the timing repeats (scripts/_bench.py).
 
 For each reduction (frequency band kept, with or without the paper run as the scene, how loops
 are closed) prints what was reduced (elements turned into joints, merged, kept; nv; highest
@@ -17,7 +19,8 @@ import argparse
 import collections
 
 from _arcade_native import ARCADE, DURATION, arcade_cases, costs_of, modes_of, run_guide
-from _bench import write_json
+from _bench import add_runs_option, measured_in_processes, write_json
+from _variants import add_speedups
 
 import mjflex
 
@@ -32,9 +35,16 @@ SETTINGS = (
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=11)
+    ap.add_argument("--repeat", type=int, default=11, help="interleaved repeats per process (default 11)")
     ap.add_argument("--json", default="out/reduce_arcade.json")
+    add_runs_option(ap)
     args = ap.parse_args()
+    pooled = measured_in_processes(args)
+    if pooled is not None:  # speed-ups from the pooled cost ratios
+        costs = {name: row["cost"] for name, row in pooled["rows"].items()}
+        add_speedups(costs, next(iter(costs)))
+        write_json(args.json, pooled)
+        return
     variants = []
     for label, kwargs in SETTINGS:
         v = mjflex.reduce(ARCADE, name=f"reduced({label})", **kwargs)

@@ -13,6 +13,7 @@ from mjflex.app.analysis import guide_report
 from mjflex.app.arcade import build_arcade_spec
 from mjflex.app.render import read_video
 from mjflex.app.simulate import configure, simulate
+from tests.model_text import assert_xml_equivalent
 
 MODELS = os.path.join(os.path.dirname(__file__), "..", "models")
 
@@ -54,8 +55,14 @@ def test_rigid_end_group_variant():
 
 @pytest.mark.parametrize("name, rigid", [("arcade.xml", False), ("arcade_rigid.xml", True)])
 def test_committed_model_matches_the_generator(name, rigid):
+    """The committed file is what scripts/build_arcade.py writes: every element, attribute and name, and every
+    number to the round-off of the numerical libraries (tests/model_text.py says why; not byte for byte: a CPU
+    without AVX-512 gives 36 of the numbers 1 ulp apart)."""
     with open(os.path.join(MODELS, name)) as f:
-        assert f.read() == build_arcade_spec(rigid_end_groups=rigid).to_xml(), "run scripts/build_arcade.py"
+        committed = f.read()
+    generated = build_arcade_spec(rigid_end_groups=rigid).to_xml()
+    report = assert_xml_equivalent(generated, committed, hint="run scripts/build_arcade.py")
+    assert report.numbers > 4000  # the stiffness records' numbers were compared, not skipped as text
 
 
 @pytest.mark.parametrize("name", ["arcade.xml", "arcade_rigid.xml"])

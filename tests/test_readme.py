@@ -1,9 +1,11 @@
 """The README's Python example runs as written, from the repository root."""
 
+import copy
 import datetime
 import importlib.util
 import os
 import re
+import sys
 
 import numpy as np
 
@@ -63,6 +65,28 @@ def test_readme_test_command_is_what_ci_runs():
     assert command in readme and command in ci
 
 
+def test_tested_with_table_states_the_lower_bounds_of_pyproject():
+    """The README's oldest tested set is what pyproject.toml allows at the least (raise both together)."""
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    from tested_versions import SHOWN, oldest_constraints
+
+    with open(os.path.join(ROOT, "README.md")) as f:
+        readme = f.read()
+    head = f"| set | Python | {' | '.join(SHOWN)} |"
+    assert head in readme, "the Tested-with table has the columns of scripts/tested_versions.py"
+    oldest = next(x for x in readme.splitlines() if x.startswith("| oldest allowed |"))
+    stated = dict(zip(SHOWN, [c.strip() for c in oldest.split("|")[3:-1]], strict=True))
+    bounds = dict(c.split("==") for c in oldest_constraints())
+
+    def padded(version):
+        return tuple(int(x) for x in version.split(".")) + (0,) * (3 - version.count(".") - 1)
+
+    checked = [name for name in SHOWN if name in bounds]
+    assert len(checked) >= 7
+    for name in checked:
+        assert padded(stated[name]) == padded(bounds[name]), f"{name}: README {stated[name]}, pyproject {bounds[name]}"
+
+
 def _generator():
     spec = importlib.util.spec_from_file_location("readme_results", os.path.join(ROOT, "scripts", "readme_results.py"))
     module = importlib.util.module_from_spec(spec)
@@ -95,7 +119,8 @@ def test_recorded_json_says_how_and_when_it_was_made():
         else:
             script = re.fullmatch(r"python scripts/(\w+)\.py( .*)?", result["command"])
             assert script and (name == script[1] or name.startswith(script[1] + "_")), name
-            assert result["machine"]["cpus"] >= 1, name
+            machine = result["machine"]  # older JSON: "cpus"; newer: CPU model, cores, load before and after
+            assert machine.get("logical_cores", machine.get("cpus")) >= 1, name
         date = datetime.datetime.fromisoformat(result["date"])
         assert date.tzinfo is not None and date.year >= 2025, name
 
@@ -110,3 +135,113 @@ def test_generator_rewrites_a_stale_block():
         )
     finally:
         del generator.BLOCKS["modes-table"]
+
+
+# ----------------------------------------------------------------------------------- timings: spread and machine
+
+#: "×" that are not timings: a 6×6 matrix, the stable-step search's 100× limit, Dask's 2×1 workers.
+NOT_TIMINGS = re.compile(r"\d×\d|100× the scene's step")
+#: A timing figure "2.47×" (not the upper end of a range "1.6–3.8×") without its spread " (2.18–2.61)".
+BARE_TIMING = re.compile(r"(?<![–\d.])\d+(?:\.\d+)?×(?! \()")
+#: Blocks that hold a table or an account of timings: each names the machine once.
+MACHINE_BLOCKS = ("measured", "polynomial-cost", "native", "reduce-arcade", "sweep-bench")
+
+
+def _timing_rows(payload):
+    if isinstance(payload, dict):
+        if "ratio_median" in payload or "ratio_to_serial_median" in payload:
+            yield payload
+            return
+        for value in payload.values():
+            yield from _timing_rows(value)
+
+
+def _cost_tables(payload, found=None):
+    """The tables of scripts/_variants.py's step costs (every row has a stable step), as the scripts pool them."""
+    found = [] if found is None else found
+    if isinstance(payload, dict):
+        values = list(payload.values())
+        if values and all(isinstance(v, dict) and "stable_step_s" in v for v in values):
+            found.append(payload)  # scripts/compare_native.py: scene -> costs
+        elif values and all(isinstance(v, dict) and "stable_step_s" in v.get("cost", {}) for v in values):
+            found.append({k: v["cost"] for k, v in payload.items()})  # scripts/reduce_arcade.py: rows -> cost
+        else:
+            for value in values:
+                _cost_tables(value, found)
+    return found
+
+
+def _as_recorded_now(results, timed):
+    """The committed JSON as the benchmark scripts record it now, through scripts/_bench.py's own functions: each
+    timing row with repeats made up around its median (3 processes of 3 repeats, pooled), the speed-ups derived
+    from them, and this machine."""
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    import _bench
+    from _variants import add_speedups
+
+    out = copy.deepcopy(results)
+    for name in timed:
+        runs = []
+        for k in range(3):
+            payload = copy.deepcopy(results[name])
+            for row in _timing_rows(payload):
+                ratio = row.get("ratio_median", row.get("ratio_to_serial_median"))
+                seconds = row.get("median_s", row.get("wall_median_s"))
+                factors = [1.0] * 3 if ratio == 1.0 else [0.9 + 0.05 * k, 1.0, 1.3 - 0.1 * k]  # a baseline is 1
+                row.update(_bench.timing_row([seconds * f for f in factors], [seconds / ratio] * 3))
+            runs.append(payload)
+        merged = _bench.merge_runs(runs)
+        for row in _timing_rows(merged):
+            if "ratio_to_serial_median" in row:  # scripts/bench_sweep.py's names of the README
+                row.update(ratio_to_serial_median=row["ratio_median"], wall_median_s=row["median_s"])
+        for costs in _cost_tables(merged):
+            add_speedups(costs, next(iter(costs)))
+        merged["machine"] = _bench.machine()
+        out[name] = merged
+    return out
+
+
+def _timing_texts(generator, results):
+    """``(block, rendered text, its timed JSON names)`` of every block showing timings (the measured table: only its
+    timing rows and the note below it)."""
+    timed = set(generator.TIMED)
+    for block, (needs, renderer) in generator.BLOCKS.items():
+        names = [n for n in needs if n in timed]
+        if not names:
+            continue
+        text = renderer(results)
+        if block == "measured":
+            keep = [x for x in text.splitlines() if not x.startswith("|") or any(f"scripts/{n}.py" in x for n in names)]
+            text = "\n".join(keep)
+        yield block, text, names
+
+
+def _check_timings(generator, results):
+    """Every timing rendered from JSON that carries its spread shows it, and each table names the machine once."""
+    from _readme_format import machine_of  # scripts/ is on the path once the generator is loaded
+
+    checked = 0
+    for block, text, names in _timing_texts(generator, results):
+        machines = {machine_of(results[n]) for n in names} - {""}
+        if not machines:
+            continue  # recorded before the spread and the machine were: rendered as before (test above)
+        if block in MACHINE_BLOCKS:
+            for machine in machines:
+                assert text.count(machine) == 1, f"block {block!r} names its machine {text.count(machine)} times"
+        bare = BARE_TIMING.findall(NOT_TIMINGS.sub("", text))
+        assert not bare, f"block {block!r} shows timings without their spread: {bare}"
+        checked += 1
+    return checked
+
+
+def test_rendered_timings_have_their_spread_and_machine():
+    """Where the recorded JSON carries them (scripts/_bench.py since the spread and machine were added), every
+    timing ratio in the README has its min–max, and every table of timings names the CPU, cores and load."""
+    generator = _generator()
+    results = generator.load_results()
+    _check_timings(generator, results)  # the committed JSON: binds once re-recorded
+    now = _as_recorded_now(results, generator.TIMED)
+    blocks = len(list(_timing_texts(generator, now)))
+    assert blocks >= 6 and _check_timings(generator, now) == blocks  # every block showing timings, none skipped
+    measured = generator.block_measured(now)
+    assert measured.count("Timed on ") == 1 and "3 fresh processes × 3 interleaved repeats" in measured

@@ -44,6 +44,9 @@ class Counts:
         return Counts(*(k * getattr(self, f) for f in ("flexure", "block", "thin", "outer", "width")))
 
 
+DEFAULT_COUNTS = Counts()  # a module constant: the default of the mesh functions (frozen, so shared safely)
+
+
 def _graded(u, c):
     """Map ``u`` in [0, 1] to [0, 1] with points clustered towards 0 (``c > 0``); ``c = 0``: identity."""
     return u if c == 0 else np.expm1(c * u) / np.expm1(c)
@@ -239,7 +242,7 @@ def _cell_mask(profile, s, eta, mesh_lin_cls, zeta=None):
     return keep[i, j]
 
 
-def section_mesh(profile, level=1, counts=Counts()):
+def section_mesh(profile, level=1, counts=DEFAULT_COUNTS):
     """Quadratic 2-D mesh (``MeshQuad2``) of the half ``y >= 0`` of the flexure and its blocks."""
     s, eta, _ = profile.lattice(counts.at(level))
     keep = _cell_mask(profile, s, eta, MeshQuad1)
@@ -248,7 +251,7 @@ def section_mesh(profile, level=1, counts=Counts()):
     return replace(mesh, doflocs=np.vstack([x, y]))
 
 
-def solid_mesh(profile, width, level=1, counts=Counts()):
+def solid_mesh(profile, width, level=1, counts=DEFAULT_COUNTS):
     """Quadratic 3-D mesh (``MeshHex2``) of the quarter ``y >= 0, z >= 0`` (``width`` is the full ``b``)."""
     n = counts.at(level)
     s, eta, _ = profile.lattice(n)
