@@ -187,9 +187,10 @@ def test_no_flexures(tmp_path):
     path = tmp_path / "plain.xml"
     path.write_text('<mujoco model="plain"><worldbody><body name="b"><freejoint/><geom size="0.1"/></body>'
                     '</worldbody><keyframe><key qvel="1 0 0 0 0 0"/></keyframe></mujoco>')  # fmt: skip
-    error, _ = _cli("study", path, "--out", tmp_path, *FAST)
-    assert "has no mjflex elements" in error and "add_flexure" in error and "study_plain.json" in error
-    assert "no mjflex elements" in json.loads((tmp_path / "study_plain.json").read_text())["message"]
+    out = tmp_path / "out"
+    error, _ = _cli("study", path, "--out", out, *FAST)
+    assert "has no mjflex elements" in error and "add_flexure" in error
+    assert not out.exists()  # refused before anything ran or was written
 
 
 def test_no_initial_state(tmp_path):
@@ -198,8 +199,8 @@ def test_no_initial_state(tmp_path):
     path = tmp_path / "still.xml"
     path.write_text(text[: text.index("<keyframe>")] + "</mujoco>\n")
     with pytest.raises(StudyError, match=r"no initial state.*at rest and in equilibrium.*keyframe") as exc:
-        study(str(path), out=tmp_path, progress=False)
-    assert exc.value.paths and json.loads((tmp_path / "study_still.json").read_text())["message"]
+        study(str(path), out=tmp_path / "out", progress=False)
+    assert exc.value.partial is None and not exc.value.paths and not (tmp_path / "out").exists()
     with pytest.raises(StudyError, match="no keyframe 'nope'"):
         study(TWO_BODY, keyframe="nope", progress=False)
 
@@ -224,7 +225,8 @@ def test_reference_diverges(tmp_path):
     attempts = exc.value.partial.reference.attempts
     assert [a["timestep"] for a in attempts] == pytest.approx([4e-3, 2e-3])
     assert all("flexure 'hinge'" in a["status"] for a in attempts)
-    assert json.loads((tmp_path / "study_two_body.json").read_text())["reference"]["attempts"]
+    assert json.loads((tmp_path / "study_two_body.partial.json").read_text())["reference"]["attempts"]
+    assert not (tmp_path / "study_two_body.json").exists()  # beside, never in place of, complete results
 
 
 def test_bad_choices():
