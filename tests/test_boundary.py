@@ -115,6 +115,8 @@ CASES = [
     (lambda: mjflex.study(TWO_BODY, targets=[0.1, 2.0]), StudyError, r"targets\[1\] must be > 0 and"),
     (lambda: mjflex.study(TWO_BODY, track="link"), TypeError, r"track must be a non-empty list of body or site names"),
     (lambda: mjflex.study(TWO_BODY, repeat=2.5), TypeError, r"repeat must be an integer; got 2.5"),
+    (lambda: mjflex.study(TWO_BODY, qvel=np.ones(12) * 1j), StudyError, r"two_body.xml: qvel holds complex numbers"),
+    (lambda: mjflex.study(TWO_BODY, out="afile"), StudyError, r"out 'afile' is a file, not a folder"),
     # --- --out naming a file, and options of the other commands
     (lambda: command("sweep", "--out", "afile"), CommandFailed, r"exit 1: error: --out 'afile' is a file, not a"),
     (lambda: command("demo", "--out", "afile"), CommandFailed, r"exit 1: error: --out 'afile' is a file, not a folder"),
@@ -307,3 +309,32 @@ def test_stable_everywhere_suggests_what_was_given():
     default = Limit("full", "twist", "rk4", 1e-5, None)
     assert "add a larger step to --steps" in given.text() and "--max-step" not in given.text()
     assert "widen with --max-step" in default.text()
+
+
+def test_a_study_replaces_its_files_together(tmp_path, monkeypatch):
+    """The .md/.json/.png of a study are written beside and renamed at the end: a failure while writing leaves the
+    earlier set whole; a new set without a plot removes the earlier plot and the .partial files of a stopped study."""
+    from mjflex.app.study import Row, StudyResult, _plot
+
+    earlier = {"study_m.md": "old", "study_m.json": "{}", "study_m.png": "old", "study_m.partial.json": "{}"}
+    for name, text in earlier.items():
+        (tmp_path / name).write_text(text)
+    result = StudyResult("m.xml", rows=[Row("full", "twist", "rk4", 1e-4, "ok")])
+
+    def broken_plot(result, path):
+        with open(path, "w") as f:
+            f.write("half a plot")
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(_plot, "pareto_plot", broken_plot)
+    with pytest.raises(RuntimeError, match="disk full"):
+        result.write(tmp_path)
+    assert {p.name: p.read_text() for p in tmp_path.iterdir()} == earlier  # untouched, no temporary file left
+    result.rows = []  # nothing to plot
+    paths = result.write(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study_m.json", "study_m.md"]
+    assert [os.path.basename(p) for p in paths] == ["study_m.md", "study_m.json"]
+    assert json.loads((tmp_path / "study_m.json").read_text())["model"] == "m.xml"
+    stopped = result.write(tmp_path, partial=True)
+    assert [os.path.basename(p) for p in stopped] == ["study_m.partial.md", "study_m.partial.json"]
+    assert (tmp_path / "study_m.md").read_text() == result.to_markdown()  # the complete set stays
