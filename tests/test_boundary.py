@@ -117,6 +117,7 @@ CASES = [
     (lambda: mjflex.study(TWO_BODY, repeat=2.5), TypeError, r"repeat must be an integer; got 2.5"),
     (lambda: mjflex.study(TWO_BODY, qvel=np.ones(12) * 1j), StudyError, r"two_body.xml: qvel holds complex numbers"),
     (lambda: mjflex.study(TWO_BODY, out="afile"), StudyError, r"out 'afile' is a file, not a folder"),
+    (lambda: mjflex.study(TWO_BODY, track=["nothing"], out="new/x"), StudyError, r"'nothing' is neither a body"),
     # --- --out naming a file, and options of the other commands
     (lambda: command("sweep", "--out", "afile"), CommandFailed, r"exit 1: error: --out 'afile' is a file, not a"),
     (lambda: command("demo", "--out", "afile"), CommandFailed, r"exit 1: error: --out 'afile' is a file, not a folder"),

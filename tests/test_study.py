@@ -17,7 +17,7 @@ import pytest
 
 import mjflex
 from mjflex.app.cli import main
-from mjflex.app.study import StudyError, study
+from mjflex.app.study import Limit, StudyError, study
 from mjflex.app.study._metrics import linearized_frequencies
 from mjflex.mj.linearize import normal_modes
 from mjflex.mj.variant import Variant
@@ -55,6 +55,17 @@ def _errors(rows, integrator, key="pose_error"):
     rows = sorted((r for r in full if r["integrator"] == integrator and r["source"] == "grid"),
                   key=lambda r: -r["timestep"])  # fmt: skip
     return np.array([r["timestep"] for r in rows]), np.array([r[key] for r in rows])
+
+
+def test_stability_advice_follows_the_steps_given(two_body_run):
+    """--steps was given: a limit not reached is widened with a larger step there, never with --max-step (which the
+    study would refuse next to --steps)."""
+    result, text, _ = two_body_run
+    assert result["limits"] and all(lim["steps_given"] for lim in result["limits"])
+    assert "--max-step" not in text and "--max-step" not in json.dumps(result)
+    for lim in result["limits"]:
+        if lim["smallest_unstable"] is None:
+            assert "add a larger step to --steps" in Limit(**{**lim, "divergence": None}).text()
 
 
 def test_errors_converge_at_the_integrators_orders(two_body_run):

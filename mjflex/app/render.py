@@ -50,6 +50,15 @@ def select_gl_backend() -> str:
     return "egl"
 
 
+def no_gl_context(backend, exc) -> RuntimeError:
+    """The error for a GL context that could not be made, saying how to get one."""
+    return RuntimeError(
+        f"cannot create an offscreen OpenGL context with MUJOCO_GL={backend}: {exc}. On a machine without a "
+        "display use MUJOCO_GL=egl (GPU or Mesa EGL) or MUJOCO_GL=osmesa (install libosmesa6), set before "
+        "Python imports mujoco."
+    )
+
+
 def make_renderer(model, width, height):
     """An offscreen ``mujoco.Renderer``; raises RuntimeError saying how to get a GL context."""
     backend = select_gl_backend()
@@ -58,11 +67,7 @@ def make_renderer(model, width, height):
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:  # the GL backends raise a variety of errors
-        raise RuntimeError(
-            f"cannot create an offscreen OpenGL context with MUJOCO_GL={backend}: {exc}. On a machine without a "
-            "display use MUJOCO_GL=egl (GPU or Mesa EGL) or MUJOCO_GL=osmesa (install libosmesa6), set before "
-            "Python imports mujoco."
-        ) from exc
+        raise no_gl_context(backend, exc) from exc
 
 
 def default_camera(model):
@@ -228,11 +233,7 @@ def max_image_size() -> int:
         dims = GL.glGetIntegerv(GL.GL_MAX_VIEWPORT_DIMS)
         return int(min(int(GL.glGetIntegerv(GL.GL_MAX_RENDERBUFFER_SIZE)), *(int(d) for d in np.ravel(dims))))
     except Exception as exc:  # the GL backends raise a variety of errors
-        raise RuntimeError(
-            f"cannot create an offscreen OpenGL context with MUJOCO_GL={backend}: {exc}. On a machine without a "
-            "display use MUJOCO_GL=egl (GPU or Mesa EGL) or MUJOCO_GL=osmesa (install libosmesa6), set before "
-            "Python imports mujoco."
-        ) from exc
+        raise no_gl_context(backend, exc) from exc
     finally:
         if context is not None:
             context.free()
