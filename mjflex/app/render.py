@@ -213,6 +213,11 @@ def stroke_plot(path, run, title):
     fig.savefig(path, dpi=110)
 
 
+#: Image side [pixels] every OpenGL 3.0 implementation renders offscreen (the minimum the specification
+#: allows for ``GL_MAX_RENDERBUFFER_SIZE``): sizes up to it are not queried.
+GUARANTEED_IMAGE_SIZE = 1024
+
+
 @functools.cache
 def max_image_size() -> int:
     """Largest width or height [pixels] of an offscreen image here: the GL's ``GL_MAX_RENDERBUFFER_SIZE``
@@ -246,6 +251,8 @@ def image_size_problem(width, height, what=("width", "height")) -> str | None:
     (``model.vis.global_.offwidth`` / ``offheight``, which :func:`make_renderer` raises to the
     size asked for) can be no larger than the GL's limit, :func:`max_image_size`.
     """
+    if max(width, height) <= GUARANTEED_IMAGE_SIZE:
+        return None  # no GL context needed to know (creating one costs ~0.3 s)
     limit = max_image_size()
     for name, size in zip(what, (width, height), strict=True):
         if size > limit:
