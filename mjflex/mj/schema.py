@@ -44,10 +44,10 @@ Validation rules (:func:`parse_text`; one place, mirrored by any other reader of
    tolerances of :mod:`mjflex.core.validation`; ``B`` has ``K``'s size;
 6. ``"order"`` is an integer (not a boolean) from 2 to ``MAX_ORDER``, even for ``"dualquat"``;
    ``"terms"`` needs it and is an object with exactly ``"exponents"`` (whole numbers, ``2`` or
-   ``2.0``, from 0 to :data:`mjflex.core.polynomial.MAX_EXPONENT`; not booleans) and ``"coefficients"`` (finite numbers), the
-   rules of :class:`mjflex.core.polynomial.PolynomialTerms` (degrees from 2 to ``"order"``,
-   distinct rows, even and unstressed at rest for ``"dualquat"``), and ``K`` plus the terms'
-   stiffness at rest is positive semi-definite;
+   ``2.0``, from 0 to :data:`mjflex.core.polynomial.MAX_EXPONENT`; not booleans) and
+   ``"coefficients"`` (finite numbers), the rules of :class:`mjflex.core.polynomial.PolynomialTerms`
+   (degrees from 2 to ``"order"``, distinct rows, even and unstressed at rest for ``"dualquat"``),
+   and ``K`` plus the terms' stiffness at rest is positive semi-definite;
 7. ``"strain_per_radian"`` is ``null`` or a finite number >= 0 (not a boolean);
 8. ``"source"`` is ``null`` or an object (any content within rule 1).
 
