@@ -107,7 +107,7 @@ def test_B_shape_must_match_K():
 
 
 def test_non_finite_K():
-    with pytest.raises(mjflex.ModelError, match=r"K contains a non-finite value"):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': .*\"K\"\[5\] is NaN, which is not a JSON number"):
         mjflex.Flexures(_model(data='{"mjflex": 1, "K": [1, 1, 1, 1, 1, NaN]}'))
 
 

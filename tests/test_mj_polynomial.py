@@ -195,7 +195,7 @@ def _record(**changes):
         (_record(terms={"exponents": [[1, 0, 0, 0, 0, 0]], "coefficients": [1.0]}), "linear term"),
         (
             _record(terms={"exponents": [[3, 0, 0, 0, 0, 0]], "coefficients": ["x"]}),
-            "coefficients must be a numeric array",
+            r"coefficients\[0\] is the text 'x': numbers are expected",
         ),
         (_record(terms={"exponents": [[3, 0, 0, 0, 0, 0]]}), r"exactly the keys \['exponents', 'coefficients'\]"),
         (_record(terms={"exponents": [[0, 0, 0, 2, 0, 0]], "coefficients": [-1e3]}), "not positive semi-definite"),

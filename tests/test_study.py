@@ -17,7 +17,7 @@ import pytest
 
 import mjflex
 from mjflex.app.cli import main
-from mjflex.app.study import StudyError, study
+from mjflex.app.study import Limit, StudyError, study
 from mjflex.app.study._metrics import linearized_frequencies
 from mjflex.mj.linearize import normal_modes
 from mjflex.mj.variant import Variant
@@ -55,6 +55,17 @@ def _errors(rows, integrator, key="pose_error"):
     rows = sorted((r for r in full if r["integrator"] == integrator and r["source"] == "grid"),
                   key=lambda r: -r["timestep"])  # fmt: skip
     return np.array([r["timestep"] for r in rows]), np.array([r[key] for r in rows])
+
+
+def test_stability_advice_follows_the_steps_given(two_body_run):
+    """--steps was given: a limit not reached is widened with a larger step there, never with --max-step (which the
+    study would refuse next to --steps)."""
+    result, text, _ = two_body_run
+    assert result["limits"] and all(lim["steps_given"] for lim in result["limits"])
+    assert "--max-step" not in text and "--max-step" not in json.dumps(result)
+    for lim in result["limits"]:
+        if lim["smallest_unstable"] is None:
+            assert "add a larger step to --steps" in Limit(**{**lim, "divergence": None}).text()
 
 
 def test_errors_converge_at_the_integrators_orders(two_body_run):
@@ -187,9 +198,10 @@ def test_no_flexures(tmp_path):
     path = tmp_path / "plain.xml"
     path.write_text('<mujoco model="plain"><worldbody><body name="b"><freejoint/><geom size="0.1"/></body>'
                     '</worldbody><keyframe><key qvel="1 0 0 0 0 0"/></keyframe></mujoco>')  # fmt: skip
-    error, _ = _cli("study", path, "--out", tmp_path, *FAST)
-    assert "has no mjflex elements" in error and "add_flexure" in error and "study_plain.json" in error
-    assert "no mjflex elements" in json.loads((tmp_path / "study_plain.json").read_text())["message"]
+    out = tmp_path / "out"
+    error, _ = _cli("study", path, "--out", out, *FAST)
+    assert "has no mjflex elements" in error and "add_flexure" in error
+    assert not out.exists()  # refused before anything ran or was written
 
 
 def test_no_initial_state(tmp_path):
@@ -198,8 +210,8 @@ def test_no_initial_state(tmp_path):
     path = tmp_path / "still.xml"
     path.write_text(text[: text.index("<keyframe>")] + "</mujoco>\n")
     with pytest.raises(StudyError, match=r"no initial state.*at rest and in equilibrium.*keyframe") as exc:
-        study(str(path), out=tmp_path, progress=False)
-    assert exc.value.paths and json.loads((tmp_path / "study_still.json").read_text())["message"]
+        study(str(path), out=tmp_path / "out", progress=False)
+    assert exc.value.partial is None and not exc.value.paths and not (tmp_path / "out").exists()
     with pytest.raises(StudyError, match="no keyframe 'nope'"):
         study(TWO_BODY, keyframe="nope", progress=False)
 
@@ -224,7 +236,8 @@ def test_reference_diverges(tmp_path):
     attempts = exc.value.partial.reference.attempts
     assert [a["timestep"] for a in attempts] == pytest.approx([4e-3, 2e-3])
     assert all("flexure 'hinge'" in a["status"] for a in attempts)
-    assert json.loads((tmp_path / "study_two_body.json").read_text())["reference"]["attempts"]
+    assert json.loads((tmp_path / "study_two_body.partial.json").read_text())["reference"]["attempts"]
+    assert not (tmp_path / "study_two_body.json").exists()  # beside, never in place of, complete results
 
 
 def test_bad_choices():

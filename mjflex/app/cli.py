@@ -15,6 +15,7 @@ import numpy as np
 
 from ..mj import Flexures, ModelError
 from . import render
+from ._output import file_problem, folder_problem
 from .simulate import INTEGRATORS, DivergenceError, configure, simulate, step_count, summarize
 
 #: Exit status of a run that diverged (1: bad input, 2: bad command line).
@@ -35,19 +36,39 @@ def positive_float(text):
     return value
 
 
+def positive_int(text):
+    """argparse type: a positive integer (rejects 0, negatives and non-integers)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive whole number; got {text!r}")
+    return value
+
+
 def check_output(path, option, suffixes=None):
-    """Raise SystemExit unless ``path`` can be written (its folder exists); checked before a run."""
-    if path is None:
-        return
-    folder = os.path.dirname(os.path.abspath(path))
-    if os.path.isdir(path):
-        raise SystemExit(f"error: {option} {path!r} is a folder; give a file name")
-    if not os.path.isdir(folder):
-        raise SystemExit(f"error: {option} {path!r}: folder {folder!r} does not exist; create it or choose another")
-    if not os.access(folder, os.W_OK):
-        raise SystemExit(f"error: {option} {path!r}: folder {folder!r} is not writable")
-    if suffixes and not path.lower().endswith(suffixes):
-        raise SystemExit(f"error: {option} {path!r}: the file name must end in one of {', '.join(suffixes)}")
+    """Raise SystemExit unless file ``path`` can be written (its folder exists); checked before a run."""
+    problem = None if path is None else file_problem(path, option, suffixes)
+    if problem:
+        raise SystemExit(f"error: {problem}")
+
+
+def check_output_folder(path, option="--out"):
+    """Raise SystemExit unless ``path`` is, or can be created as, a writable folder; checked before a run."""
+    problem = folder_problem(path, option)
+    if problem:
+        raise SystemExit(f"error: {problem}")
+
+
+def check_video_size(width, height):
+    """Raise SystemExit (before the run) if a ``width`` x ``height`` video cannot be rendered here."""
+    try:
+        problem = render.image_size_problem(width, height, ("--width", "--height"))
+    except RuntimeError as exc:
+        raise SystemExit(f"error: no video can be rendered here: {exc}") from None
+    if problem:
+        raise SystemExit(f"error: {problem}")
 
 
 def _load(path):
@@ -105,6 +126,8 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         flex = Flexures(model)
     except (ModelError, ValueError) as exc:
         raise SystemExit(f"error: {name}: {exc}") from None
+    if video:
+        check_video_size(width, height)
     if not len(flex):
         raise SystemExit(
             f"error: {name} has no mjflex elements (sites E/a, E/b and a text record mjflex:E; see mjflex.mj.schema "
@@ -189,6 +212,10 @@ def arcade_model():
 
 def _demo_command(args):
     started = time.perf_counter()
+    check_output_folder(args.out)
+    if args.width < 2 or args.height < 2:
+        raise SystemExit("error: the demo's --width and --height must be at least 2 (its panels are half size)")
+    check_video_size(args.width, args.height)
     os.makedirs(args.out, exist_ok=True)
     model, source = arcade_model()
     video = os.path.join(args.out, "arcade.mp4")
@@ -224,49 +251,82 @@ def _floats(text):
     return values
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless its text states the default itself."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        stated = "(default" in text or "; default" in text
+        if stated or not action.option_strings or action.default in (None, False, argparse.SUPPRESS):
+            return text
+        value = action.default
+        shown = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) if isinstance(
+            value, list | tuple) else (f"{value:g}" if isinstance(value, float) else str(value))  # fmt: skip
+        if action.type is _floats:
+            shown = shown.replace(" ", ",")
+        return f"{text} (default {shown.replace('%', '%%')})"
+
+
 def _sweep_parser(sub):
-    sw = sub.add_parser("sweep", help="ARCADE: cylinder stroke vs leaf-spring stiffness and damping, over a grid")
+    sw = sub.add_parser("sweep", help="ARCADE: cylinder stroke vs leaf-spring stiffness and damping, over a grid",
+                        formatter_class=HelpFormatter)  # fmt: skip
     sw.add_argument("--leaf-scale", type=_floats, default=[0.5, 1.0, 2.0, 4.0],
-                    help="leaf-spring stiffness scales, comma-separated (default 0.5,1,2,4)")  # fmt: skip
+                    help="leaf-spring stiffness scales, comma-separated")  # fmt: skip
     sw.add_argument("--beta", type=_floats, default=[0.0, 2e-6, 1e-5, 4e-5],
-                    help="Rayleigh damping B = beta K of every flexure [s] (default 0,2e-6,1e-5,4e-5)")  # fmt: skip
-    sw.add_argument("--duration", type=float, default=0.03, help="simulated time per variant [s] (default 0.03)")
-    sw.add_argument("--samples", type=int, default=61, help="observations from 0 to duration (default 61)")
+                    help="Rayleigh damping B = beta K of every flexure [s], comma-separated")  # fmt: skip
+    sw.add_argument("--duration", type=float, default=0.03, help="simulated time per variant [s]")
+    sw.add_argument("--samples", type=positive_int, default=61, help="observations from 0 to duration")
     sw.add_argument("--executor", choices=["batch", "pool", "dask"], default="batch",
                     help="batch: Batch threads here; pool: spawn process pool; dask: local cluster")  # fmt: skip
-    sw.add_argument("--workers", type=int, default=2, help="processes for pool/dask (default 2)")
+    sw.add_argument("--workers", type=positive_int, default=2, help="processes for pool/dask")
     sw.add_argument("--threads", type=int, help="Batch threads per process (default: all CPUs here, 1 per worker)")
-    sw.add_argument("--out", default="out")
+    sw.add_argument("--out", default="out", help="folder for sweep_arcade.nc, .png and .json, created if missing")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     return sw
 
 
+def _cli_spelling(name):
+    return "--" + name.replace("_", "-")
+
+
+def _study_options(args):
+    return dict(
+        keyframe=args.keyframe, qpos=None, qvel=None, duration=args.duration, track=args.track, frame=args.frame,
+        methods=args.methods, integrators=args.integrators, steps=args.steps, step_count=args.step_count,
+        max_step=args.max_step, min_step=args.min_step, variants=[] if args.no_variants else None,
+        repeat=args.repeat, bisect=args.bisect, limit_rtol=0.02, reference_tol=args.reference_tol,
+        max_refinements=args.max_refinements, reference_step=args.reference_step, frequencies=3,
+        samples=args.samples, max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock,
+    )  # fmt: skip
+
+
 def _study_command(args):
     from .study import StudyError, study  # tqdm and the study's modules load only for this command
+    from .study._options import check_options
 
-    model = arcade_model()[0] if args.model == "arcade" else args.model
-    os.makedirs(args.out, exist_ok=True)
-    try:
-        result = study(
-            model, keyframe=args.keyframe, duration=args.duration, track=args.track, frame=args.frame,
-            methods=args.methods, integrators=args.integrators, steps=args.steps, step_count=args.step_count,
-            max_step=args.max_step, min_step=args.min_step, variants=[] if args.no_variants else None,
-            repeat=args.repeat, bisect=args.bisect, reference_tol=args.reference_tol,
-            max_refinements=args.max_refinements, reference_step=args.reference_step, samples=args.samples,
-            max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock, progress=not args.quiet,
-        )  # fmt: skip
+    options = _study_options(args)
+    try:  # every option, before anything is loaded, run or written
+        check_options(options, args.out, spell=_cli_spelling)
     except StudyError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    model = arcade_model()[0] if args.model == "arcade" else args.model
+    try:
+        result = study(model, **options, progress=not args.quiet)
+    except StudyError as exc:
+        if exc.partial is None:  # the model, its state or a name was refused before any run
+            raise SystemExit(f"error: {exc}") from None
         exc.partial.command = args.provenance["command"]
-        exc.paths = exc.partial.write(args.out)
-        raise SystemExit(f"error: {exc} Partial results written to {', '.join(exc.paths)}.") from None
+        exc.paths = exc.partial.write(args.out, partial=True)
+        raise SystemExit(
+            f"error: {exc} Partial results written to {', '.join(exc.paths)} (earlier results left as they were)."
+        ) from None
     result.command = args.provenance["command"]
-    result.write(args.out)
+    paths = result.write(args.out)
     print("\n".join(result.summary_lines()))
     print("\n".join(result.recommendation()))
     for limit in result.limits:
         print(f"largest stable step, {limit.text()}")
-    stem = f"study_{os.path.splitext(os.path.basename(result.model))[0]}"
-    print(f"wrote {args.out}/{stem}.md, {stem}.json, {stem}.png")
+    print(f"wrote {', '.join(paths)}")
     if result.message:
         raise SystemExit(f"error: {result.message}")
 
@@ -275,7 +335,9 @@ def _study_parser(sub):
     p = sub.add_parser("study", help="measure speed vs accuracy of methods, integrators, steps and model variants",
                        description="Measure the speed-accuracy trade of simulating MODEL's flexures (see "
                        "mjflex.app.study): a converged RK4 reference, then every candidate's cost, error and "
-                       "largest stable step; writes a markdown table, JSON and a Pareto plot to --out.")  # fmt: skip
+                       "largest stable step; writes a markdown table, JSON and a Pareto plot to --out. Every "
+                       "option is checked before anything runs or is written.",
+                       formatter_class=HelpFormatter)  # fmt: skip
     p.add_argument(
         "model", help="MJCF file with mjflex elements and a keyframe to start from ('arcade': the showcase model)"
     )
@@ -283,11 +345,14 @@ def _study_parser(sub):
     p.add_argument("--duration", type=float, help="simulated time [s] (default: one period of the lowest mode)")
     p.add_argument("--track", nargs="+", metavar="NAME", help="bodies or sites to compare (default: all bodies)")
     p.add_argument("--frame", default="auto", help="body the poses are taken in, 'world' or 'auto' (default)")
-    p.add_argument("--methods", nargs="+", choices=["twist", "dualquat"], default=["twist", "dualquat"])
+    p.add_argument("--methods", nargs="+", choices=["twist", "dualquat"], default=["twist", "dualquat"],
+                   help="element methods to compare")  # fmt: skip
     p.add_argument("--integrators", nargs="+", choices=sorted(INTEGRATORS),
-                   default=["rk4", "euler", "implicitfast", "discrete"])  # fmt: skip
+                   default=["rk4", "euler", "implicitfast", "discrete"],
+                   help="MuJoCo integrators to compare")  # fmt: skip
     p.add_argument("--steps", nargs="+", type=float, metavar="H", help="candidate time steps [s] (default: "
-                   "--step-count log-spaced steps from past the stability limit down)")  # fmt: skip
+                   "--step-count log-spaced steps from past the stability limit down); excludes "
+                   "--max-step/--min-step")  # fmt: skip
     p.add_argument("--step-count", type=int, default=6, help="number of default steps, factors of 2 apart")
     p.add_argument(
         "--max-step",
@@ -295,63 +360,79 @@ def _study_parser(sub):
         help="largest default step [s] (default: twice RK4's limit for the "
         "fastest rate of the linearized model, damping included)",
     )
-    p.add_argument("--min-step", type=float, help="smallest default step [s]")
+    p.add_argument("--min-step", type=float,
+                   help="smallest default step [s] (default: --max-step / 2^(--step-count - 1))")  # fmt: skip
     p.add_argument("--no-variants", action="store_true", help="compare the model as given only")
-    p.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds, median reported (default 3)")
-    p.add_argument("--bisect", type=int, default=8, help="most bisection runs per stability limit (default 8)")
-    p.add_argument("--reference-tol", type=float, default=1e-6, help="agreement of reference refinements")
+    p.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds, median reported")
+    p.add_argument("--bisect", type=int, default=8, help="most bisection runs per stability limit (0: none, the "
+                   "limits are bracketed by the candidate steps alone; default 8)")  # fmt: skip
+    p.add_argument("--reference-tol", type=float, default=1e-6,
+                   help="agreement (relative pose error) of two reference refinements that stops them, "
+                   "in (0, 1)")  # fmt: skip
     p.add_argument("--max-refinements", type=int, default=5, help="most halvings of the reference step")
     p.add_argument("--reference-step", type=float, help="first reference step [s] (default: the model's)")
-    p.add_argument("--samples", type=int, default=200, help="sample intervals over the duration (default 200)")
+    p.add_argument("--samples", type=int, default=200, help="sample intervals over the duration")
     p.add_argument("--max-run-wall", type=float, default=120.0, help="wall-time budget of one run [s]")
     p.add_argument("--targets", nargs="+", type=float, default=[0.1, 0.01, 1e-4],
-                   help="relative pose-error targets of the recommendation")  # fmt: skip
+                   help="relative pose-error targets of the recommendation, each in (0, 1]: "
+                   "0.01 = 1 percent")  # fmt: skip
     p.add_argument("--clock", choices=["cpu", "wall"], default="cpu", help="cost measured as the stepping thread's "
-                   "CPU time (default; an idle core's wall time, robust on a shared machine) or wall time")  # fmt: skip
-    p.add_argument("--out", default="out", help="directory for study_<model>.md/.json/.png (default out)")
+                   "CPU time ('cpu', the default: an idle core's wall time, robust on a shared machine) or wall time "
+                   "('wall')")  # fmt: skip
+    p.add_argument("--out", default="out", help="folder for study_<model>.md/.json/.png, created if missing; a "
+                   "study that stops early writes study_<model>.partial.* there instead (default out)")  # fmt: skip
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
 
-def main(argv=None):
+def build_parser():
+    """The command line's parser: ``simulate``, ``demo``, ``study`` and ``sweep``."""
     ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
     sub = ap.add_subparsers(dest="command", required=True)
-    sim = sub.add_parser("simulate", help="simulate an MJCF model with mjflex elements")
+    sim = sub.add_parser("simulate", help="simulate an MJCF model with mjflex elements", formatter_class=HelpFormatter)
     sim.add_argument("model", help="MJCF file")
-    sim.add_argument("--duration", type=positive_float, default=0.01, help="simulated time [s] (default 0.01)")
-    sim.add_argument("--video", help="write an MP4 of the run here")
-    sim.add_argument("--method", choices=["twist", "dualquat"], help="override every element's method")
-    sim.add_argument("--integrator", choices=sorted(INTEGRATORS), help="override the model's integrator")
-    sim.add_argument("--timestep", type=positive_float, help="override the model's time step [s]")
+    sim.add_argument("--duration", type=positive_float, default=0.01, help="simulated time [s]")
+    sim.add_argument("--video", help="write an MP4 (or .mkv, .mov, .avi, .webm, .gif) of the run here (default: no "
+                     "video)")  # fmt: skip
+    sim.add_argument("--method", choices=["twist", "dualquat"],
+                     help="override every element's method (default: each element's own)")  # fmt: skip
+    sim.add_argument("--integrator", choices=sorted(INTEGRATORS),
+                     help="override the model's integrator (default: the model's)")  # fmt: skip
+    sim.add_argument("--timestep", type=positive_float, help="override the model's time step [s] (default: the "
+                     "model's)")  # fmt: skip
     sim.add_argument("--keyframe", help="initial state (default: the first keyframe, else qpos0 at rest)")
     sim.add_argument("--no-damping", action="store_true", help="switch off every element's viscous part")
-    sim.add_argument("--json", help="write the summary as JSON here")
-    demo = sub.add_parser("demo", help="the paper's ARCADE run: video, Fig. 4-like panels, energy and stroke plots")
-    demo.add_argument("--out", default="out")
-    demo.add_argument("--duration", type=positive_float, default=0.08, help="simulated time [s] (default 0.08)")
+    sim.add_argument("--json", help="write the summary as JSON here (default: no JSON)")
+    demo = sub.add_parser("demo", help="the paper's ARCADE run: video, Fig. 4-like panels, energy and stroke plots",
+                          formatter_class=HelpFormatter)  # fmt: skip
+    demo.add_argument("--out", default="out", help="folder for arcade.mp4, the panels, the plots and "
+                      "arcade_summary.json, created if missing")  # fmt: skip
+    demo.add_argument("--duration", type=positive_float, default=0.08, help="simulated time [s]")
     _study_parser(sub)
     for p in (sim, demo):
-        p.add_argument("--width", type=int, default=1280 if p is demo else 640)
-        p.add_argument("--height", type=int, default=720 if p is demo else 360)
-        p.add_argument("--fps", type=int, default=30)
-        p.add_argument("--slowdown", type=positive_float, default=100.0,
-                       help="slow-motion factor of the video (default 100)")  # fmt: skip
+        p.add_argument("--width", type=positive_int, default=1280 if p is demo else 640,
+                       help="video width [pixels]" + ("; the panels are half size" if p is demo else ""))  # fmt: skip
+        p.add_argument("--height", type=positive_int, default=720 if p is demo else 360, help="video height [pixels]")
+        p.add_argument("--fps", type=positive_int, default=30, help="video frames per second")
+        p.add_argument("--slowdown", type=positive_float, default=100.0, help="slow-motion factor of the video")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
     _sweep_parser(sub)
+    return ap
+
+
+def main(argv=None):
+    ap = build_parser()
     args = ap.parse_args(argv)
     args.provenance = provenance(argv)
     if args.command == "study":
-        for name in ("duration", "step_count", "max_step", "min_step", "repeat", "samples", "max_run_wall"):
-            if getattr(args, name) is not None and getattr(args, name) <= 0:
-                ap.error(f"--{name.replace('_', '-')} must be positive")
         _study_command(args)
         return
-    for name in ("duration", "fps", "slowdown", "width", "height", "samples", "workers"):
-        if getattr(args, name, 1) <= 0:
-            ap.error(f"--{name} must be positive")
     if args.command == "sweep":
         if args.threads is not None and args.threads < 0:
             ap.error("--threads must be >= 0 (0: all CPUs)")
+        if not (args.duration >= 0 and math.isfinite(args.duration)):
+            ap.error(f"--duration must be a finite number of seconds >= 0; got {args.duration:g}")
+        check_output_folder(args.out)
         from .sweep.arcade import run
 
         try:

@@ -12,6 +12,7 @@ Figures are drawn with matplotlib's object-oriented API, so the user's pyplot ba
 it is.
 """
 
+import functools
 import importlib
 import itertools
 import os
@@ -49,6 +50,15 @@ def select_gl_backend() -> str:
     return "egl"
 
 
+def no_gl_context(backend, exc) -> RuntimeError:
+    """The error for a GL context that could not be made, saying how to get one."""
+    return RuntimeError(
+        f"cannot create an offscreen OpenGL context with MUJOCO_GL={backend}: {exc}. On a machine without a "
+        "display use MUJOCO_GL=egl (GPU or Mesa EGL) or MUJOCO_GL=osmesa (install libosmesa6), set before "
+        "Python imports mujoco."
+    )
+
+
 def make_renderer(model, width, height):
     """An offscreen ``mujoco.Renderer``; raises RuntimeError saying how to get a GL context."""
     backend = select_gl_backend()
@@ -57,11 +67,7 @@ def make_renderer(model, width, height):
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:  # the GL backends raise a variety of errors
-        raise RuntimeError(
-            f"cannot create an offscreen OpenGL context with MUJOCO_GL={backend}: {exc}. On a machine without a "
-            "display use MUJOCO_GL=egl (GPU or Mesa EGL) or MUJOCO_GL=osmesa (install libosmesa6), set before "
-            "Python imports mujoco."
-        ) from exc
+        raise no_gl_context(backend, exc) from exc
 
 
 def default_camera(model):
@@ -205,3 +211,53 @@ def stroke_plot(path, run, title):
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+#: Image side [pixels] every OpenGL 3.0 implementation renders offscreen (the minimum the specification
+#: allows for ``GL_MAX_RENDERBUFFER_SIZE``): sizes up to it are not queried.
+GUARANTEED_IMAGE_SIZE = 1024
+
+
+@functools.cache
+def max_image_size() -> int:
+    """Largest width or height [pixels] of an offscreen image here: the GL's ``GL_MAX_RENDERBUFFER_SIZE``
+    (MuJoCo's offscreen buffer is a renderbuffer) and ``GL_MAX_VIEWPORT_DIMS``, whichever is smaller.
+
+    Queried once per process from a 1x1 context of the backend :func:`select_gl_backend` picks;
+    RuntimeError (saying how to get a GL context) where there is none.
+    """
+    backend = select_gl_backend()
+    from mujoco.rendering.classic import gl_context
+
+    context = None
+    try:
+        context = gl_context.GLContext(1, 1)
+        context.make_current()
+        from OpenGL import GL
+
+        dims = GL.glGetIntegerv(GL.GL_MAX_VIEWPORT_DIMS)
+        return int(min(int(GL.glGetIntegerv(GL.GL_MAX_RENDERBUFFER_SIZE)), *(int(d) for d in np.ravel(dims))))
+    except Exception as exc:  # the GL backends raise a variety of errors
+        raise no_gl_context(backend, exc) from exc
+    finally:
+        if context is not None:
+            context.free()
+
+
+def image_size_problem(width, height, what=("width", "height")) -> str | None:
+    """Why an offscreen image of ``width`` x ``height`` pixels cannot be rendered here, or None.
+
+    Checked before a run (the command line's ``--video`` and ``demo``): MuJoCo's offscreen buffer
+    (``model.vis.global_.offwidth`` / ``offheight``, which :func:`make_renderer` raises to the
+    size asked for) can be no larger than the GL's limit, :func:`max_image_size`.
+    """
+    if max(width, height) <= GUARANTEED_IMAGE_SIZE:
+        return None  # no GL context needed to know (creating one costs ~0.3 s)
+    limit = max_image_size()
+    for name, size in zip(what, (width, height), strict=True):
+        if size > limit:
+            return (
+                f"{name} {size} is larger than the {limit} pixels the OpenGL here renders offscreen "
+                f"(GL_MAX_RENDERBUFFER_SIZE with MUJOCO_GL={os.environ.get('MUJOCO_GL', 'unset')}); use at most {limit}"
+            )
+    return None

@@ -81,6 +81,9 @@ _PLANAR = {
     "w_WA": ((), None), "v_WA": ((2,), None), "w_WB": ((), None), "v_WB": ((2,), None),
 }  # fmt: skip
 _VELOCITIES = ("w_WA", "v_WA", "w_WB", "v_WB")
+#: The arguments documented as optional: None means no damping / zero velocity. Every other
+#: argument is required, and None for it is a TypeError (it used to read as zeros).
+_OPTIONAL = frozenset(("B", *_VELOCITIES))
 # zero arguments for omitted velocities / damping; only ever read by the kernels
 _ZEROS = {core: np.zeros(core) for core, _ in list(_SPATIAL.values()) + list(_PLANAR.values())}
 
@@ -96,12 +99,22 @@ def _convert(name, x, core, what):
     return np.asarray(x, dtype=np.float64, order="C")
 
 
-def _prepare(spec, values, check):
+def _prepare(spec, values, check, optional=_OPTIONAL):
     """Validate (if ``check``) and flatten the arguments named in ``spec``.
 
     ``values`` maps names to arguments; a missing damping ``B`` means no viscous part and
-    missing velocities are zero. Returns ``(batch_shape, flat_arrays, viscous)``.
+    missing velocities are zero; any other argument in ``optional`` (internal use) given as
+    None is zero too, and None for the others raises TypeError. Returns
+    ``(batch_shape, flat_arrays, viscous)``.
     """
+    missing = [k for k, v in values.items() if v is None and k not in optional]
+    if missing:
+        core = spec[missing[0]][0]
+        omissible = [k for k in values if k in optional]
+        raise TypeError(
+            f"{missing[0]} is None, but it is required: an array of shape (..., {', '.join(map(str, core))}) "
+            + (f"(only {', '.join(omissible)} may be None)" if omissible else "(no argument here may be None)")
+        )
     viscous = values.get("B") is not None
     if not viscous:
         given = sorted(k for k in _VELOCITIES if values.get(k) is not None)
@@ -148,10 +161,10 @@ def _terms_args(terms, method, K, check):
     return (np.array(terms.exponents), np.array(terms.coefficients), *_polyk.work_arrays(terms.exponents))
 
 
-def _wrench_call(spec, kernel, values, method, check, terms=None):
+def _wrench_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL):
     """Run a wrench kernel; returns (wrench (..., n), dissipated power (...))."""
     code = method_code(method)
-    shape, f, viscous = _prepare(spec, values, check)
+    shape, f, viscous = _prepare(spec, values, check, optional)
     extra = _terms_args(terms, method, f[4], check)
     n = math.prod(shape)
     out, power = np.empty((n, spec["K"][0][0])), np.empty(n)
@@ -267,7 +280,7 @@ def dissipation_power(
         raise ValueError("B is required: dissipation_power needs the damping matrix.")
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check)[1][()]
+    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"})[1][()]
 
 
 # --------------------------------------------------------------------------- planar
@@ -335,4 +348,4 @@ def planar_dissipation_power(
         raise ValueError("B is required: planar_dissipation_power needs the damping matrix.")
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_PLANAR, _pk.planar_wrench_batch, values, method, check)[1][()]
+    return _wrench_call(_PLANAR, _pk.planar_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"})[1][()]

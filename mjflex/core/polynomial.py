@@ -71,7 +71,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validation import as_array, method_code
+from .validation import as_array, method_code, numeric_array
 
 #: Names of the coordinates ``z`` of each method, in order.
 VARIABLES = {
@@ -202,23 +202,23 @@ def no_terms(method: str) -> PolynomialTerms:
 
 
 def _exponents(exponents, nvar: int, name: str) -> np.ndarray:
-    try:
-        e = np.asarray(exponents)
-        if e.size == 0:
-            e = e.reshape(0, nvar)
-        ok = e.dtype.kind in "iu" or (e.dtype.kind in "fO" and np.all(np.mod(e.astype(float), 1.0) == 0.0))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok or e.ndim != 2 or e.shape[1] != nvar:
-        raise ValueError(
-            f"{name} must be an integer array of shape (M, {nvar}), one row of exponents of "
-            f"{', '.join(VARIABLES['twist' if nvar == 6 else 'dualquat'])} per term; got {np.shape(exponents)}"
-        )
-    e = np.ascontiguousarray(e, dtype=np.int64)
-    bad = (e < 0) | (e > MAX_EXPONENT)
+    shape_fix = (
+        f"{name} must be an integer array of shape (M, {nvar}), one row of exponents of "
+        f"{', '.join(VARIABLES['twist' if nvar == 6 else 'dualquat'])} per term"
+    )
+    try:  # the core's number rules: no booleans, text, None, complex or integers beyond float64
+        f = numeric_array(exponents, name)
+    except ValueError as exc:
+        raise ValueError(f"{shape_fix}: {exc}") from None
+    if f.size == 0:
+        f = f.reshape(0, nvar)
+    if f.ndim != 2 or f.shape[1] != nvar:
+        raise ValueError(f"{shape_fix}; got shape {np.shape(exponents)}")
+    bad = ~((f >= 0) & (f <= MAX_EXPONENT) & (np.mod(f, 1.0) == 0.0))  # NaN fails every comparison
     if bad.any():
         r = int(np.argwhere(bad)[0, 0])
-        raise ValueError(f"{name}[{r}] = {e[r].tolist()}: exponents must be integers in [0, {MAX_EXPONENT}]")
+        raise ValueError(f"{name}[{r}] = {f[r].tolist()}: exponents must be integers in [0, {MAX_EXPONENT}]")
+    e = np.ascontiguousarray(f, dtype=np.int64)
     rows, first = np.unique(e, axis=0, return_index=True)
     if len(rows) != len(e):
         dup = sorted(set(range(len(e))) - set(first.tolist()))[0]

@@ -1,7 +1,27 @@
 """Argument checks at the boundary of the core (never called inside the compiled kernels).
 
-Every check raises :class:`ValueError` whose message names the argument (and the batch index
-of the first offending element), shows the offending value, and says how to fix it.
+The one place where arguments become numbers: every public function of :mod:`mjflex.core`
+converts its array arguments with :func:`as_array` (or :func:`check_rotation`,
+:func:`check_psd_matrix`, :func:`check_unit_dual_quaternion`, which use it), the MuJoCo layer
+converts element records (:mod:`mjflex.mj.schema`) and ``add_flexure``'s arguments with the same
+functions, and scalar options everywhere go through :func:`check_number` and :func:`check_flag`.
+
+Conversion rules (:func:`numeric_array`), the same for arrays, nested lists and JSON data:
+
+* accepted: real numbers: Python ``int`` and ``float``, numpy integer and floating scalars and
+  arrays, and nested lists / tuples of them (any other object that converts with ``float``,
+  e.g. ``fractions.Fraction``, too); they become float64;
+* rejected with :class:`ValueError` naming the argument and the index of the first bad entry:
+  booleans (``True`` is not the number 1 here: a flag given where a number belongs is a
+  mistake), text (``"0.3"``: numpy would parse it, silently), ``None``, complex numbers (numpy
+  would drop the imaginary part with a warning only), integers beyond float64's range (a
+  401-digit integer), and anything else that is not a real number (dates, bytes, objects);
+* an argument that is required may not be ``None`` (``TypeError``); only what a function
+  documents as optional may be.
+
+Every check raises an error whose message names the argument (and the batch index
+of the first offending element), shows the offending value shortened to ``SHORT_REPR``
+characters (:func:`shorten`), and says how to fix it.
 
 Tolerances, all relative so that they do not depend on units:
 
@@ -18,6 +38,9 @@ Tolerances, all relative so that they do not depend on units:
   ``|q_r . q_d| <= UNIT_ATOL * max(1, |q_d|)``.
 """
 
+import math
+import numbers
+
 import numpy as np
 
 from ._kernels import DUALQUAT, TWIST
@@ -27,6 +50,8 @@ PSD_RTOL = 1e-10
 ORTHONORMAL_ATOL = 1e-9
 ORTHONORMAL_EPS_FACTOR = 16
 UNIT_ATOL = 1e-9
+#: Longest quotation of a bad value in an error message [characters] (a 500 kB list is cut).
+SHORT_REPR = 80
 
 _ORTHO_FIX = "re-orthonormalize it, e.g. scipy.spatial.transform.Rotation.from_matrix(R).as_matrix()"
 
@@ -35,12 +60,99 @@ def _where(name: str, index: tuple) -> str:
     return f"{name}[{', '.join(str(int(i)) for i in index)}]" if index else name
 
 
+def shorten(value, limit: int = SHORT_REPR) -> str:
+    """``repr(value)`` cut to ``limit`` characters, saying how long it was, for error messages."""
+    text = np.array2string(value, threshold=20) if isinstance(value, np.ndarray) else repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}... ({len(text)} characters)"
+
+
+def _leaf_problem(x, path):
+    """``(path, what)`` of the first entry of ``x`` that is not a real number, or None."""
+    if isinstance(x, list | tuple):
+        for i, v in enumerate(x):
+            found = _leaf_problem(v, (*path, i))
+            if found:
+                return found
+        return None
+    if isinstance(x, np.ndarray):
+        if x.dtype.kind in "iuf":
+            return None
+        if x.dtype.kind != "O":
+            return path, "holds " + _dtype_problem(x.dtype)
+        for i, v in enumerate(x.flat):
+            found = _leaf_problem(v, (*path, *np.unravel_index(i, x.shape)))
+            if found:
+                return found
+        return None
+    problem = _scalar_problem(x)
+    return (path, "is " + problem) if problem else None
+
+
+def _dtype_problem(dtype) -> str:
+    kinds = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "bytes", "M": "dates", "m": "time spans"}
+    return f"{kinds.get(dtype.kind, 'values of another kind')} (dtype {dtype})"
+
+
+def _scalar_problem(v) -> str | None:
+    if isinstance(v, bool | np.bool_):
+        return f"the boolean {v!r}"
+    if v is None:
+        return "None"
+    if isinstance(v, str | bytes):
+        return f"the text {shorten(v, 40)}"
+    if isinstance(v, complex | np.complexfloating):
+        return f"the complex number {v!r}"
+    if isinstance(v, numbers.Integral) and not isinstance(v, np.integer):
+        return None if abs(int(v)) <= _FLOAT_MAX_INT else f"an integer of {_digits(int(v))} digits"
+    if isinstance(v, numbers.Real):
+        return None
+    try:
+        float(v)
+    except (TypeError, ValueError, OverflowError):
+        return f"{shorten(v, 40)} ({type(v).__name__})"
+    return None
+
+
+_FLOAT_MAX_INT = int(np.finfo(np.float64).max)
+
+
+def _digits(n: int) -> int:
+    """Decimal digits of ``n`` without ``str(n)`` (which Python refuses beyond 4300 digits)."""
+    return len(str(abs(n))) if n.bit_length() < 10000 else int(n.bit_length() * math.log10(2)) + 1
+
+
+_NOT_NUMBER_FIX = "numbers are expected: ints or floats, not booleans, text, None or complex numbers"
+
+
+def numeric_array(x, name: str) -> np.ndarray:
+    """``x`` as a float64 array (any shape) if every entry is a real number; see the module notes.
+
+    Raises ValueError naming ``name``, the index of the first bad entry and what it is.
+    """
+    if x is None:
+        raise TypeError(f"{name} is None: it is required ({_NOT_NUMBER_FIX})")
+    if not (isinstance(x, np.ndarray) and x.dtype.kind in "iuf"):
+        try:
+            found = _leaf_problem(x, ())
+        except RecursionError:
+            raise ValueError(f"{name} is nested too deeply to be an array of numbers") from None
+        if found:
+            path, what = found
+            where = f"{name}[{', '.join(str(int(i)) for i in path)}]" if path else name
+            if what.startswith("is an integer of"):
+                raise ValueError(f"{where} {what}: beyond float64's range (about 1.8e308); check its units")
+            fix = " (np.real(x) if the imaginary part is meant to be dropped)" if "complex" in what else ""
+            got = "" if what.startswith("holds") else f"; got {shorten(x)}"
+            raise ValueError(f"{where} {what}: {_NOT_NUMBER_FIX}{fix}{got}")
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"{name} must be a numeric array: {exc}; got {shorten(x)}") from None
+
+
 def as_array(x, name: str, core_shape: tuple[int, ...]) -> np.ndarray:
     """``x`` as a float64 array of shape ``(..., *core_shape)`` with finite entries."""
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array of shape (..., {_fmt(core_shape)}): {exc}") from None
+    a = numeric_array(x, name)
     n = len(core_shape)
     if a.ndim < n or a.shape[a.ndim - n :] != tuple(core_shape):
         raise ValueError(f"{name} must have shape (..., {_fmt(core_shape)}); got shape {a.shape}")
@@ -53,6 +165,43 @@ def as_array(x, name: str, core_shape: tuple[int, ...]) -> np.ndarray:
             "(reduce the time step or check the initial state)."
         )
     return a
+
+
+def check_number(value, name: str, *, integer=False, above=None, at_least=None, below=None, at_most=None):
+    """``value`` as a float (an int with ``integer``), checked: a finite real number in range.
+
+    TypeError unless a real number (booleans, text, None and complex numbers are not; with
+    ``integer``, nor is 2.5 or 2.0); ValueError if not finite or outside ``> above``,
+    ``>= at_least``, ``< below``, ``<= at_most``. The message names ``name`` and the bound.
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
+    problem = _scalar_problem(value) if not isinstance(value, np.ndarray) else "an array"
+    kind = "an integer" if integer else "a number"
+    if problem and not problem.startswith("an integer of"):
+        raise TypeError(f"{name} must be {kind}; got {problem}")
+    if integer and not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be {kind}; got {shorten(value)} ({type(value).__name__})")
+    if problem:
+        raise ValueError(f"{name} is {problem}, beyond float64's range; check it")
+    number = int(value) if integer else float(value)
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be a finite number; got {value!r}")
+    bounds = [(b, op, text) for b, op, text in ((above, float.__gt__, ">"), (at_least, float.__ge__, ">="),
+              (below, float.__lt__, "<"), (at_most, float.__le__, "<=")) if b is not None]  # fmt: skip
+    if not all(op(float(number), float(b)) for b, op, _ in bounds):
+        raise ValueError(f"{name} must be {' and '.join(f'{text} {b:g}' for b, _, text in bounds)}; got {value!r}")
+    return number
+
+
+def check_flag(value, name: str) -> bool:
+    """``value`` as a bool; TypeError unless it is one (``True``/``False`` or a numpy bool).
+
+    Strings such as ``"false"`` and numbers are refused: ``bool("false")`` is True.
+    """
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    raise TypeError(f"{name} must be True or False; got {shorten(value)} ({type(value).__name__})")
 
 
 def _fmt(core_shape: tuple[int, ...]) -> str:

@@ -54,8 +54,13 @@ def _quaternion(R):
 
 
 def _body(spec, body, role):
-    if not isinstance(body, str):
+    if isinstance(body, mujoco.MjsBody):
         return body
+    if not isinstance(body, str):
+        raise TypeError(
+            f"{role} must be a body name (str; 'world' grounds) or a mujoco.MjsBody of the spec; got "
+            f"{validation.shorten(body)} ({type(body).__name__})"
+        )
     found = spec.worldbody if body == "world" else spec.body(body)
     if found is None:
         names = [b.name for b in spec.bodies if b.name]
@@ -182,6 +187,7 @@ def add_flexure(
     -------
     FlexureHandle
     """
+    _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact)
     validation.method_code(method)
     site_names = schema.site_names(name)
     if spec.text(schema.PREFIX + name) is not None or any(spec.site(s) is not None for s in site_names):
@@ -205,6 +211,9 @@ def add_flexure(
             K, terms = potential_in_frame(K, terms, R_FE, p_FE)
         else:
             K = stiffness_in_frame(K, R_FE, p_FE)
+    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
+                                  *_checked_terms(terms, method, K, name), site=frame_site)  # fmt: skip
+    text_data = _record_text(record)
     xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
     sites = []
     for b, site_name in zip(bodies, site_names, strict=True):
@@ -216,9 +225,7 @@ def add_flexure(
         ))  # fmt: skip
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
-    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
-                                  *_checked_terms(terms, method, K, name), site=frame_site)  # fmt: skip
-    text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
+    text = spec.add_text(name=schema.PREFIX + name, data=text_data)
     return FlexureHandle(name, sites[0], sites[1], text)
 
 
@@ -255,6 +262,34 @@ def remove_flexure(spec, name) -> None:
                          f"{schema.PREFIX + name!r})")  # fmt: skip
     for part in parts:
         spec.delete(part)
+
+
+def _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact):
+    """The types of :func:`add_flexure`'s scalar arguments (the record's rules follow in :func:`_record_text`)."""
+    if not isinstance(spec, mujoco.MjSpec):
+        raise TypeError(f"spec must be a mujoco.MjSpec; got {type(spec).__name__}")
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name must be a non-empty str (the element's name); got {validation.shorten(name)}")
+    validation.check_flag(enabled, "enabled")
+    validation.check_flag(viscous, "viscous")
+    validation.check_flag(exclude_contact, "exclude_contact")
+    if strain_per_radian is not None:
+        validation.check_number(strain_per_radian, "strain_per_radian", at_least=0.0)
+    if source is not None and not isinstance(source, dict):
+        raise TypeError(f"source must be a dict (JSON-serializable) or None; got {type(source).__name__}")
+
+
+def _record_text(record):
+    """The record's JSON text, checked by the same rules as a record read from a file (schema.parse_text)."""
+    try:
+        text = record.to_text()
+    except (TypeError, ValueError) as exc:  # json.dumps of a source holding other objects, or a cycle
+        raise TypeError(f"flexure {record.name!r}: source must hold JSON values only: {exc}") from None
+    try:
+        schema.parse_text(record.name, text)
+    except ValueError as exc:
+        raise ValueError(f"flexure {record.name!r}: {exc}") from None
+    return text
 
 
 def _checked_terms(terms, method, K, name):

@@ -389,13 +389,24 @@ class Flexures:
             data.qfrc_passive[:] = np.nan
             _callback.report_in_python(model, data, self._messages[status])
 
-    def index(self, name: str) -> int:
-        """Row of element ``name`` in the per-element arrays."""
-        try:
-            return self._index[name]
-        except KeyError:
-            close = difflib.get_close_matches(name, self.names, n=3)
-            raise KeyError(f"no flexure named {name!r}" + (f"; did you mean {close}?" if close else "")) from None
+    def index(self, name) -> int:
+        """Row of element ``name`` (or the row ``name`` itself, an int) in the per-element arrays."""
+        if isinstance(name, str):
+            try:
+                return self._index[name]
+            except KeyError:
+                close = difflib.get_close_matches(name, self.names, n=3)
+                raise KeyError(f"no flexure named {name!r}" + (f"; did you mean {close}?" if close else "")) from None
+        if isinstance(name, int | np.integer) and not isinstance(name, bool | np.bool_):
+            if not 0 <= name < len(self):
+                raise IndexError(
+                    f"flexure index {int(name)} is out of range: there are {len(self)} (0 .. {len(self) - 1})"
+                )
+            return int(name)
+        raise TypeError(
+            f"an element is named by its name (str, one of flex.names) or its row (int); got "
+            f"{validation.shorten(name)} ({type(name).__name__})"
+        )
 
     def wrenches(self, data) -> np.ndarray:
         """Wrench of each element on its body B, ``(n, 6)``: ``[moment about site b; force]``, world axes [N m; N]."""
@@ -466,25 +477,31 @@ class Flexures:
 
     # ------------------------------------------------------------------ run-time switches
 
-    def set_enabled(self, name: str, enabled: bool) -> None:
-        """Switch element ``name`` on or off (takes effect at the next step)."""
-        self._ints[self.index(name), k.ENABLED] = bool(enabled)
+    def set_enabled(self, name: str | int, enabled: bool) -> None:
+        """Switch element ``name`` (or row ``name``) on or off (takes effect at the next step).
 
-    def set_viscous(self, name: str, viscous: bool) -> None:
-        """Switch the damping of element ``name`` on or off."""
-        i = self.index(name)
+        ``enabled`` must be a bool (TypeError otherwise: ``bool("false")`` is True).
+        """
+        i, enabled = self.index(name), validation.check_flag(enabled, "enabled")
+        self._ints[i, k.ENABLED] = enabled
+
+    def set_viscous(self, name: str | int, viscous: bool) -> None:
+        """Switch the damping of element ``name`` (or row ``name``) on or off; ``viscous`` a bool."""
+        i, viscous = self.index(name), validation.check_flag(viscous, "viscous")
         if viscous and self.records[i].B is None:
-            raise ValueError(f'flexure {name!r} has no damping matrix B in the model; add "B" to its text record')
+            raise ValueError(
+                f'flexure {self.names[i]!r} has no damping matrix B in the model; add "B" to its text record'
+            )
         self._ints[i, k.VISCOUS] = bool(viscous)
 
-    def set_method(self, name: str, method: str) -> None:
+    def set_method(self, name: str | int, method: str) -> None:
         """Use ``"twist"`` or ``"dualquat"`` for element ``name`` (not for one with polynomial terms)."""
         i, code = self.index(name), validation.method_code(method)
         terms = self.records[i].terms
         if terms is not None and code != validation.METHOD_CODES[terms.method]:
             raise ValueError(
-                f"flexure {name!r} has polynomial terms in {terms.method} coordinates, which do not carry over to "
-                f"{method}: fit (mjflex.fit_potential) or write terms for {method} in its record instead"
+                f"flexure {self.names[i]!r} has polynomial terms in {terms.method} coordinates, which do not carry "
+                f"over to {method}: fit (mjflex.fit_potential) or write terms for {method} in its record instead"
             )
         self._ints[i, k.METHOD] = code
 

@@ -59,6 +59,7 @@ import mujoco
 import numpy as np
 import scipy.linalg
 
+from ..core import validation
 from . import schema
 from ._assemble import assemble, hinge_closure, rigid_closure
 from ._directions import damping_ratios, element_directions, energy_shares
@@ -454,6 +455,33 @@ def closure_singularity(variant, count, amplitude=1e-3):
     return worst
 
 
+def _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify, name):
+    """:func:`reduce`'s arguments, each checked before any work: TypeError / ValueError naming it."""
+    validation.check_number(keep_below_hz, "keep_below_hz", above=0.0)
+    validation.check_number(freq_tol, "freq_tol", above=0.0, below=0.5)
+    validation.check_number(viscous_tol, "viscous_tol", at_least=0.0)
+    if duration is not None:
+        validation.check_number(duration, "duration", above=0.0)
+    validation.check_number(max_joints, "max_joints", integer=True, at_least=1)
+    validation.check_flag(verify, "verify")
+    if not (isinstance(loops, str) and loops in LOOP_MODES):
+        raise ValueError(f"loops must be one of {LOOP_MODES}; got {validation.shorten(loops)}")
+    if name is not None and not isinstance(name, str):
+        raise TypeError(f"name must be a str or None; got {type(name).__name__}")
+    if scene is not None and not (isinstance(scene, tuple | list) and len(scene) == 2):
+        raise TypeError(f"scene must be a pair (initial, duration) or None; got {validation.shorten(scene)}")
+    if isinstance(plane, str):
+        if plane != "auto":
+            none = " (plane=None reduces in 3-D)" if plane.strip().lower() in ("none", "off", "no", "false", "") else ""
+            raise ValueError(f"plane must be None, 'auto' or a normal vector (3,); got {plane!r}{none}")
+    elif plane is not None:
+        normal = validation.as_array(plane, "plane", (3,))
+        if normal.shape != (3,) or not np.linalg.norm(normal) > 0:
+            raise ValueError(
+                f"plane must be None, 'auto' or a nonzero normal vector (3,); got {validation.shorten(plane)}"
+            )
+
+
 def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.01, viscous_tol=1e-3, duration=None,
            loops="auto", max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
     """A cheaper model of ``source`` that keeps its normal modes below ``keep_below_hz``.
@@ -469,11 +497,12 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.0
         [s]. The full model is simulated over it (:func:`scene_shares`); directions may be
         held rigid only while their summed share of its peak strain energy stays within
         ``2 freq_tol`` (smallest first).
-    plane : "auto" or array_like (3,), optional
+    plane : None, "auto" or array_like (3,)
         Reduce to a planar model when the scene is planar (:mod:`mjflex.mj._planar`): with a
         normal vector the checks must pass (else ValueError saying which fails); ``"auto"``
         takes the element frames' common z axis and falls back to 3-D, saying why, when a
-        check fails. The scene's initial state is checked when ``scene`` is given.
+        check fails. The scene's initial state is checked when ``scene`` is given. None (the
+        default) reduces in 3-D; any other string is refused.
     freq_tol : float
         Relative frequency change allowed to each kept mode (module docstring).
     viscous_tol : float
@@ -497,12 +526,7 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.0
     Variant
         With ``report`` (one line per element and per loop, numbers included) and ``details``.
     """
-    if not keep_below_hz > 0:
-        raise ValueError(f"keep_below_hz must be a positive frequency [Hz]; got {keep_below_hz!r}")
-    if loops not in LOOP_MODES:
-        raise ValueError(f"loops={loops!r}: use one of {LOOP_MODES}")
-    if not (0 < freq_tol < 0.5 and viscous_tol >= 0 and max_joints >= 1):
-        raise ValueError("need 0 < freq_tol < 0.5, viscous_tol >= 0 and max_joints >= 1")
+    _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify, name)
     plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, plane)
     name = name or f"reduced({keep_below_hz:g} Hz)"
     variant = _build(plan, "constraint" if loops == "auto" else loops, name)

@@ -33,6 +33,35 @@ An element named ``E`` (any text) is
     site moved in the file without its element is reported rather than silently ignored. Under
     ``MjSpec.attach`` the name is read with the element's prefix and suffix.
 
+Validation rules (:func:`parse_text`; one place, mirrored by any other reader of records):
+
+1. the data is strict JSON (RFC 8259): one object, no key given twice in any object, no
+   ``NaN``/``Infinity``/``-Infinity`` anywhere (Python's ``json`` accepts them; other readers
+   do not), nesting at most as deep as Python's recursion allows;
+2. the element name (the text after ``mjflex:``) is not empty;
+3. only the keys above; ``"mjflex"`` is the integer ``1`` (not ``true``, not ``1.0``);
+4. ``"method"`` is one of the two strings; ``"enabled"``, ``"viscous"`` are ``true`` or
+   ``false`` (not ``"false"``, not ``0``);
+5. ``"K"`` (required) and ``"B"`` (optional, ``null`` = none) are lists of 6 or 3 numbers or
+   6x6 / 3x3 nested lists; every entry is a JSON number (not a boolean, a string or
+   ``null``), finite, at most ``MAX_MATRIX_ENTRY`` in magnitude (so a 401-digit integer is
+   refused, not overflowed); the matrix is symmetric and positive semi-definite to the
+   tolerances of :mod:`mjflex.core.validation`; ``B`` has ``K``'s size;
+6. ``"order"`` is an integer (not a boolean) from 2 to ``MAX_ORDER``, even for ``"dualquat"``;
+   ``"terms"`` needs it and is an object with exactly ``"exponents"`` (whole numbers, ``2`` or
+   ``2.0``, from 0 to :data:`mjflex.core.polynomial.MAX_EXPONENT`; not booleans) and
+   ``"coefficients"`` (finite numbers), the rules of :class:`mjflex.core.polynomial.PolynomialTerms`
+   (degrees from 2 to ``"order"``, distinct rows, even and unstressed at rest for ``"dualquat"``),
+   and ``K`` plus the terms' stiffness at rest is positive semi-definite;
+7. ``"strain_per_radian"`` is ``null`` or a finite number >= 0 (not a boolean);
+8. ``"source"`` is ``null`` or an object (any content within rule 1);
+9. ``"site"`` is ``null`` or a non-empty string naming a site of the model (checked by
+   :class:`mjflex.Flexures`: the element frame must coincide with it at ``qpos0``).
+
+Every violation raises ValueError naming the key (and entry), quoting the bad value cut to
+:data:`mjflex.core.validation.SHORT_REPR` characters, and saying what is allowed; the model
+layer adds the element's name (:class:`mjflex.mj.ModelError`).
+
 Units are SI and the row order is ``[rotation; translation]`` (``N m/rad``, ``N/rad``,
 ``N/m``; damping per unit rate). A text record rather than ``<numeric>`` keeps every digit:
 MuJoCo writes numeric data with 6 significant digits but text verbatim, so ``K`` and ``B``
@@ -63,7 +92,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import validation
-from ..core.polynomial import PolynomialTerms
+from ..core.polynomial import MAX_EXPONENT, PolynomialTerms
+from ..core.validation import shorten
 
 PREFIX = "mjflex:"
 SITE_A_SUFFIX = "/a"
@@ -84,6 +114,8 @@ COINCIDENCE_RTOL = 1e-5
 MAX_MATRIX_ENTRY = 1e280
 #: Angle [rad] below which the two site frames count as aligned.
 COINCIDENCE_ANGLE = 1e-5
+#: Highest ``"order"`` of a record's potential: every variable at its highest exponent (8 x 16).
+MAX_ORDER = 8 * MAX_EXPONENT
 #: Indices of the planar coordinates ``[theta_z; x; y]`` within ``[rx, ry, rz, x, y, z]``.
 PLANAR_INDEX = (2, 3, 4)
 
@@ -198,19 +230,22 @@ def embed_planar(M: np.ndarray) -> np.ndarray:
 def element_matrix(value, key: str, *, n_allowed=(6, 3), what: str | None = None) -> np.ndarray:
     """A validated K or B: a square nested list or a diagonal list; raises ValueError with the fix.
 
-    6x6 (6 diagonal entries) for a spatial element, 3x3 (3 entries) for a planar one; finite,
-    entries at most ``MAX_MATRIX_ENTRY`` in magnitude, symmetric and positive semi-definite.
+    6x6 (6 diagonal entries) for a spatial element, 3x3 (3 entries) for a planar one; real numbers
+    (rules of :func:`mjflex.core.validation.numeric_array`: no booleans, text, null, complex),
+    finite, at most ``MAX_MATRIX_ENTRY`` in magnitude, symmetric and positive semi-definite.
     """
+    if value is None:
+        raise ValueError(f'"{key}" must be a list of numbers or a square nested list; got null/None')
     try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f'"{key}" must be a list of numbers or a square nested list; got {value!r}') from None
+        a = validation.numeric_array(value, key)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(str(exc)) from None
     if a.ndim == 1 and a.shape[0] in n_allowed:
         a = np.diag(a)
     elif not (a.ndim == 2 and a.shape[0] == a.shape[1] and a.shape[0] in n_allowed):
         raise ValueError(
             f'"{key}" must be 6x6 (or 6 diagonal entries) for a spatial element, or 3x3 (3 entries) for a '
-            f"planar one; got shape {a.shape}"
+            f"planar one; got shape {a.shape}: {shorten(value)}"
         )
     finite = np.isfinite(a)
     if finite.all() and np.abs(a).max(initial=0.0) > MAX_MATRIX_ENTRY:
@@ -223,53 +258,113 @@ def element_matrix(value, key: str, *, n_allowed=(6, 3), what: str | None = None
     return validation.check_psd_matrix(a, key, a.shape[0], what=what)
 
 
-def parse_text(element: str, data: str) -> FlexureRecord:
-    """Parse the JSON data of an element's text record; raises ValueError saying what to fix."""
+def _strict_object(pairs):
+    """``json`` object hook: a dict, refusing a key given twice (``json`` would keep the last)."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"the key {shorten(key, 40)} is given twice in one object; keep one")
+        out[key] = value
+    return out
+
+
+class _Constant(str):
+    """A ``NaN``/``Infinity``/``-Infinity`` read by ``json``: kept as a marker to report with its key."""
+
+
+def _find_constant(value, path=""):
+    """The JSON path (``"K"[0][1]``, ``"source"["E"]``) and text of the first NaN or Infinity in ``value``, or None."""
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, v in items:
+        where = (f'"{key}"' if not path else f'{path}["{key}"]') if isinstance(value, dict) else f"{path}[{key}]"
+        if isinstance(v, _Constant):
+            return where, str(v)
+        found = _find_constant(v, where)
+        if found:
+            return found
+    return None
+
+
+def load_json(data: str):
+    """The JSON value of a record's data under rule 1 (strict JSON); ValueError saying what is wrong."""
     try:
-        payload = json.loads(data)
+        payload = json.loads(data, object_pairs_hook=_strict_object, parse_constant=_Constant)
+        found = _find_constant(payload)
     except json.JSONDecodeError as exc:
         raise ValueError(f"its data is not valid JSON ({exc.msg} at character {exc.pos})") from None
     except RecursionError:
         raise ValueError("its data nests JSON arrays or objects too deeply to be a flexure record") from None
+    if isinstance(payload, _Constant) or found:
+        where, text = found or ("its data", str(payload))
+        raise ValueError(f"{where} is {text}, which is not a JSON number (strict JSON has no NaN or Infinity); "
+                         "every number of a record must be finite")  # fmt: skip
+    return payload
+
+
+def _flag(payload, key):
+    value = payload.get(key, True)
+    if not isinstance(value, bool):
+        raise ValueError(f'"{key}" must be true or false; got {shorten(value)}')
+    return value
+
+
+def _strain(payload):
+    strain = payload.get("strain_per_radian")
+    if strain is None:
+        return None
+    ok = isinstance(strain, int | float) and not isinstance(strain, bool)
+    if not (ok and abs(strain) <= MAX_MATRIX_ENTRY and strain >= 0):  # huge integers: no float overflow
+        raise ValueError(f'"strain_per_radian" must be a finite number >= 0 (or null); got {shorten(strain)}')
+    return float(strain)
+
+
+def parse_text(element: str, data: str) -> FlexureRecord:
+    """Parse the JSON data of an element's text record (rules in the module docstring); raises
+    ValueError saying what to fix."""
+    if not element:
+        raise ValueError(
+            f'the element name is empty (the record is named "{PREFIX}" with nothing after it); name the '
+            f'element: <text name="{PREFIX}NAME"> with sites NAME/a and NAME/b'
+        )
+    payload = load_json(data)
     if not isinstance(payload, dict):
-        raise ValueError('its data must be a JSON object such as {"mjflex": 1, "K": [...]}')
+        raise ValueError(f'its data must be a JSON object such as {{"mjflex": 1, "K": [...]}}; got {shorten(payload)}')
     unknown = sorted(set(payload) - set(KEYS))
     if unknown:
-        raise ValueError(f"unknown key(s) {unknown}; the allowed keys are {list(KEYS)}")
-    if payload.get("mjflex") != SCHEMA_VERSION:
-        raise ValueError(f'"mjflex" must be the schema version {SCHEMA_VERSION}; got {payload.get("mjflex")!r}')
+        raise ValueError(f"unknown key(s) {shorten(unknown)}; the allowed keys are {list(KEYS)}")
+    version = payload.get("mjflex")
+    if type(version) is not int or version != SCHEMA_VERSION:
+        raise ValueError(
+            f'"mjflex" must be the schema version {SCHEMA_VERSION}; got {shorten(version)} (an integer is needed)'
+        )
     method = payload.get("method", "twist")
     if method not in ("twist", "dualquat"):
-        raise ValueError(f'unknown method {method!r}; use "twist" or "dualquat"')
+        raise ValueError(f'unknown method {shorten(method)}; use "twist" or "dualquat"')
     if "K" not in payload:
         raise ValueError('the stiffness "K" is missing')
     K = element_matrix(payload["K"], "K")
     B = None
     if payload.get("B") is not None:
         B = element_matrix(payload["B"], "B", n_allowed=(K.shape[0],))
-    for key in ("enabled", "viscous"):
-        if not isinstance(payload.get(key, True), bool):
-            raise ValueError(f'"{key}" must be true or false; got {payload[key]!r}')
-    strain = payload.get("strain_per_radian")
-    if strain is not None and not (isinstance(strain, int | float) and not isinstance(strain, bool) and strain >= 0):
-        raise ValueError(f'"strain_per_radian" must be a non-negative number; got {strain!r}')
+    enabled, viscous = _flag(payload, "enabled"), _flag(payload, "viscous")
+    strain = _strain(payload)
     source = payload.get("source")
     if source is not None and not isinstance(source, dict):
-        raise ValueError(f'"source" must be a JSON object; got {source!r}')
+        raise ValueError(f'"source" must be a JSON object; got {shorten(source)}')
     site = payload.get("site")
     if site is not None and not (isinstance(site, str) and site):
-        raise ValueError(f'"site" must be the name of a site of the model; got {site!r}')
+        raise ValueError(f'"site" must be the name of a site of the model; got {shorten(site)}')
     order, terms = order_and_terms(payload, method, K)
-    return FlexureRecord(element, method, K, B, payload.get("enabled", True), payload.get("viscous", True),
-                         None if strain is None else float(strain), source, terms, order, site)  # fmt: skip
+    return FlexureRecord(element, method, K, B, enabled, viscous, strain, source, terms, order, site)
 
 
 def order_and_terms(payload, method, K):
     """``(order, terms)`` of a record: validated polynomial terms, or ``(2, None)``."""
     order = payload.get("order", 2)
-    if isinstance(order, bool) or not isinstance(order, int) or order < 2 or (method == "dualquat" and order % 2):
+    integer = isinstance(order, int | np.integer) and not isinstance(order, bool)
+    if not integer or not 2 <= order <= MAX_ORDER or (method == "dualquat" and order % 2):
         even = " and even for a dualquat element (its potential is even in q)" if method == "dualquat" else ""
-        raise ValueError(f'"order" must be an integer >= 2{even}; got {order!r}')
+        raise ValueError(f'"order" must be an integer >= 2{even}, at most {MAX_ORDER}; got {shorten(order)}')
     data = payload.get("terms")
     if data is None:
         if order != 2:
@@ -278,7 +373,7 @@ def order_and_terms(payload, method, K):
     if "order" not in payload:
         raise ValueError('"terms" need the "order" of the potential (the highest degree of its terms)')
     if not isinstance(data, dict) or sorted(data) != sorted(TERMS_KEYS):
-        raise ValueError(f'"terms" must be an object with exactly the keys {list(TERMS_KEYS)}; got {data!r:.200}')
+        raise ValueError(f'"terms" must be an object with exactly the keys {list(TERMS_KEYS)}; got {shorten(data)}')
     try:
         terms = PolynomialTerms.from_dict({"method": method, **data})
     except ValueError as exc:

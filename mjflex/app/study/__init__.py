@@ -53,7 +53,8 @@ methods, integrators : sequence of str
 steps : sequence of float, optional
     Candidate time steps [s]; by default ``step_count`` log-spaced steps from ``max_step``
     (default twice RK4's limit for the highest natural frequency) down by factors of 2
-    (``min_step`` sets the lower end). Steps are rounded to divisors of the sample interval.
+    (``min_step`` sets the lower end; both only without ``steps``). Steps are rounded to
+    divisors of the sample interval.
 variants : list, optional
     Variants or builders ``source -> Variant`` to compare, a builder being called with ``model``
     as given (default :data:`~mjflex.app.study.variants.DEFAULT_VARIANTS`).
@@ -62,9 +63,10 @@ repeat : int
 bisect : int
     Most bisection runs per stability limit: first over divisors of the sample interval (full
     candidates, with errors), then over any step (divergence only) until the bracket is within
-    ``limit_rtol`` (relative).
+    ``limit_rtol`` (relative). 0: no bisection, the limits are bracketed by the grid steps.
 reference_tol : float
-    Agreement (relative pose error) of two successive reference refinements that stops them.
+    Agreement (relative pose error) of two successive reference refinements that stops them,
+    in (0, 1).
 max_refinements : int
     Most halvings of the reference step. ``reference_step`` sets the first step [s].
 frequencies : int
@@ -74,21 +76,27 @@ samples : int
 max_run_wall : float
     Wall-time budget of one run [s]; a run projected to exceed it stops and is marked skipped.
 targets : sequence of float
-    Pose-error targets of the recommendation (relative).
+    Pose-error targets of the recommendation (relative, each in (0, 1]: 0.01 is 1 %).
 clock : {"cpu", "wall"}
     What the cost is ranked by: the stepping thread's CPU time (default: on an idle core it is
     the wall time, and other processes of a shared machine do not inflate it) or the wall time.
     Both are recorded.
 out : str, optional
-    Directory to write the report files to (also when the study stops early).
+    Directory to write the report files to, created if missing (the set is replaced together;
+    a study that stops after its runs began writes ``study_<model>.partial.*`` instead, beside
+    earlier results, which it leaves as they were).
 progress : bool
     Show a progress bar (tqdm) on stderr.
 
 Raises
 ------
 StudyError
-    The model has no elements, no initial state that moves, or the reference diverges at every
-    step; ``exc.partial`` holds what was measured and, with ``out``, it has been written.
+    An option out of range, a model without elements, no initial state that moves, a name given
+    (keyframe, track, frame) that the model lacks: all found before anything runs or is written
+    (``exc.partial`` is None). Or the reference diverges at every step: ``exc.partial`` holds
+    what was measured and, with ``out``, it has been written as ``study_<model>.partial.*``.
+TypeError
+    An option of the wrong type (e.g. ``repeat=2.5``, ``track="body"`` instead of a list).
 """
 
 from ._result import Limit, Reference, Row, StudyResult

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from .._output import replace_together
 from ._run import Divergence
 
 
@@ -66,13 +67,15 @@ class Limit:
     largest_stable: float | None  # largest step that ran the whole duration [s]
     smallest_unstable: float | None  # smallest larger step that diverged [s]
     divergence: Divergence | None = None  # how the smallest unstable step diverged
+    steps_given: bool = False  # the candidate steps were given (steps=), not the default range
 
     def text(self) -> str:
         name = who(self.variant, self.integrator, self.method)
         if self.largest_stable is None:
             return f"{name}: diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
         if self.smallest_unstable is None:
-            return f"{name}: stable at every step tried (largest {self.largest_stable:.3g} s); widen with --max-step"
+            widen = "add a larger step to --steps (steps=)" if self.steps_given else "widen with --max-step (max_step=)"
+            return f"{name}: stable at every step tried (largest {self.largest_stable:.3g} s); {widen}"
         return f"{name}: stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
 
     def to_dict(self):
@@ -334,17 +337,33 @@ class StudyResult:
             )
         return "\n".join(out) + "\n"
 
-    def write(self, out_dir, *, stem=None, plot=True) -> list[str]:
-        """Write ``<stem>.md``, ``<stem>.json`` and (with candidates) ``<stem>.png``; returns the paths."""
+    def write(self, out_dir, *, stem=None, plot=True, partial=False) -> list[str]:
+        """Write ``<stem>.md``, ``<stem>.json`` and (with candidates) ``<stem>.png``; returns the paths.
+
+        The set is replaced together (:func:`mjflex.app._output.replace_together`): written beside,
+        renamed into place once all were written, and a ``.png`` of an earlier study that this one
+        lacks is removed, so the three files always come from one study. A complete study also
+        removes the ``<stem>.partial.*`` files of an earlier one that stopped. ``partial``: a study
+        that stopped early writes ``<stem>.partial.md``/``.json``/``.png`` instead, beside the
+        earlier complete results, which it leaves as they were.
+        """
         os.makedirs(out_dir, exist_ok=True)
         stem = stem or f"study_{os.path.splitext(os.path.basename(self.model))[0]}"
-        paths = [os.path.join(out_dir, f"{stem}.md"), os.path.join(out_dir, f"{stem}.json")]
-        with open(paths[0], "w") as f:
-            f.write(self.to_markdown())
-        with open(paths[1], "w") as f:
-            json.dump(self.to_dict(), f, indent=1, default=float)
+        full = os.path.join(out_dir, stem)
+        base = full + ".partial" if partial else full
+
+        def markdown(path):
+            with open(path, "w") as f:
+                f.write(self.to_markdown())
+
+        def data(path):
+            with open(path, "w") as f:
+                json.dump(self.to_dict(), f, indent=1, default=float)
+
+        writers = {base + ".md": markdown, base + ".json": data}
         if plot and self.rows:
             from ._plot import pareto_plot
 
-            paths.append(pareto_plot(self, os.path.join(out_dir, f"{stem}.png")))
-        return paths
+            writers[base + ".png"] = lambda path: pareto_plot(self, path)
+        stale = [base + ".png"] + ([] if partial else [full + ".partial" + ext for ext in (".md", ".json", ".png")])
+        return replace_together(writers, stale)

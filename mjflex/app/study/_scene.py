@@ -9,6 +9,7 @@ import os
 import mujoco
 import numpy as np
 
+from ...core import validation
 from ...mj import Flexures, ModelError
 from ...mj.schema import site_names
 from ...mj.variant import Variant
@@ -94,7 +95,10 @@ def initial_state(model, flex, name, *, keyframe=None, qpos=None, qvel=None):
         what = "qpos0 at rest (the model has no keyframe)"
     for arg, value, size in (("qpos", qpos, model.nq), ("qvel", qvel, model.nv)):
         if value is not None:
-            value = np.asarray(value, dtype=float)
+            try:  # the core's number rules: no complex, booleans, text or None inside
+                value = validation.numeric_array(value, arg)
+            except (TypeError, ValueError) as exc:
+                raise StudyError(f"{name}: {exc}") from None
             if value.shape != (size,):
                 raise StudyError(f"{arg} must have {size} entries for {name}; got shape {value.shape}")
             getattr(data, arg)[:] = value

@@ -9,14 +9,15 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
+from ...core import validation
 from ...mj.variant import VariantNotApplicableError
 from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
+from ._options import METHODS, check_options
 from ._result import Limit, Reference, Row, StudyResult
-from ._run import INTEGRATOR_ENUMS, Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
+from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import StudyError, build_variant, flexures_of, initial_state, load, tracked_items, variant_state
 from .variants import DEFAULT_VARIANTS
 
-METHODS = ("twist", "dualquat")
 INTEGRATORS = ("rk4", "euler", "implicitfast", "discrete")
 #: RK4 is stable for |lambda h| below 2 sqrt(2) on the imaginary axis (2.79 on the real one); the
 #: default step range reaches twice the step this gives for the fastest rate of the linearized
@@ -290,49 +291,56 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
           clock="cpu", out=None, progress=True) -> StudyResult:  # fmt: skip
     """Measure the speed-accuracy trade of simulating ``model``'s flexures; see the package docstring."""
     opts = {k: v for k, v in locals().items() if k not in ("model", "out", "progress")}
+    check_options(opts, out)
+    validation.check_flag(progress, "progress")
     label = os.fspath(model) if isinstance(model, str | os.PathLike) else "model"
     result = StudyResult(str(label), targets=tuple(targets), clock=clock,
                          date=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"))  # fmt: skip
     started = time.perf_counter()
-    bar = tqdm(total=max_refinements + 1, unit="run", disable=not progress, leave=False)
-    try:
-        with quiet_mujoco_warnings():
-            _run(result, model, bar, **opts)
-    except StudyError as exc:
-        result.message = str(exc)
-        exc.partial = result
-        if out is not None:
-            exc.paths = result.write(out)
-        raise
-    finally:
-        bar.close()
-        result.wall_s = time.perf_counter() - started
+    with quiet_mujoco_warnings():
+        scene = _scene(result, model, **opts)  # a StudyError here: nothing has run or been written
+        bar = tqdm(total=max_refinements + 1, unit="run", disable=not progress, leave=False)
+        try:
+            _run(result, scene, bar, **opts)
+        except StudyError as exc:  # stopped after runs began: what was measured goes beside earlier results
+            result.message = str(exc)
+            result.wall_s = time.perf_counter() - started
+            exc.partial = result
+            if out is not None:
+                exc.paths = result.write(out, partial=True)
+            raise
+        finally:
+            bar.close()
+    result.wall_s = time.perf_counter() - started
     result.mark_pareto()
     swept = [r for r in result.rows if r.source != "model"]
     if swept and not any(r.status == "ok" for r in swept):
+        how = "smaller --steps (steps=)" if steps else "--min-step/--max-step (min_step=, max_step=) or --steps"
         result.message = (
             "every candidate step diverged or was skipped (see the stability limits); the reference ran, so the scene "
-            "itself is fine: try smaller steps with --min-step/--max-step or --steps"
+            f"itself is fine: try smaller steps with {how}"
         )
     if out is not None:
         result.write(out)
     return result
 
 
-def _check_choices(methods, integrators, clock):
-    bad = sorted(set(methods) - set(METHODS)) + sorted(set(integrators) - set(INTEGRATOR_ENUMS))
-    if clock not in ("cpu", "wall"):
-        bad.append(f"clock={clock!r}")
-    if bad:
-        raise StudyError(f"unknown choice(s) {bad}: methods are {list(METHODS)}, integrators "
-                         f"{sorted(INTEGRATOR_ENUMS)}, clock 'cpu' or 'wall'")  # fmt: skip
+@dataclass
+class _Scene:
+    """What the study runs, checked before any run: the model, its state, what is tracked, the plan."""
+
+    full: Sim
+    source: object  # what variant builders get (see _scene.load)
+    src: object  # the compiled model
+    data0: object
+    items: list
+    frame: str | None
+    plan: Plan
 
 
-def _run(result, model, bar, *, keyframe, qpos, qvel, duration, track, frame, methods, integrators, steps,
-         step_count, max_step, min_step, variants, repeat, bisect, limit_rtol, reference_tol, max_refinements,
-         reference_step, frequencies, samples, max_run_wall, targets, clock):  # fmt: skip
-    """The phases of :func:`study`, filling ``result`` as they go (so a failure leaves what was measured)."""
-    _check_choices(methods, integrators, clock)
+def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps, step_count, max_step, min_step,
+           samples, frequencies, **_):  # fmt: skip
+    """Load and check the model, its initial state and tracked items, and plan the steps (nothing runs)."""
     src, result.model, source = load(model)
     flex = flexures_of(src, result.model)
     state, result.initial_state, data0 = initial_state(src, flex, result.model, keyframe=keyframe, qpos=qpos,
@@ -350,11 +358,18 @@ def _run(result, model, bar, *, keyframe, qpos, qvel, duration, track, frame, me
     result.duration, result.sample_interval = plan.duration, plan.interval
     if steps and any(abs(plan.h(round(plan.interval / h)) / h - 1) > 0.01 for h in steps):
         result.notes.append(f"steps were aligned to divisors of the sample interval: {[plan.h(n) for n in plan.grid]}")
+    return _Scene(full, source, src, data0, items, frame_body, plan)
+
+
+def _run(result, scene, bar, *, methods, integrators, steps, variants, repeat, bisect, limit_rtol, reference_tol,
+         max_refinements, reference_step, frequencies, max_run_wall, clock, **_):  # fmt: skip
+    """The runs of :func:`study`, filling ``result`` as they go (so a failure leaves what was measured)."""
+    plan, full = scene.plan, scene.full
     ctx = _Study(result, plan, full, repeat=max(1, repeat), max_run_wall=max_run_wall, frequencies=frequencies,
                  clock=clock, bar=bar)  # fmt: skip
     ctx.reference(tol=reference_tol, max_refinements=max_refinements, start_step=reference_step)
     entries = DEFAULT_VARIANTS if variants is None else variants
-    sims = [full] + _variant_sims(entries, source, src, data0, items, frame_body, result)
+    sims = [full] + _variant_sims(entries, scene.source, scene.src, scene.data0, scene.items, scene.frame, result)
     groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
     bar.total = bar.n + groups * (len(plan.grid) + 3) + 1 + max(1, repeat)  # ~3 bisection runs per group
     bar.refresh()
@@ -362,6 +377,7 @@ def _run(result, model, bar, *, keyframe, qpos, qvel, duration, track, frame, me
         for method in methods if sim.has_flexures else [None]:
             for integrator in integrators:
                 rows, limit = ctx.group(sim, method, integrator, bisect, limit_rtol)
+                limit.steps_given = bool(steps)  # what to widen: the given steps or the default range
                 result.rows += rows
                 result.limits.append(limit)
     _mark_model_setting(ctx, full, plan)

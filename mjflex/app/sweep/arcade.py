@@ -154,7 +154,6 @@ def run(args):
     from .api import sweep
 
     started = time.perf_counter()
-    os.makedirs(args.out, exist_ok=True)
     executor, close = make_executor(args.executor, args.workers)
     recipe = arcade_recipe()
     try:
@@ -167,6 +166,7 @@ def run(args):
                           threads=args.threads, progress=False)  # fmt: skip
     finally:
         close()
+    os.makedirs(args.out, exist_ok=True)  # checked by the command line before the run; made once there are results
     stem = os.path.join(args.out, "sweep_arcade")
     ds.to_netcdf(stem + ".nc")
     plot(ds, modes, stem + ".png")

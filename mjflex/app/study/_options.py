@@ -1,0 +1,104 @@
+"""The study's options, every one checked before the study loads, runs or writes anything.
+
+:func:`check_options` raises :class:`StudyError` (a ValueError) for a value out of range and
+TypeError for a value of the wrong type, naming the option as the caller spells it: the
+keyword of :func:`mjflex.app.study.study`, or the command line's ``--option`` (``spell``).
+"""
+
+import math
+import os
+
+from ...core import validation
+from .._output import folder_problem
+from ._run import INTEGRATOR_ENUMS
+from ._scene import StudyError
+
+METHODS = ("twist", "dualquat")
+CLOCKS = ("cpu", "wall")
+
+
+def _names(value, name, allowed):
+    if isinstance(value, str) or not isinstance(value, list | tuple) or not value:
+        raise TypeError(
+            f"{name} must be a non-empty list of names from {list(allowed)}; got {validation.shorten(value)}"
+        )
+    bad = [v for v in value if v not in allowed]
+    if bad:
+        raise StudyError(f"unknown choice(s) {validation.shorten(bad)} for {name}: choose from {list(allowed)}")
+
+
+def check_options(opts: dict, out=None, spell=lambda name: name) -> None:
+    """Check the keyword arguments ``opts`` of :func:`mjflex.app.study.study` (and ``out``)."""
+
+    def number(key, **bounds):
+        value = opts[key]
+        if value is None:
+            return None
+        try:
+            return validation.check_number(value, spell(key), **bounds)
+        except ValueError as exc:
+            raise StudyError(str(exc)) from None
+
+    for key in ("duration", "max_step", "min_step", "reference_step", "limit_rtol"):
+        number(key, above=0.0)
+    for key, low in (("step_count", 1), ("repeat", 1), ("samples", 1), ("frequencies", 1), ("bisect", 0),
+                     ("max_refinements", 0)):  # fmt: skip
+        if opts[key] is None:
+            raise TypeError(f"{spell(key)} must be an integer >= {low}; got None")
+        number(key, integer=True, at_least=low)
+    number("reference_tol", above=0.0, below=1.0)
+    wall = opts["max_run_wall"]
+    if not (isinstance(wall, float) and wall == math.inf):  # inf: no budget
+        number("max_run_wall", above=0.0)
+    if opts["min_step"] is not None and opts["max_step"] is not None and opts["min_step"] > opts["max_step"]:
+        raise StudyError(
+            f"{spell('min_step')} {opts['min_step']:g} s is above {spell('max_step')} {opts['max_step']:g} s; swap them"
+        )
+    steps = opts["steps"]
+    if steps is not None:
+        if isinstance(steps, str) or not isinstance(steps, list | tuple) or not steps:
+            raise TypeError(
+                f"{spell('steps')} must be a non-empty list of time steps [s]; got {validation.shorten(steps)}"
+            )
+        for i, h in enumerate(steps):
+            try:
+                validation.check_number(h, f"{spell('steps')}[{i}]", above=0.0)
+            except ValueError as exc:
+                raise StudyError(f"{exc} (time steps are positive numbers of seconds)") from None
+        given = [spell(k) for k in ("max_step", "min_step") if opts[k] is not None]
+        if given:
+            raise StudyError(
+                f"{spell('steps')} lists the candidate steps, so {' and '.join(given)} (which set the default "
+                f"range) would be ignored; give one or the other"
+            )
+    targets = opts["targets"]
+    if isinstance(targets, str) or not isinstance(targets, list | tuple) or not targets:
+        raise TypeError(
+            f"{spell('targets')} must be a non-empty list of relative errors; got {validation.shorten(targets)}"
+        )
+    for i, t in enumerate(targets):
+        try:
+            validation.check_number(t, f"{spell('targets')}[{i}]", above=0.0, at_most=1.0)
+        except ValueError as exc:
+            raise StudyError(f"{exc}: targets are relative pose errors, 0.01 = 1 %") from None
+    _names(opts["methods"], spell("methods"), METHODS)
+    _names(opts["integrators"], spell("integrators"), sorted(INTEGRATOR_ENUMS))
+    if opts["clock"] not in CLOCKS:
+        raise StudyError(f"{spell('clock')} must be 'cpu' or 'wall'; got {validation.shorten(opts['clock'])}")
+    track = opts["track"]
+    if track is not None and (isinstance(track, str) or not isinstance(track, list | tuple) or not track
+                              or not all(isinstance(t, str) and t for t in track)):  # fmt: skip
+        raise TypeError(
+            f"{spell('track')} must be a non-empty list of body or site names; got {validation.shorten(track)}"
+        )
+    if not isinstance(opts["frame"], str):
+        raise TypeError(
+            f"{spell('frame')} must be a body name, 'world' or 'auto'; got {validation.shorten(opts['frame'])}"
+        )
+    keyframe = opts["keyframe"]
+    if keyframe is not None and (isinstance(keyframe, bool) or not isinstance(keyframe, str | int)):
+        raise TypeError(f"{spell('keyframe')} must be a keyframe name or index; got {validation.shorten(keyframe)}")
+    if out is not None:
+        problem = folder_problem(os.fspath(out), spell("out"))
+        if problem:
+            raise StudyError(problem)
