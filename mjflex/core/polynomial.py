@@ -27,7 +27,7 @@ by ``1/2 Lambda~^T delta``, which extends eq. 84 to the scalar parts. With
 :mod:`mjflex.core.elements`.) The viscous part stays quadratic (``B``).
 
 Workless generalized forces (the paper's footnote 4)
----------------------------------------------------
+----------------------------------------------------
 ``Lambda~_ab`` has rank 6 at every displacement; its null space is spanned by
 ``n_1 = (sigma, xi, 0, 0)`` and ``n_2 = (s', x', sigma, xi)`` (:func:`workless_generalized_forces`),
 the gradients of the constraints ``|q_r|^2 = 1`` and ``q_r . q_d = 0`` that make ``q`` a unit
