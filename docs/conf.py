@@ -21,7 +21,7 @@ import mjflex  # noqa: E402
 
 project = "mjflex"
 author = "the mjflex developers"
-copyright = "the mjflex developers; Apache-2.0"  # noqa: A001
+copyright = "the mjflex developers; Apache-2.0"
 release = version = mjflex.__version__
 
 extensions = [
@@ -69,7 +69,8 @@ myst_heading_anchors = 3
 sphinx_gallery_conf = {
     "examples_dirs": ["tutorials"],
     "gallery_dirs": ["auto_tutorials"],
-    "filename_pattern": r"/plot_",  # every tutorial runs at build time
+    "filename_pattern": r"/plot_",  # every tutorial runs at build time,
+    "run_stale_examples": True,  # every build, also when a script is unchanged (the code it calls may not be)
     "within_subsection_order": "FileNameSortKey",
     "download_all_examples": False,
     "remove_config_comments": True,

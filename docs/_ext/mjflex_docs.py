@@ -94,6 +94,11 @@ def write_api_page(app, config=None):
     if text != old:  # unchanged: leave its time stamp, so Sphinx does not re-read it
         with open(API_PAGE, "w") as f:
             f.write(text)
+    stubs = os.path.join(os.path.dirname(API_PAGE), "api")
+    if os.path.isdir(stubs):  # a name no longer public: its old stub would be an orphan page
+        for stub in os.listdir(stubs):
+            if stub.endswith(".rst") and stub[:-4] not in public_names():
+                os.remove(os.path.join(stubs, stub))
     for qualified in public_names():
         obj = _resolve(qualified)
         if not inspect.getdoc(obj):

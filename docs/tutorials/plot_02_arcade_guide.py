@@ -31,8 +31,10 @@ MODELS = Path(mjflex.__file__).parents[1] / "models"  # models/ of the source ch
 model = mujoco.MjModel.from_xml_path(str(MODELS / "arcade.xml"))
 flex = mjflex.Flexures(model)
 kinds = [name.split("_")[0] for name in flex.names]
-print(f"{model.nbody - 1} bodies, {model.nv} degrees of freedom, {len(flex)} elements:",
-      {kind: kinds.count(kind) for kind in sorted(set(kinds))})
+print(
+    f"{model.nbody - 1} bodies, {model.nv} degrees of freedom, {len(flex)} elements:",
+    {kind: kinds.count(kind) for kind in sorted(set(kinds))},
+)
 print(f"integrator {mujoco.mjtIntegrator(model.opt.integrator).name}, time step {model.opt.timestep:g} s")
 
 # %%

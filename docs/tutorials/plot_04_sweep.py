@@ -41,7 +41,8 @@ recipe = mjflex.Recipe(str(MODELS / "two_body.xml"), stiffness_and_damping, keyf
 # A dict of values runs every combination (one dimension per parameter). By default the variants are stepped
 # together by MuJoCo's ``mujoco.batch.Batch`` in this process; ``executor=`` takes a process pool or Dask
 # (:doc:`/howto/sweeps_on_a_cluster`), with bit-identical results.
-ds = mjflex.sweep(recipe, {"k_scale": [0.5, 1.0, 2.0], "beta": [0.0, 2e-4, 2e-3]}, 0.05, swing, samples=101, progress=False)
+grid = {"k_scale": [0.5, 1.0, 2.0], "beta": [0.0, 2e-4, 2e-3]}
+ds = mjflex.sweep(recipe, grid, 0.05, swing, samples=101, progress=False)
 print(ds[["angle", "status"]])
 
 # %%

@@ -70,11 +70,11 @@ print(f"{len(train)} samples, tip rotations up to {np.degrees(np.abs(tips[:, 0])
 # (``y -> -y``), and weights wrench errors by the deflections they cause (the beam model's compliance).
 K_beam = leaf_spring_stiffness(L, t, b, E, nu, method="beam")
 weights = np.linalg.inv(np.linalg.cholesky(K_beam))
-fits = {
-    order: mjflex.fit_potential(R_ab, p_ab, W, order=order, variables=(2, 3, 4), wrench_frame="a", weights=weights,
-                                symmetries=[(1, -1, 1)])  # fmt: skip
-    for order in (2, 4, 6)
-}
+fits = {}
+for order in (2, 4, 6):
+    fits[order] = mjflex.fit_potential(
+        R_ab, p_ab, W, order=order, variables=(2, 3, 4), wrench_frame="a", weights=weights, symmetries=[(1, -1, 1)]
+    )
 print(fits[6].summary())
 
 # %%
@@ -99,6 +99,8 @@ ax.legend()
 # %%
 # The higher orders follow the leaf to large rotations where the quadratic potentials — the beam model's and the
 # fitted one — do not: a straight leaf shortens as it bends, which a quadratic potential in the element's
-# coordinates reads as a stretch and answers with a large axial force. Into a model it goes with its terms: ``mjflex.add_flexure(spec, "leaf", "A", "B", pos=...,
-# K=fit.K, terms=fit.terms)`` writes them into the element's record, and :class:`mjflex.Flexures` evaluates them at
-# every step. Restrict ``variables=`` to what the part needs: each term costs time at every step.
+# coordinates reads as a stretch and answers with a large axial force.
+#
+# Into a model it goes with its terms: ``mjflex.add_flexure(spec, "leaf", "A", "B", pos=..., K=fit.K,
+# terms=fit.terms)`` writes them into the element's record, and :class:`mjflex.Flexures` evaluates them at every
+# step. Restrict ``variables=`` to what the part needs: each term costs time at every step.

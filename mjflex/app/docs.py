@@ -36,7 +36,7 @@ def sphinx_command(out, *, strict=True, tutorials=True):
     return [*command, SOURCE, os.path.join(out, "html")]
 
 
-def build_docs(out=os.path.join("out", "docs"), *, strict=True, tutorials=True) -> int:
+def build_docs(out="out/docs", *, strict=True, tutorials=True) -> int:
     """Build the site into ``out/html``; returns Sphinx's exit status (0: built without warnings).
 
     Raises SystemExit with the fix when the sources or the docs extra are missing.
