@@ -81,7 +81,7 @@ sphinx_gallery_conf = {
     "reset_modules": ("matplotlib", "mjflex_docs.reset_mujoco"),
     "show_memory": False,
     "min_reported_time": 0,
-    "capture_repr": ("__repr__",),
+    "capture_repr": (),  # printed output only, not the value of a block's last expression
     "example_extensions": {".py"},
 }
 

@@ -14,6 +14,7 @@ import importlib
 import inspect
 import os
 
+from docutils import nodes
 from sphinx.util import logging
 from sphinx.util.docutils import SphinxDirective
 
@@ -164,13 +165,30 @@ def resolve_alias(app, env, node, contnode):
 
 
 ENTRIES = (
-    ("rot_x", "torsion ``rot_x``"),
-    ("rot_y", "out-of-plane bending ``rot_y``"),
-    ("rot_z", "compliant rotation ``rot_z``"),
-    ("x", "axial ``x``"),
-    ("y", "in-plane shear ``y``"),
-    ("z", "out-of-plane shear ``z``"),
+    ("rot_x", "torsion rot_x"),
+    ("rot_y", "out-of-plane bending rot_y"),
+    ("rot_z", "compliant rotation rot_z"),
+    ("x", "axial x"),
+    ("y", "in-plane shear y"),
+    ("z", "out-of-plane shear z"),
 )
+
+
+def _table(header, rows):
+    """A docutils table (works in reStructuredText and MyST pages alike)."""
+    table, group = nodes.table(), nodes.tgroup(cols=len(header))
+    table += group
+    group += [nodes.colspec(colwidth=1) for _ in header]
+
+    def row(cells):
+        out = nodes.row()
+        for cell in cells:
+            out += nodes.entry("", nodes.paragraph(text=cell))
+        return out
+
+    group += nodes.thead("", row(header))
+    group += nodes.tbody("", *(row(r) for r in rows))
+    return table
 
 
 class ErrorBands(SphinxDirective):
@@ -179,17 +197,19 @@ class ErrorBands(SphinxDirective):
     def run(self):
         from mjflex.geometry.tables import error_bands
 
+        import mjflex.geometry
+
+        data = os.path.join(os.path.dirname(mjflex.geometry.__file__), "data")
+        for name in ("notch_hinge.json", "leaf_spring.json"):
+            self.env.note_dependency(os.path.join(data, name))  # re-read the page when a table changes
         bands = {kind: error_bands(kind) for kind in ("notch", "leaf")}
-        rows = [".. list-table::", "   :header-rows: 2", "", "   * - entry", "     - notch hinge", "     -", "     -"]
-        rows += ["     - leaf spring", "     -", "     -"]
-        rows += ["   * -"] + ["     - interpolation", "     - mesh", "     - **total**"] * 2
-        for key, label in ENTRIES:
-            rows.append(f"   * - {label}")
-            for kind in ("notch", "leaf"):
-                band = bands[kind][key]
-                rows += [f"     - {100 * band[part]:.2g} %" for part in ("interpolation", "discretisation")]
-                rows.append(f"     - **{100 * band['total']:.2g} %**")
-        return self.parse_text_to_nodes("\n".join(rows))
+        parts = (("interpolation", "interpolation"), ("discretisation", "mesh"), ("total", "total"))
+        header = ["entry"] + [f"{kind}: {label}" for kind in ("notch hinge", "leaf spring") for _, label in parts]
+        rows = [
+            [label] + [f"{100 * bands[kind][key][part]:.2g} %" for kind in ("notch", "leaf") for part, _ in parts]
+            for key, label in ENTRIES
+        ]
+        return [_table(header, rows)]
 
 
 def reset_mujoco(gallery_conf, fname, when=None):

@@ -72,7 +72,7 @@ ax2.set(xlabel="time [ms]", ylabel="cylinder stroke [mm]", title="axial position
 # Frames
 # ------
 # :class:`mjflex.app.render.RunRenderer` draws stored states offscreen (EGL on a machine without a display) with
-# each flexure coloured by its bending strain, blue to red.
+# each flexure coloured by its bending strain, green (none) through yellow to red (the largest of the run).
 renderer = RunRenderer(model, flex, run, width=480, height=300)
 picks = [0, len(t) // 2, len(t) - 1]
 fig, axes = plt.subplots(1, 3, figsize=(10, 2.4), layout="constrained")
