@@ -195,9 +195,8 @@ class ErrorBands(SphinxDirective):
     """``mjflex-error-bands``: the stored error bands of the stiffness tables (package data), as a table."""
 
     def run(self):
-        from mjflex.geometry.tables import error_bands
-
         import mjflex.geometry
+        from mjflex.geometry.tables import error_bands
 
         data = os.path.join(os.path.dirname(mjflex.geometry.__file__), "data")
         for name in ("notch_hinge.json", "leaf_spring.json"):
