@@ -124,6 +124,9 @@ EXAMPLES_PENDING = {
     "mjflex.add_flexure_in_body_frame", "mjflex.bushing_variant", "mjflex.pseudo_rigid_body_variant", "mjflex.reduce",
     "mjflex.reference_body_poses", "mjflex.weld_variant", "mjflex.Recipe", "mjflex.study", "mjflex.sweep",
     "mjflex.app.sweep.edit_flexure", "mjflex.app.sweep.flexure_matrices", "mjflex.PotentialFit",
+    # issue 17 (merged into main after this branch started): not public here yet
+    "mjflex.Compliance", "mjflex.damping_from_ratios", "mjflex.make_compliant", "mjflex.make_rigid",
+    "mjflex.normal_modes", "mjflex.remove_flexure",
 }  # fmt: skip
 
 
