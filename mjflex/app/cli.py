@@ -300,6 +300,17 @@ def _study_options(args):
     )  # fmt: skip
 
 
+def _docs_parser(sub):
+    p = sub.add_parser("docs", help="build the documentation site (needs a source checkout and the docs extra)",
+                       description="Build the HTML documentation from docs/ of the source checkout with Sphinx, "
+                       "executing the tutorials; strict by default: warnings, broken references and failing "
+                       'examples are errors. Needs: pip install -e ".[docs]".', formatter_class=HelpFormatter)  # fmt: skip
+    p.add_argument("--out", default=os.path.join("out", "docs"), help="output folder (default out/docs)")
+    p.add_argument("--no-strict", action="store_true", help="report warnings without failing")
+    p.add_argument("--no-tutorials", action="store_true", help="do not execute the tutorials (a quick draft)")
+    return p
+
+
 def _study_command(args):
     from .study import StudyError, study  # tqdm and the study's modules load only for this command
     from .study._options import check_options
@@ -386,7 +397,7 @@ def _study_parser(sub):
 
 
 def build_parser():
-    """The command line's parser: ``simulate``, ``demo``, ``study`` and ``sweep``."""
+    """The ``python -m mjflex`` argument parser (also read by the documentation's command-line reference)."""
     ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
     sub = ap.add_subparsers(dest="command", required=True)
     sim = sub.add_parser("simulate", help="simulate an MJCF model with mjflex elements", formatter_class=HelpFormatter)
@@ -417,6 +428,7 @@ def build_parser():
         p.add_argument("--slowdown", type=positive_float, default=100.0, help="slow-motion factor of the video")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
     _sweep_parser(sub)
+    _docs_parser(sub)
     return ap
 
 
@@ -424,6 +436,10 @@ def main(argv=None):
     ap = build_parser()
     args = ap.parse_args(argv)
     args.provenance = provenance(argv)
+    if args.command == "docs":
+        from .docs import build_docs
+
+        raise SystemExit(build_docs(args.out, strict=not args.no_strict, tutorials=not args.no_tutorials))
     if args.command == "study":
         _study_command(args)
         return

@@ -213,6 +213,16 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, check=Tr
     -------
     U : ndarray, shape (...)
         Energy [J], broadcast over the leading axes of all arguments.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K = np.diag([2.0, 2.0, 2.0, 1e4, 1e4, 1e4])  # [N m/rad] x 3, [N/m] x 3
+    >>> R_WB, p_WB = mjflex.transform_from_twist([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])  # B turned 0.1 rad about z
+    >>> U = mjflex.potential(np.eye(3), np.zeros(3), R_WB, p_WB, K)  # frame a at the world origin
+    >>> print(f"{U:.6f} J")  # K_zz theta^2 / 2
+    0.010000 J
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K}
     return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check, terms)
@@ -256,6 +266,19 @@ def wrench_on_b(
     wrench : ndarray, shape (..., 6)
         ``[moment about p_WB; force]`` on body B in world axes [N m; N]. The element exerts
         the equal and opposite wrench on body A.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K = np.diag([2.0, 2.0, 2.0, 1e4, 1e4, 1e4])
+    >>> R_WB, p_WB = mjflex.transform_from_twist([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
+    >>> W = mjflex.wrench_on_b(np.eye(3), np.zeros(3), R_WB, p_WB, K)
+    >>> print(np.round(W, 12) + 0.0)  # [moment about b; force], world axes: it turns B back
+    [ 0.   0.  -0.2  0.   0.   0. ]
+    >>> W = mjflex.wrench_on_b(np.eye(3), np.zeros(3), R_WB, p_WB, K, B=0.01 * K, w_WB=[0.0, 0.0, 1.0])
+    >>> print(f"{W[2]:.4f} N m")  # elastic plus viscous, B spinning at 1 rad/s
+    -0.2200 N m
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
@@ -275,6 +298,15 @@ def dissipation_power(
     -------
     power : ndarray, shape (...)
         Dissipated power [W].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> B = np.diag([0.01, 0.01, 0.01, 10.0, 10.0, 10.0])
+    >>> P = mjflex.dissipation_power(np.eye(3), np.zeros(3), np.eye(3), np.zeros(3), B, w_WB=[0.0, 0.0, 2.0])
+    >>> print(f"{P:.4f} W")  # B_zz omega^2 at rest
+    0.0400 W
     """
     if B is None:
         raise ValueError("B is required: dissipation_power needs the damping matrix.")
@@ -308,6 +340,14 @@ def planar_potential(theta_WA, p_WA, theta_WB, p_WB, K, *, method="twist", check
     U : ndarray, shape (...)
         Energy [J]. Equals :func:`potential` of the same motion embedded in the x-y plane
         with ``K`` in rows/columns ``(2, 3, 4)`` of a 6x6 matrix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K = np.diag([2.0, 1e4, 1e4])  # [theta; x; y]: N m/rad, N/m, N/m
+    >>> print(f"{mjflex.planar_potential(0.0, [0.0, 0.0], 0.1, [0.0, 0.0], K):.6f} J")
+    0.010000 J
     """
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K}
     return _energy_call(_PLANAR, _pk.planar_potential_batch, values, method, check)
@@ -334,6 +374,14 @@ def planar_wrench_on_b(
     -------
     wrench : ndarray, shape (..., 3)
         ``[moment about p_WB; fx; fy]`` on body B, world axes [N m; N; N].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K = np.diag([2.0, 1e4, 1e4])
+    >>> print(np.round(mjflex.planar_wrench_on_b(0.0, [0.0, 0.0], 0.0, [0.001, 0.0], K), 12) + 0.0)  # [moment; fx; fy]
+    [  0. -10.   0.]
     """
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
@@ -343,7 +391,17 @@ def planar_wrench_on_b(
 def planar_dissipation_power(
     theta_WA, p_WA, theta_WB, p_WB, B, *, method="twist", w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True
 ):
-    """Power dissipated by a planar element [W]; arguments as in :func:`planar_wrench_on_b`."""
+    """Power dissipated by a planar element [W]; arguments as in :func:`planar_wrench_on_b`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> B = np.diag([0.01, 10.0, 10.0])
+    >>> P = mjflex.planar_dissipation_power(0.0, [0.0, 0.0], 0.0, [0.0, 0.0], B, v_WB=[0.1, 0.0])
+    >>> print(f"{P:.4f} W")
+    0.1000 W
+    """
     if B is None:
         raise ValueError("B is required: planar_dissipation_power needs the damping matrix.")
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": None, "B": B,

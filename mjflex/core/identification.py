@@ -379,6 +379,21 @@ def fit_potential(
         Coordinates not excited by the samples, a rank-deficient or ill-conditioned design
         (condition above ``CONDITION_WARN``), or a fitted ``K`` that is not positive
         semi-definite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> rng = np.random.default_rng(0)
+    >>> K = np.diag([2.0, 2.0, 1.0, 4e4, 4e4, 1e5])
+    >>> true = mjflex.PolynomialTerms("twist", [[0, 0, 4, 0, 0, 0], [0, 0, 2, 2, 0, 0]], [30.0, -2e3])
+    >>> R_ab, p_ab = mjflex.transform_from_twist(rng.uniform(-1, 1, (100, 6)) * [0.3, 0.3, 0.8, 2e-3, 2e-3, 1e-3])
+    >>> W = mjflex.wrench_on_b(np.eye(3), np.zeros(3), R_ab, p_ab, K, terms=true)  # samples: poses and wrenches
+    >>> fit = mjflex.fit_potential(R_ab, p_ab, W, order=4, wrench_frame="a")
+    >>> print(np.allclose(fit.K, K, rtol=1e-8), fit.rank == len(fit.parameters))
+    True True
+    >>> print(f"{fit.terms.coefficients[np.all(fit.terms.exponents == [0, 0, 4, 0, 0, 0], axis=1)][0]:.6f}")
+    30.000000
     """
     method_code(method)
     R, p, W = _samples(R_ab, p_ab, wrench)
@@ -528,6 +543,20 @@ def potential_in_frame(K, terms, R_F, p_F, *, seed=0):
     terms_new : PolynomialTerms
         The terms in the general basis of the same order: found by interpolating the energy at
         generic displacements, exact to round-off (a residual above 1e-9 relative raises).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K = np.diag([2.0, 2.0, 1.0, 4e4, 4e4, 1e5])
+    >>> terms = mjflex.PolynomialTerms("twist", [[0, 0, 4, 0, 0, 0]], [30.0])
+    >>> K_new, terms_new = mjflex.potential_in_frame(K, terms, np.eye(3), [0.01, 0.0, 0.0])  # frames 1 cm along x
+    >>> R_ab, p_ab = mjflex.transform_from_twist([0.0, 0.0, 0.3, 0.001, 0.0, 0.0])
+    >>> F = (np.eye(3), np.array([0.01, 0.0, 0.0]))
+    >>> U_old = mjflex.potential(np.eye(3), np.zeros(3), R_ab, p_ab, K, terms=terms)
+    >>> U_new = mjflex.potential(F[0], F[1], R_ab, p_ab + R_ab @ F[1], K_new, terms=terms_new)
+    >>> print(np.isclose(U_new, U_old, rtol=1e-9))  # one potential, two descriptions
+    True
     """
     R_F, p_F = check_rotation(R_F, "R_F"), as_array(p_F, "p_F", (3,))
     K_new = stiffness_in_frame(K, R_F, p_F)

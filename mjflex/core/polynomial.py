@@ -27,7 +27,7 @@ by ``1/2 Lambda~^T delta``, which extends eq. 84 to the scalar parts. With
 :mod:`mjflex.core.elements`.) The viscous part stays quadratic (``B``).
 
 Workless generalized forces (the paper's footnote 4)
----------------------------------------------------
+----------------------------------------------------
 ``Lambda~_ab`` has rank 6 at every displacement; its null space is spanned by
 ``n_1 = (sigma, xi, 0, 0)`` and ``n_2 = (s', x', sigma, xi)`` (:func:`workless_generalized_forces`),
 the gradients of the constraints ``|q_r|^2 = 1`` and ``q_r . q_d = 0`` that make ``q`` a unit
@@ -107,6 +107,17 @@ class PolynomialTerms:
         Naming the offending row when a term is constant or linear, odd (dual quaternion), a
         duplicate, has an exponent above ``MAX_EXPONENT``, a coefficient is not finite, or the
         terms stress the element at rest.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> terms = mjflex.PolynomialTerms("twist", [[0, 0, 4, 0, 0, 0]], [50.0])  # U += 50 tau_3^4
+    >>> K = np.diag([2.0, 2.0, 2.0, 1e4, 1e4, 1e4])
+    >>> R_WB, p_WB = mjflex.transform_from_twist([0.0, 0.0, 0.2, 0.0, 0.0, 0.0])
+    >>> W = mjflex.wrench_on_b(np.eye(3), np.zeros(3), R_WB, p_WB, K, terms=terms)
+    >>> print(f"{W[2]:.4f} N m")  # -(2 * 0.2 + 4 * 50 * 0.2^3)
+    -2.0000 N m
     """
 
     method: str
@@ -368,6 +379,17 @@ def polynomial_basis(method: str, order: int, variables=None, symmetries=None) -
         (``s' xi_j``, ``s' x'_j``, ``s'^2``) are cubic and quartic in the displacement, so they
         join from ``N = 4``. Every term is at least cubic in the displacement, so ``K`` is
         exactly the stiffness at rest.
+
+    Examples
+    --------
+    >>> import mjflex
+    >>> exps = mjflex.polynomial_basis("twist", 4, variables=(2, 3, 4))  # up to order 4 in (tau_3, t_1, t_2)
+    >>> print(exps.shape)
+    (25, 6)
+    >>> print(exps[:3])
+    [[0 0 3 0 0 0]
+     [0 0 2 1 0 0]
+     [0 0 2 0 1 0]]
     """
     code = method_code(method)
     if not isinstance(order, int | np.integer) or order < 2 or (code == 1 and order % 2):
@@ -422,6 +444,15 @@ def workless_generalized_forces(q):
         ``|q_r|^2 = 1`` and ``q_r . q_d = 0`` (halved). They span the null space of the 6x8 map
         of eq. 116 (footnote 4): adding any combination of them to generalized forces leaves
         the wrench unchanged.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> q = mjflex.dual_quaternion_from_transform(np.eye(3), [0.2, 0.0, 0.0])
+    >>> print(np.round(mjflex.workless_generalized_forces(q), 6) + 0.0)
+    [[1.  0.  0.  0.  0.  0.  0.  0. ]
+     [0.  0.1 0.  0.  1.  0.  0.  0. ]]
     """
     q = as_array(q, "q", (8,))
     N = np.zeros((*q.shape[:-1], 2, 8))

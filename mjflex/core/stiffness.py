@@ -38,6 +38,14 @@ def adjoint_from_transform(R_AB, p_AB, *, check=True):
     Ad : ndarray, shape (..., 6, 6)
         ``[[R, 0], [p^ R, R]]``: maps a twist in B coordinates about B's origin to the same
         twist in A coordinates about A's origin.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> Ad = mjflex.adjoint_from_transform(np.eye(3), [0.1, 0.0, 0.0])  # B 0.1 m along x of A
+    >>> print(Ad @ [0.0, 0.0, 1.0, 0.0, 0.0, 0.0] + 0.0)  # a unit spin about B's z seen at A's origin
+    [ 0.   0.   1.   0.  -0.1  0. ]
     """
     if check:
         R_AB, p_AB = check_rotation(R_AB, "R_AB"), as_array(p_AB, "p_AB", (3,))
@@ -69,6 +77,15 @@ def stiffness_in_frame(K_A, R_AB, p_AB, *, check=True):
     K_B : ndarray, shape (..., 6, 6)
         ``Ad^T K_A Ad``: the same element in B coordinates about B's origin (exactly
         symmetric).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K_A = np.diag([1.0, 1.0, 1.0, 1e4, 1e4, 1e4])  # a bushing at A's origin
+    >>> K_B = mjflex.stiffness_in_frame(K_A, np.eye(3), [0.1, 0.0, 0.0])  # the same element seen from 0.1 m away
+    >>> print(f"{K_B[2, 2]:.1f} N m/rad")  # rotation about z at B also stretches the bushing: 1 + 1e4 * 0.1^2
+    101.0 N m/rad
     """
     if check:
         K_A = check_psd_matrix(K_A, "K_A", 6, what="stiffness")
@@ -105,6 +122,15 @@ def centre_of_stiffness(K, *, check=True):
         When the centre does not exist or is not unique: ``(tr K_t) I - K_t`` is singular,
         which happens when the translational block ``K_t`` has two or more zero eigenvalues
         (the element is translationally free along a plane).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K_A = np.diag([1.0, 1.0, 1.0, 1e4, 2e4, 3e4])
+    >>> K_F = mjflex.stiffness_in_frame(K_A, np.eye(3), [0.05, -0.02, 0.01])  # the same spring, about another point
+    >>> print(np.round(mjflex.centre_of_stiffness(K_F), 12) + 0.0)  # where it is uncoupled again, in F coordinates
+    [-0.05  0.02 -0.01]
     """
     K = check_psd_matrix(K, "K", 6, what="stiffness") if check else np.asarray(K, dtype=float)
     Kc, Kt = K[..., :3, 3:], K[..., 3:, 3:]

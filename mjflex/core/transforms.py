@@ -51,6 +51,15 @@ def twist_from_transform(R, p, *, check=True):
     xi : ndarray, shape (..., 6)
         ``[tau; t]``: rotation vector [rad] (angle in [0, pi]) and translational part [m],
         with ``(R, p) = exp(xi^)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> c, s = np.cos(0.3), np.sin(0.3)
+    >>> R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])  # 0.3 rad about z
+    >>> print(np.round(mjflex.twist_from_transform(R, [0.1, 0.0, 0.0]), 4) + 0.0)
+    [ 0.      0.      0.3     0.0992 -0.015   0.    ]
     """
     R, p = _pose(R, p, check)
     shape, (R_, p_) = flatten([R, p], [R.shape[:-2], p.shape[:-1]], ["R", "p"])
@@ -75,6 +84,21 @@ def transform_from_twist(xi, *, check=True):
         Rotation ``R_AB``.
     p : ndarray, shape (..., 3)
         Position ``p_AB`` [m].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> R, p = mjflex.transform_from_twist([0.0, 0.0, np.pi / 2, 0.1, 0.0, 0.0])  # a quarter turn about z
+    >>> print(np.round(R, 6) + 0.0)
+    [[ 0. -1.  0.]
+     [ 1.  0.  0.]
+     [ 0.  0.  1.]]
+    >>> print(np.round(mjflex.twist_from_transform(R, p), 6) + 0.0)  # the inverse
+    [0.       0.       1.570796 0.1      0.       0.      ]
+    >>> R, p = mjflex.transform_from_twist(np.zeros((4, 2, 6)))  # any leading axes
+    >>> print(R.shape, p.shape)
+    (4, 2, 3, 3) (4, 2, 3)
     """
     xi = np.ascontiguousarray(as_array(xi, "xi", (6,)) if check else xi, dtype=np.float64)
     shape, (xi_,) = flatten([xi], [xi.shape[:-1]], ["xi"])
@@ -101,6 +125,14 @@ def dual_quaternion_from_transform(R, p, *, check=True):
     q : ndarray, shape (..., 8)
         ``(sigma, xi_1, xi_2, xi_3, s', x'_1, x'_2, x'_3)``: real part w-first with
         ``sigma >= 0``, then dual part w-first [m]; ``q_d = (0, p) q_r / 2``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> q = mjflex.dual_quaternion_from_transform(np.eye(3), [0.2, 0.0, 0.0])  # a pure translation
+    >>> print(np.round(q, 6) + 0.0)  # (w, x, y, z, w', x', y', z')
+    [1.  0.  0.  0.  0.  0.1 0.  0. ]
     """
     R, p = _pose(R, p, check)
     shape, (R_, p_) = flatten([R, p], [R.shape[:-2], p.shape[:-1]], ["R", "p"])
@@ -127,6 +159,15 @@ def transform_from_dual_quaternion(q, *, check=True):
         Rotation ``R_AB``.
     p : ndarray, shape (..., 3)
         Position ``p_AB`` [m], ``p = 2 vec(q_d conj(q_r))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> R, p = mjflex.transform_from_twist([0.1, -0.2, 0.3, 0.01, 0.02, 0.03])
+    >>> R2, p2 = mjflex.transform_from_dual_quaternion(mjflex.dual_quaternion_from_transform(R, p))
+    >>> print(np.allclose(R2, R, atol=1e-14), np.allclose(p2, p, atol=1e-14))
+    True True
     """
     q = np.ascontiguousarray(check_unit_dual_quaternion(q, "q") if check else q, dtype=np.float64)
     shape, (q_,) = flatten([q], [q.shape[:-1]], ["q"])

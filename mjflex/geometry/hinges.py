@@ -70,6 +70,13 @@ def rectangle_torsion_constant(a, c):
     ``J = (A C^3 / 3) [1 - (192 / pi^5)(C / A) sum_{n odd} tanh(n pi A / (2 C)) / n^5]`` with
     ``A = max(a, c)``, ``C = min(a, c)`` (Timoshenko & Goodier, Theory of Elasticity, sec. 109).
     Accepts arrays; the series is summed to round-off.
+
+    Examples
+    --------
+    >>> import mjflex
+    >>> J = mjflex.geometry.rectangle_torsion_constant(8e-3, 0.5e-3)  # a thin strip: about a c^3 / 3
+    >>> print(f"{J:.4e} m^4, thin-strip limit {8e-3 * 0.5e-3**3 / 3:.4e} m^4")
+    3.2020e-13 m^4, thin-strip limit 3.3333e-13 m^4
     """
     a, c = np.asarray(a, dtype=float), np.asarray(c, dtype=float)
     A, C = np.maximum(a, c), np.minimum(a, c)
@@ -100,7 +107,16 @@ def _beam_compliance(h, half_length, b, E, nu, wide):
 
 
 def notch_hinge_thickness(x, R, t):
-    """Thickness of a circular notch hinge at ``x`` from its centre: ``t + 2 (R - sqrt(R^2 - x^2))``."""
+    """Thickness of a circular notch hinge at ``x`` from its centre: ``t + 2 (R - sqrt(R^2 - x^2))``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> t_x = mjflex.geometry.notch_hinge_thickness(np.array([0.0, 1e-3, 2e-3]), R=2e-3, t=0.3e-3)
+    >>> print(np.round(t_x * 1e3, 4))  # [mm]
+    [0.3    0.8359 4.3   ]
+    """
     x = np.minimum(np.abs(x), R)
     return t + 2.0 * (R - np.sqrt(np.maximum(R * R - x * x, 0.0)))
 
@@ -197,6 +213,16 @@ def notch_hinge_stiffness(
     0.3, 1.20 at 0.8; axial 1.08-1.33; in-plane shear 0.99-1.13; out-of-plane bending and
     shear 1.1-1.5; torsion 0.05-0.8 (Saint-Venant torsion ignores the blocks' restraint of
     the neck's warping, so it is far too soft for short, wide necks).
+
+    Examples
+    --------
+    >>> import mjflex
+    >>> K = mjflex.geometry.notch_hinge_stiffness(R=2e-3, t=0.3e-3, b=5e-3, E=70e9, nu=0.33)  # aluminium
+    >>> print(f"compliant rotation {K[2, 2]:.4f} N m/rad, axial {K[3, 3]:.3g} N/m")
+    compliant rotation 0.9135 N m/rad, axial 5.03e+07 N/m
+    >>> K_beam = mjflex.geometry.notch_hinge_stiffness(2e-3, 0.3e-3, 5e-3, 70e9, 0.33, method="beam")
+    >>> print(f"beam model / tables: {K_beam[2, 2] / K[2, 2]:.3f}")
+    beam model / tables: 1.081
     """
     _positive(R=R, t=t, b=b)
     _method(method, wide)
@@ -291,6 +317,13 @@ def leaf_spring_stiffness(
     40 (a long wide leaf bends with free anticlastic curvature away from its roots, nearer
     ``E`` than the plane-strain modulus the default ``wide`` uses); in-plane shear 1.84, 1.46,
     1.16, 1.10; axial and out-of-plane entries up to 2.1 for ``L/t = 2``; torsion 0.05-0.8.
+
+    Examples
+    --------
+    >>> import mjflex
+    >>> K = mjflex.geometry.leaf_spring_stiffness(L=10e-3, t=0.5e-3, b=8e-3, E=200e9, nu=0.3)  # steel
+    >>> print(f"compliant rotation {K[2, 2]:.4f} N m/rad, in-plane shear {K[4, 4]:.4g} N/m")
+    compliant rotation 1.6850 N m/rad, in-plane shear 1.904e+05 N/m
     """
     _positive(L=L, t=t, b=b)
     _method(method, wide)
@@ -325,6 +358,14 @@ def bending_strain_per_radian(K, t, b, E, nu, *, wide=None):
 
     ``eps / theta = 6 K_rot_z / (E* b t^2)``: the moment ``K_rot_z theta`` over the section
     modulus ``b t^2 / 6`` of the thinnest section, divided by the bending modulus.
+
+    Examples
+    --------
+    >>> import mjflex
+    >>> K = mjflex.geometry.notch_hinge_stiffness(2e-3, 0.3e-3, 5e-3, 70e9, 0.33)
+    >>> eps = mjflex.geometry.bending_strain_per_radian(K, t=0.3e-3, b=5e-3, E=70e9, nu=0.33)
+    >>> print(f"{eps:.4f} per rad: 0.5 % strain at {0.005 / eps:.3f} rad")
+    0.1551 per rad: 0.5 % strain at 0.032 rad
     """
     wide = b >= WIDE_RATIO * t if wide is None else wide
     E_bend = E / (1.0 - nu**2) if wide else E

@@ -104,6 +104,8 @@ from ._scene import StudyError
 from ._sweep import INTEGRATORS, METHODS, study
 from .variants import DEFAULT_VARIANTS
 
+study.__doc__ = __doc__  # the function's reference (help(mjflex.study), the API pages) is this docstring
+
 __all__ = [
     "DEFAULT_VARIANTS",
     "INTEGRATORS",

@@ -1,0 +1,93 @@
+"""Sphinx configuration of the mjflex documentation (build: ``python -m mjflex docs``).
+
+Pages are Markdown (MyST); the API reference is generated from the docstrings (numpydoc) of every
+public name (``docs/_ext/mjflex_docs.py`` writes the autosummary page from ``mjflex.__all__``);
+tutorials are sphinx-gallery scripts in ``docs/tutorials/``, executed by the build, which draws
+their figures. No intersphinx: the build needs no network (third-party types are listed in
+``nitpick_ignore_regex`` below).
+"""
+
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "_ext"))
+sys.path.insert(0, os.path.dirname(HERE))  # the source checkout's mjflex, also without an install
+
+if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+    os.environ.setdefault("MUJOCO_GL", "egl")  # tutorials that render, headless (MUJOCO_GL=osmesa elsewhere)
+
+import mjflex  # noqa: E402
+
+project = "mjflex"
+author = "the mjflex developers"
+copyright = "the mjflex developers; Apache-2.0"
+release = version = mjflex.__version__
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+    "myst_parser",
+    "sphinx_gallery.gen_gallery",
+    "sphinxarg.ext",
+    "mjflex_docs",
+]
+
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+root_doc = "index"
+templates_path = ["_templates"]
+# results/ and study/ hold recorded measurements that scripts read; sphinx-gallery writes its
+# outputs under _generated/ (ignored by git), as does mjflex_docs (the API page)
+exclude_patterns = ["_build", "_generated", "results", "study/*.json", "tutorials/GALLERY_HEADER.rst"]
+
+# ----------------------------------------------------------------------------- strict references
+nitpicky = True
+#: Types from packages without a local inventory (no intersphinx: the build must work offline).
+nitpick_ignore_regex = [
+    ("py:class", r"(numpy|np|mujoco|xarray|scipy|concurrent|multiprocessing|distributed|os)(\..*)?"),
+    ("py:class", r"(ndarray|array_like|optional|callable|MjModel|MjData|MjSpec|Dataset|Executor)"),
+    ("py:class", r"(pathlib\.)?Path|os\.PathLike|collections\.abc\..*|typing\..*|dataclasses\..*"),
+    ("py:(class|exc)", r"(Warning|UserWarning|ValueError|TypeError|Exception|RuntimeError)"),
+]
+
+# ----------------------------------------------------------------------------- API reference
+autosummary_generate = True
+autosummary_imported_members = True
+autodoc_default_options = {"members": False}
+autodoc_typehints = "none"  # the numpydoc sections state types, shapes and units
+numpydoc_show_class_members = False  # the class template lists the members
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+
+# ----------------------------------------------------------------------------- Markdown
+myst_enable_extensions = ["colon_fence", "dollarmath", "deflist"]
+myst_heading_anchors = 3
+
+# ----------------------------------------------------------------------------- tutorials
+sphinx_gallery_conf = {
+    "examples_dirs": ["tutorials"],
+    "gallery_dirs": ["auto_tutorials"],
+    "filename_pattern": r"/plot_",  # every tutorial runs at build time,
+    "run_stale_examples": True,  # every build, also when a script is unchanged (the code it calls may not be)
+    "within_subsection_order": "FileNameSortKey",
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "abort_on_example_error": False,  # report every failing tutorial; -W fails the build
+    "only_warn_on_example_error": False,
+    "matplotlib_animations": False,
+    "image_scrapers": ("matplotlib",),
+    "reset_modules": ("matplotlib", "mjflex_docs.reset_mujoco"),
+    "show_memory": False,
+    "min_reported_time": 0,
+    "capture_repr": (),  # printed output only, not the value of a block's last expression
+    "example_extensions": {".py"},
+}
+
+# ----------------------------------------------------------------------------- HTML
+html_theme = "furo"
+html_title = f"mjflex {release}"
+html_static_path = []
+html_show_sourcelink = False
+suppress_warnings = []

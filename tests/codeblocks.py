@@ -1,0 +1,124 @@
+"""Fenced code blocks of Markdown pages, and how the docs tests run them.
+
+A block is ```` ```python ```` or ```` ```bash ```` (also ``sh``, ``shell``, ``console``); other
+languages (``xml``, ``text``, none) are data or output, not programs. Every program block runs
+in CI unless the line just above its fence marks it::
+
+    <!-- not-run: REASON -->
+
+with a reason (installs from the network, needs a cluster, takes minutes, ...). A page's python
+blocks run in order as one script (later blocks use earlier names); a bash block runs line by
+line, and an unmarked bash block may only call ``python -m mjflex``. Both run in a temporary
+folder holding a copy of the repository's ``models/``, so paths like ``models/two_body.xml``
+work as they do from the repository root.
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+PROGRAMS = {"python": "python", "py": "python", "bash": "bash", "sh": "bash", "shell": "bash", "console": "bash"}
+FENCE = re.compile(r"^(?P<indent> {0,3})(?P<fence>`{3,}|~{3,})(?P<info>[^`\n]*)$")
+MARK = re.compile(r"^\s*<!--\s*not-run:\s*(?P<reason>.*?)\s*-->\s*$")
+#: Commands an unmarked bash block may run.
+RUNNABLE = re.compile(r"^(MUJOCO_GL=\w+ )?python -m mjflex ")
+
+
+@dataclass
+class Block:
+    path: str
+    line: int  # 1-based line of the opening fence
+    language: str  # "python", "bash", or the info string's first word for other blocks
+    code: str
+    skip: str | None  # the not-run reason, if marked
+
+    @property
+    def program(self) -> bool:
+        return self.language in ("python", "bash")
+
+    def where(self) -> str:
+        return f"{os.path.relpath(self.path, ROOT)}:{self.line}"
+
+
+def blocks(path, text=None):
+    """The fenced code blocks of a Markdown file, in order."""
+    if text is None:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    lines = text.split("\n")
+    out, i = [], 0
+    while i < len(lines):
+        m = FENCE.match(lines[i])
+        if not m:
+            i += 1
+            continue
+        fence, info = m["fence"], m["info"].strip()
+        word = info.split()[0].strip("{}") if info else ""
+        mark = MARK.match(lines[i - 1]) if i > 0 else None
+        j = i + 1
+        while j < len(lines) and not lines[j].strip().startswith(fence):
+            j += 1
+        indent = m["indent"]
+        body = "\n".join(line[len(indent) :] if line.startswith(indent) else line for line in lines[i + 1 : j])
+        out.append(Block(path, i + 1, PROGRAMS.get(word.lower(), word), body + "\n", mark["reason"] if mark else None))
+        i = j + 1
+    return out
+
+
+def commands(block):
+    """The command lines of a bash block (continuation lines joined, comments dropped)."""
+    joined = re.sub(r"\s*\\\n\s*", " ", block.code)
+    lines = [line.split(" #")[0].strip() for line in joined.splitlines()]
+    return [line for line in lines if line and not line.startswith("#")]
+
+
+def problems(block):
+    """Why a program block can neither run nor stands marked; empty if fine."""
+    if not block.program:
+        return []
+    if block.skip is not None:
+        return [] if block.skip else [f"{block.where()}: 'not-run:' needs a reason"]
+    if block.language == "bash":
+        fix = "is not 'python -m mjflex ...': run it or mark the block"
+        return [f"{block.where()}: {c!r} {fix}" for c in commands(block) if not RUNNABLE.match(c)]
+    return []
+
+
+def workspace(tmp_path):
+    """A folder with a copy of the repository's models/, for blocks written from the repository root."""
+    shutil.copytree(os.path.join(ROOT, "models"), os.path.join(tmp_path, "models"))
+    return str(tmp_path)
+
+
+def environment():
+    env = dict(os.environ)
+    env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")  # `python` is this venv's
+    if sys.platform.startswith("linux") and not env.get("DISPLAY"):
+        env.setdefault("MUJOCO_GL", "egl")
+    env.setdefault("MPLBACKEND", "agg")
+    return env
+
+
+def run_page(page_blocks, cwd, timeout=600):
+    """Run the unmarked program blocks of one page; returns a list of failures (empty: all ran)."""
+    failures, env = [], environment()
+    python = [b for b in page_blocks if b.language == "python" and b.skip is None]
+    if python:
+        script = "".join(f"# {b.where()}\n{b.code}" for b in python)
+        with open(os.path.join(cwd, "page.py"), "w") as f:
+            f.write(script)
+        done = subprocess.run([sys.executable, "page.py"], cwd=cwd, env=env, capture_output=True, text=True,
+                              timeout=timeout)  # fmt: skip
+        if done.returncode:
+            failures.append(f"{python[0].where()} (python blocks): exit {done.returncode}\n{done.stderr[-3000:]}")
+    for block in (b for b in page_blocks if b.language == "bash" and b.skip is None):
+        for command in commands(block):
+            done = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, capture_output=True, text=True,
+                                  timeout=timeout)  # fmt: skip
+            if done.returncode:
+                failures.append(f"{block.where()}: {command!r}: exit {done.returncode}\n{done.stderr[-3000:]}")
+    return failures
