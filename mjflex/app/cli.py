@@ -304,7 +304,8 @@ def _docs_parser(sub):
     p = sub.add_parser("docs", help="build the documentation site (needs a source checkout and the docs extra)",
                        description="Build the HTML documentation from docs/ of the source checkout with Sphinx, "
                        "executing the tutorials; strict by default: warnings, broken references and failing "
-                       'examples are errors. Needs: pip install -e ".[docs]".', formatter_class=HelpFormatter)  # fmt: skip
+                       'examples are errors. Needs: pip install -e ".[docs]".',
+                       formatter_class=HelpFormatter)  # fmt: skip
     p.add_argument("--out", default=os.path.join("out", "docs"), help="output folder (default out/docs)")
     p.add_argument("--no-strict", action="store_true", help="report warnings without failing")
     p.add_argument("--no-tutorials", action="store_true", help="do not execute the tutorials (a quick draft)")
