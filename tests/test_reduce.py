@@ -1,5 +1,7 @@
 """mjflex.reduce: cheaper models that keep the low modes, their state maps and their dynamics."""
 
+import itertools
+
 import mujoco
 import numpy as np
 import pytest
@@ -199,9 +201,9 @@ def test_a_looser_frequency_tolerance_never_keeps_more_on_arcade():
     tolerances = (0.005, 0.01, 0.02, 0.05, 0.1)
     runs = [mjflex.reduce("models/arcade.xml", 200.0, freq_tol=tol, verify=False).details for tol in tolerances]
     nv = [d["nv"] for d in runs]
-    assert all(a >= b for a, b in zip(nv, nv[1:], strict=False)), dict(zip(tolerances, nv, strict=True))
+    assert all(a >= b for a, b in itertools.pairwise(nv)), dict(zip(tolerances, nv, strict=True))
     assert nv[0] > nv[-1]  # the tolerance matters here: otherwise the check above would be empty
-    for tight, loose in zip(runs, runs[1:], strict=False):
+    for tight, loose in itertools.pairwise(runs):
         for name, e in loose["elements"].items():
             assert set(e["soft"]) <= set(tight["elements"][name]["soft"]), name
             assert not e["kept"] or tight["elements"][name]["kept"], name

@@ -51,8 +51,20 @@ def keyframes_converted(source_model, spec, model, state_from):
     return compile_spec(spec)
 
 
-def assemble(source_spec, source_model, links, *, closer, name, report, details, pre=None, post=None, plane=None,
-             fewest_joints=False):
+def assemble(
+    source_spec,
+    source_model,
+    links,
+    *,
+    closer,
+    name,
+    report,
+    details,
+    pre=None,
+    post=None,
+    plane=None,
+    fewest_joints=False,
+):
     """Build the variant.
 
     Parameters
