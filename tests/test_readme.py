@@ -5,6 +5,9 @@ import importlib.util
 import os
 import re
 
+import numpy as np
+import pytest
+
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 
 
@@ -75,3 +78,37 @@ def test_generator_rewrites_a_stale_block():
         )
     finally:
         del generator.BLOCKS["modes-table"]
+
+
+def test_a_recorded_accuracy_figure_is_what_the_code_computes_today(tmp_path):
+    """scripts/modes.py, run again end to end on models/arcade.xml, gives the recorded ARCADE modes and README row.
+
+    The other README tests compare the README with the JSON that was recorded; this one recomputes a recorded
+    figure (not a timing) with today's code and model, so a change to either that moves it (a stale record) fails.
+    Tolerance 1e-6 relative on the elastic frequencies: the stiffness comes from central differences of the forces
+    (~1e-9 relative, mjflex.mj.linearize), and numpy/scipy/LAPACK versions and CPUs move well-separated eigenvalues
+    at round-off (measured: 1e-10 between this record and a rerun); a change of the model or of the element math
+    that matters moves them by 1e-4 or more. The rigid modes' frequencies are round-off (< 1e-3 Hz) and not compared.
+    """
+    import json
+    import subprocess
+    import sys
+
+    out = tmp_path / "modes.json"
+    subprocess.run([sys.executable, os.path.join("scripts", "modes.py"), os.path.join("models", "arcade.xml"),
+                    "--json", str(out)], cwd=ROOT, check=True, capture_output=True, env={**os.environ,
+                    "MJFLEX_RECORD": "0"})  # fmt: skip
+    with open(out) as f:
+        now = json.load(f)["arcade.xml"]
+    with open(os.path.join(ROOT, "docs", "results", "modes.json")) as f:
+        recorded = json.load(f)["arcade.xml"]
+    for key in ("n_rigid", "guide_mode", "guide_is_axial"):
+        assert now[key] == recorded[key], key
+    for key in ("guide_frequency_hz", "separation", "highest_frequency_hz"):
+        assert now[key] == pytest.approx(recorded[key], rel=1e-6), key
+    elastic = [(a["frequency_hz"], b["frequency_hz"]) for a, b in zip(now["modes"], recorded["modes"], strict=True)
+               if not b["rigid"]]  # fmt: skip
+    assert len(elastic) >= 6
+    np.testing.assert_allclose(*np.array(elastic).T, rtol=1e-6)
+    generator = _generator()
+    assert generator.row_modes({"arcade.xml": now}) == generator.row_modes({"arcade.xml": recorded})
