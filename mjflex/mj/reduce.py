@@ -34,7 +34,10 @@ rigid raises the square of a mode's frequency by about the share it stored there
 in series (more when the mechanism stiffens it in parallel, as closed loops do), so the
 shares only order the candidates: the longest prefix, smallest share first, whose exact
 constrained eigenproblem (those directions held rigid in the full model's modal coordinates)
-keeps every retained frequency within ``freq_tol`` is held rigid. The local frequency of each
+keeps every retained frequency within ``freq_tol`` is held rigid (an element that the prefix
+leaves with more than ``max_joints`` compliant directions stays an element, inside the search).
+The choice only grows with the tolerance: a looser ``freq_tol`` holds a superset of directions,
+keeps fewer elements and, with trees of the fewest joints, never more degrees of freedom. The local frequency of each
 direction (its stiffness against the apparent inertia of the two bodies) is reported
 alongside as an intuition; it is not the criterion, because a direction's in-situ frequency
 depends on the whole mechanism. The variant's own modes are computed and compared at the end

@@ -42,6 +42,9 @@ from ._metrics import _jacobian
 NOISE_TOL = 2e-5
 #: Relative velocity amplitude of the perturbed runs (kinetic energy PERTURBATION**2 of the scene's).
 PERTURBATION = 1e-6
+#: Largest nv for which the linear limit is computed: each trial step costs 4 nv steps and the
+#: eigenvalues of a (2 nv, 2 nv) matrix (ARCADE, nv 210: ~0.5 s on a 2-core machine).
+MAX_NV = 1000
 #: Most halvings of the recommended step when a perturbed run diverges there.
 MAX_HALVINGS = 3
 _EPS = 1e-6  # finite-difference step of the one-step map [rad, m, rad/s, m/s]
@@ -57,7 +60,10 @@ def _rest(sim):
 
 
 def step_map(sim, integrator, method, h):
-    """``(2 nv, 2 nv)`` Jacobian of one ``mj_step`` of ``h`` over ``(qpos tangent, qvel)``, initial pose at rest."""
+    """``(2 nv, 2 nv)`` Jacobian of one ``mj_step`` of ``h`` over ``(qpos tangent, qvel)``, initial pose at rest.
+
+    Actuator activations, controls and mocap poses stay at their initial values (not part of the map).
+    """
     sim.configure(integrator, method, h)
     m, nv = sim.model, sim.model.nv
     T = np.zeros((2 * nv, 2 * nv))

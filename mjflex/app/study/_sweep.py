@@ -14,7 +14,7 @@ from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._result import Limit, Reference, Row, StudyResult
 from ._run import INTEGRATOR_ENUMS, Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import StudyError, build_variant, flexures_of, initial_state, load, tracked_items, variant_state
-from ._stability import MAX_HALVINGS, limiting_mode, linear_limit, linearization, perturbation
+from ._stability import MAX_HALVINGS, MAX_NV, limiting_mode, linear_limit, linearization, perturbation
 from .variants import DEFAULT_VARIANTS
 
 METHODS = ("twist", "dualquat")
@@ -249,6 +249,10 @@ class _Study:
             return
         who = f"{sim.name} {integrator} {sim.methods_label(method)}"
         self.bar.set_description(f"{who} linear limit")
+        if sim.model.nv > MAX_NV:
+            limit.checked, limit.linear_note = True, f"linear limit not computed (nv = {sim.model.nv} > {MAX_NV})"
+            self._check_recommended(sim, method, integrator, limit, None, rtol)
+            return
         key = (sim.name, method)
         if key not in self._linear:
             sim.configure(integrator, method, guess)
@@ -261,6 +265,10 @@ class _Study:
         if h_lin is None:
             limit.linear_note = (f"the linearized model is unstable at every step down to {last:.3g} s" if T is not None
                                  else f"the linearized model is stable at every step up to {last:.3g} s")  # fmt: skip
+        self._check_recommended(sim, method, integrator, limit, h_lin, rtol)
+
+    def _check_recommended(self, sim, method, integrator, limit, h_lin, rtol):
+        """Perturbed runs at the smaller of the two limits (halved until one runs through) and at the measured one."""
         if limit.largest_stable is None:
             return
         dv = perturbation(sim, self.scales.energy)
