@@ -94,8 +94,11 @@ class Limit:
         mode = self.linear_mode
         if not mode:
             return ""
-        what = (f"the {mode['frequency_hz']:.4g} Hz mode" if mode["oscillating"]
-                else f"a damping-limited motion ({2 * math.pi * mode['frequency_hz']:.3g} 1/s)")  # fmt: skip
+        hz = mode["frequency_hz"]
+        if mode["oscillating"]:
+            what = f"the {hz:.0f} Hz mode" if hz >= 1000 else f"the {hz:.4g} Hz mode"
+        else:
+            what = f"a damping-limited motion ({2 * math.pi * hz:.3g} 1/s)"
         where = (f"strain energy mostly in {mode['where']}" if mode["kind"] == "strain"
                  else f"moving mostly {mode['where']}")  # fmt: skip
         return f"{what} ({where}, {100 * mode['share']:.3g} %; {mode['scene_share']:.1g} of the scene's initial energy)"
