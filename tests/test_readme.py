@@ -112,3 +112,23 @@ def test_a_recorded_accuracy_figure_is_what_the_code_computes_today(tmp_path):
     np.testing.assert_allclose(*np.array(elastic).T, rtol=1e-6)
     generator = _generator()
     assert generator.row_modes({"arcade.xml": now}) == generator.row_modes({"arcade.xml": recorded})
+
+
+def test_readme_says_what_has_no_command_and_what_a_pip_install_lacks():
+    """README: reduce and fitting are Python-only, and scripts/ and models/ come with a clone only. Both stay true:
+    the command line has no such command, and the package a pip install builds holds mjflex* alone."""
+    import subprocess
+    import sys
+    import tomllib
+
+    with open(os.path.join(ROOT, "README.md")) as f:
+        readme = f.read()
+    assert "Model reduction (`mjflex.reduce`), the\nMuJoCo-native variants and the fitting" in readme
+    assert "are Python-only" in readme and "come with a clone of this repository" in readme
+    usage = subprocess.run([sys.executable, "-m", "mjflex", "--help"], cwd=ROOT, capture_output=True, text=True).stdout
+    commands = set(re.search(r"\{([a-z,]+)\}", usage).group(1).split(","))
+    assert commands and not commands & {"reduce", "fit", "fit_potential", "variants"}, commands
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        setuptools = tomllib.load(f)["tool"]["setuptools"]
+    assert setuptools["packages"]["find"]["include"] == ["mjflex*"]
+    assert all(package.startswith("mjflex") for package in setuptools.get("package-data", {}))
