@@ -30,15 +30,42 @@ def _study_limit(r, variant="full", method="twist"):
     return {lim["integrator"]: lim for lim in r["limits"] if lim["variant"] == variant and lim["method"] == method}
 
 
+#: What a study's linear limit means, said once in the README's study block (records that have one).
+LINEAR_NOTE = (
+    "The linear limit is that of the model linearized at its initial pose, for any motion: a step above it runs "
+    "through only a scene that leaves the mode named unexcited, so the study recommends the smaller of the two "
+    "limits, checked by a run with a 1e-6 random velocity perturbation. "
+)
+
+
+def _usable_step(lim):
+    """The step a study recommends for a (variant, method, integrator): checked (linear limit and perturbed run) or,
+    in a record made before those checks, the measured one."""
+    return lim["recommended"] if lim.get("checked") else lim["largest_stable"]
+
+
+def _linear_limit_text(lim):
+    """`` (linear limit …, set by the … mode; use h ≤ …)`` for a checked limit, else nothing (older records)."""
+    if not lim.get("checked"):
+        return ""
+    if lim["linear_step"] is None:
+        return f" ({lim['linear_note']})"
+    mode = lim["linear_mode"]
+    what = f"the {sig(mode['frequency_hz'] / 1e3, 3)} kHz mode" if mode["oscillating"] else "a damped motion"
+    use = f"; use h ≤ {sci(lim['recommended'], 3)} s" if lim["recommended"] else "; no step recommended"
+    return f" (linear limit {sci(lim['linear_step'], 3)} s, set by {what}{use})"
+
+
 def row_study_arcade(r):
     need = {n["need"].split(" (")[0]: n for n in r["needs"]}
     eng = need["engineering answers"]
     faster = eng["vs the model's setting"]
+    rk4 = _study_limit(r)["rk4"]
     return (
         "speed against accuracy on the ARCADE run (`mjflex study`)",
         f"for ≤ 1 % pose error: {eng['choice']}, {eng['s per simulated s']} CPU s per simulated s, "
-        f"{faster} than the model's own RK4 at 1e-5 s; RK4 stable to "
-        f"{sci(_study_limit(r)['rk4']['largest_stable'])} s",
+        f"{faster} than the model's own RK4 at 1e-5 s; RK4 {'usable' if rk4.get('checked') else 'stable'} to "
+        f"{sci(_usable_step(rk4))} s",
     )
 
 
@@ -49,10 +76,11 @@ def block_study_arcade(results):
     dq = [x["pose_error"] for x in full if x["method"] == "dualquat" and x["pose_error"] is not None]
 
     def bracket(i):
-        return f"{sci(lim[i]['largest_stable'], 3)} s and diverges at {sci(lim[i]['smallest_unstable'], 3)} s"
+        return (f"{sci(lim[i]['largest_stable'], 3)} s and diverges at {sci(lim[i]['smallest_unstable'], 3)} s"
+                + _linear_limit_text(lim[i]))  # fmt: skip
 
     others = [i for i in lim if i != "rk4"]
-    if len({(lim[i]["largest_stable"], lim[i]["smallest_unstable"]) for i in others}) == 1:
+    if len({(lim[i]["largest_stable"], lim[i]["smallest_unstable"], lim[i].get("linear_step")) for i in others}) == 1:
         implicit = (
             f"{join_and(others)} are all stable up to {bracket(others[0]).replace('diverges', 'diverge')}: the "
             "implicit ones gain nothing, as mjflex forces enter every MuJoCo integrator explicitly"
@@ -80,7 +108,9 @@ def block_study_arcade(results):
         f"tracked relative to the {r['frame']}. The reference is RK4 at {sci(ref['timestep'], 3)} s (successive "
         f"refinements agree to {sci(ref['agreement'])}, estimated error {sci(ref['error_estimate'])}, observed "
         f"order {ref['observed_order']:.1f}). Over this run RK4 (twist) is stable up to {bracket('rk4')}; {implicit}; "
-        f"each divergence names its element ({', '.join(f'`{e}`' for e in elements)}) and step. The dual-quaternion "
+        f"each divergence names its element ({', '.join(f'`{e}`' for e in elements)}) and step. "
+        + (LINEAR_NOTE if lim["rk4"].get("checked") else "")
+        + "The dual-quaternion "
         f"runs differ from the (twist) reference by {pct(min(dq))}–{pct(max(dq))}: the difference between the two "
         f"element models at ARCADE's finite rotations, not integration error. {variants}\n\nWhich choice for which "
         "need (CPU seconds of `mj_step` per simulated second):\n\n"

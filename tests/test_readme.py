@@ -8,6 +8,7 @@ import re
 import sys
 
 import numpy as np
+import pytest
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 
@@ -245,3 +246,57 @@ def test_rendered_timings_have_their_spread_and_machine():
     assert blocks >= 6 and _check_timings(generator, now) == blocks  # every block showing timings, none skipped
     measured = generator.block_measured(now)
     assert measured.count("Timed on ") == 1 and "3 fresh processes × 3 interleaved repeats" in measured
+
+
+def test_a_recorded_accuracy_figure_is_what_the_code_computes_today(tmp_path):
+    """scripts/modes.py, run again end to end on models/arcade.xml, gives the recorded ARCADE modes and README row.
+
+    The other README tests compare the README with the JSON that was recorded; this one recomputes a recorded
+    figure (not a timing) with today's code and model, so a change to either that moves it (a stale record) fails.
+    Tolerance 1e-6 relative on the elastic frequencies: the stiffness comes from central differences of the forces
+    (~1e-9 relative, mjflex.mj.linearize), and numpy/scipy/LAPACK versions and CPUs move well-separated eigenvalues
+    at round-off (measured: 1e-10 between this record and a rerun); a change of the model or of the element math
+    that matters moves them by 1e-4 or more. The rigid modes' frequencies are round-off (< 1e-3 Hz) and not compared.
+    """
+    import json
+    import subprocess
+    import sys
+
+    out = tmp_path / "modes.json"
+    subprocess.run([sys.executable, os.path.join("scripts", "modes.py"), os.path.join("models", "arcade.xml"),
+                    "--json", str(out)], cwd=ROOT, check=True, capture_output=True, env={**os.environ,
+                    "MJFLEX_RECORD": "0"})  # fmt: skip
+    with open(out) as f:
+        now = json.load(f)["arcade.xml"]
+    with open(os.path.join(ROOT, "docs", "results", "modes.json")) as f:
+        recorded = json.load(f)["arcade.xml"]
+    for key in ("n_rigid", "guide_mode", "guide_is_axial"):
+        assert now[key] == recorded[key], key
+    for key in ("guide_frequency_hz", "separation", "highest_frequency_hz"):
+        assert now[key] == pytest.approx(recorded[key], rel=1e-6), key
+    elastic = [(a["frequency_hz"], b["frequency_hz"]) for a, b in zip(now["modes"], recorded["modes"], strict=True)
+               if not b["rigid"]]  # fmt: skip
+    assert len(elastic) >= 6
+    np.testing.assert_allclose(*np.array(elastic).T, rtol=1e-6)
+    generator = _generator()
+    assert generator.row_modes({"arcade.xml": now}) == generator.row_modes({"arcade.xml": recorded})
+
+
+def test_readme_says_what_has_no_command_and_what_a_pip_install_lacks():
+    """README: reduce and fitting are Python-only, and scripts/ and models/ come with a clone only. Both stay true:
+    the command line has no such command, and the package a pip install builds holds mjflex* alone."""
+    import subprocess
+    import sys
+    import tomllib
+
+    with open(os.path.join(ROOT, "README.md")) as f:
+        readme = f.read()
+    assert "Model reduction (`mjflex.reduce`), the\nMuJoCo-native variants and the fitting" in readme
+    assert "are Python-only" in readme and "come with a clone of this repository" in readme
+    usage = subprocess.run([sys.executable, "-m", "mjflex", "--help"], cwd=ROOT, capture_output=True, text=True).stdout
+    commands = set(re.search(r"\{([a-z,]+)\}", usage).group(1).split(","))
+    assert commands and not commands & {"reduce", "fit", "fit_potential", "variants"}, commands
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        setuptools = tomllib.load(f)["tool"]["setuptools"]
+    assert setuptools["packages"]["find"]["include"] == ["mjflex*"]
+    assert all(package.startswith("mjflex") for package in setuptools.get("package-data", {}))

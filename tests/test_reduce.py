@@ -1,5 +1,7 @@
 """mjflex.reduce: cheaper models that keep the low modes, their state maps and their dynamics."""
 
+import itertools
+
 import mujoco
 import numpy as np
 import pytest
@@ -190,3 +192,136 @@ def test_bad_input_is_named():
     mujoco.MjModel.from_xml_path("models/two_body.xml")
     with pytest.raises(TypeError, match="MJCF path or the MjSpec"):
         mjflex.reduce(other, 100.0)
+
+
+def test_a_looser_frequency_tolerance_never_keeps_more_on_arcade():
+    # ARCADE at 200 Hz kept nv 85 with freq_tol = 5 % but nv 63 with 1 %: its leaf springs, three joints each at 5 %
+    # (kept whole at 1 %), went into the trees and pushed one-joint hinges out to close loops. A looser tolerance
+    # must hold at least the directions a tighter one holds, keep at most its elements, and leave at most its dofs.
+    tolerances = (0.005, 0.01, 0.02, 0.05, 0.1)
+    runs = [mjflex.reduce("models/arcade.xml", 200.0, freq_tol=tol, verify=False).details for tol in tolerances]
+    nv = [d["nv"] for d in runs]
+    assert all(a >= b for a, b in itertools.pairwise(nv)), dict(zip(tolerances, nv, strict=True))
+    assert nv[0] > nv[-1]  # the tolerance matters here: otherwise the check above would be empty
+    for tight, loose in itertools.pairwise(runs):
+        for name, e in loose["elements"].items():
+            assert set(e["soft"]) <= set(tight["elements"][name]["soft"]), name
+            assert not e["kept"] or tight["elements"][name]["kept"], name
+    for d, tol in zip(runs, tolerances, strict=True):
+        assert d["predicted_error"] <= tol
+
+
+def _damping_ratios(model, viscous_off=()):
+    """Damping ratios of a model's modes, ascending in frequency, from its linearization at qpos0 by MuJoCo itself.
+
+    Central differences of ``qacc`` (``mj_forward`` with the elements installed) along each tangent direction and
+    each velocity give ``A = M^-1 K`` and ``D = M^-1 B``; the eigenvalues of ``[[0, I], [-A, -D]]`` are the damped
+    modes, ``zeta = -Re(lambda) / |lambda|``. Independent of how reduce() estimates damping (modal projections of
+    each element's principal damping).
+    """
+    flex = mjflex.Flexures(model)
+    for name in viscous_off:
+        flex.set_viscous(name, False)
+    data, nv, eps = mujoco.MjData(model), model.nv, 1e-7
+    A, D = np.zeros((nv, nv)), np.zeros((nv, nv))
+    with flex:
+        for i in range(nv):
+            for J, velocity in ((A, False), (D, True)):
+                qacc = []
+                for sign in (1.0, -1.0):
+                    data.qpos[:], data.qvel[:] = model.qpos0, 0.0
+                    dx = np.zeros(nv)
+                    dx[i] = sign * eps
+                    if velocity:
+                        data.qvel[:] = dx
+                    else:
+                        mujoco.mj_integratePos(model, data.qpos, dx, 1.0)
+                    mujoco.mj_forward(model, data)
+                    qacc.append(data.qacc.copy())
+                J[:, i] = -(qacc[0] - qacc[1]) / (2.0 * eps)
+    lam = np.linalg.eigvals(np.block([[np.zeros((nv, nv)), np.eye(nv)], [-A, -D]]))
+    lam = lam[lam.imag > 0]
+    lam = lam[np.argsort(lam.imag)]
+    return -lam.real / np.abs(lam)
+
+
+def test_damping_is_dropped_within_a_budget_shared_by_all_the_dropped_elements():
+    # Four damped elements (B = beta K) on a cantilever, every mode kept (nothing held rigid): the only reduction is
+    # which damping goes. The budget is half the largest damping ratio, so each element's damping alone fits in it
+    # for most elements but not all of them together: a budget counted per element would drop too much.
+    spec = cantilever_spec(n=4, beta=2e-9)
+    full = spec.compile()
+    zeta = _damping_ratios(full)
+    tol = 0.5 * zeta.max()
+    variant = mjflex.reduce(spec, 1e6, viscous_tol=tol, verify=False)
+    elements = variant.details["elements"]
+    dropped = [name for name, e in elements.items() if e["damping_dropped"]]
+    kept = [name for name, e in elements.items() if not e["damping_dropped"]]
+    assert all(e["kept"] for e in elements.values())  # every mode kept: the model is the full one but for damping
+    alone = {name: zeta - _damping_ratios(full, [name]) for name in elements}  # each element's own contribution
+    assert sum(alone[n].max() <= tol for n in elements) > len(dropped)  # a per-element budget would drop more
+    # the promise: no mode loses more than viscous_tol of damping ratio (measured on the model reduce built). The
+    # 1 % slack covers reduce's first-order estimate (phi^T B phi / 2 omega) against the exact damped eigenvalues,
+    # whose difference is of order zeta^2 / zeta = zeta <= 5e-4 relative here.
+    loss = zeta - _damping_ratios(variant.model)
+    assert 0 < loss.max() <= 1.01 * tol
+    assert dropped and kept
+    for name in kept:  # and it drops all it can: each element kept would overrun the budget if dropped as well
+        more = zeta - _damping_ratios(variant.model, [name])
+        assert more.max() > tol, name
+
+
+def test_mirror_equal_elements_keep_or_drop_their_damping_together():
+    # The parallelogram is symmetric about x = w / 2: notch1_* mirror notch2_*, so each pair adds equal damping to
+    # every mode. Over a grid of budgets finer than a factor 2 (one element of a pair fits where both do not), a pair
+    # is always treated alike, and the grid crosses each pair's threshold.
+    spec = parallelogram_spec()
+    pairs = (("notch1_ground", "notch2_ground"), ("notch1_top", "notch2_top"))
+    seen = {pair: set() for pair in pairs}
+    for tol in np.geomspace(1e-6, 1e-2, 28):  # factor 1.41 between budgets
+        elements = mjflex.reduce(spec, 100.0, viscous_tol=tol, verify=False).details["elements"]
+        for a, b in pairs:
+            assert elements[a]["damping_dropped"] == elements[b]["damping_dropped"], (tol, a, b)
+            seen[a, b].add(elements[a]["damping_dropped"])
+    assert all(s == {True, False} for s in seen.values())
+
+
+def test_a_scene_keeps_the_directions_it_strains_within_twice_freq_tol_of_its_energy():
+    # A cantilever kicked at the tip along its axis and across: the axial directions, rigid for the first mode
+    # (200 Hz band), store about 2 % each of the scene's peak strain energy. Held rigid, they may together remove at
+    # most 2 freq_tol of it (smallest first). The shares are recomputed here from the elements' own energies
+    # (diagonal K at the element origin, so the principal directions are the element axes) along the same run.
+    spec = cantilever_spec(n=4)
+    model = spec.compile()
+    flex = mjflex.Flexures(model)
+    K = np.stack([np.diag(r.K) for r in flex.records])
+    assert all(np.allclose(r.K, np.diag(np.diag(r.K)), rtol=0, atol=1e-9 * np.abs(r.K).max()) for r in flex.records)
+    qvel = np.zeros(model.nv)
+    tip = model.jnt_dofadr[model.body("link4").jntadr[0]]
+    qvel[tip : tip + 2] = [0.3, 2.0]
+    duration, tol = 1e-3, 0.01
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = model.qpos0, qvel
+    peak, total = np.zeros_like(K), 0.0
+    with flex:
+        for _ in range(round(duration / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+            mujoco.mj_forward(model, data)
+            peak = np.maximum(peak, 0.5 * K * flex.displacements(data) ** 2)
+            total = max(total, flex.potential_energy(data))
+    share = peak / total
+    labels = ("rx", "ry", "rz", "x", "y", "z")
+
+    def rigid(variant):
+        soft = [variant.details["elements"][name]["soft"] for name in flex.names]
+        return {(e, i) for e in range(len(soft)) for i in range(6) if labels[i] not in soft[e]}
+
+    with_scene = rigid(mjflex.reduce(spec, 200.0, freq_tol=tol, scene=((model.qpos0, qvel), duration), verify=False))
+    modes_only = rigid(mjflex.reduce(spec, 200.0, freq_tol=tol, verify=False))
+    spared = modes_only - with_scene  # held rigid by the modes, kept compliant for the scene
+    assert spared and with_scene <= modes_only
+    held = sum(share[c] for c in with_scene)
+    # same run, same samples (every step): equal up to round-off
+    assert held <= 2.0 * tol * (1.0 + 1e-9)
+    # and the budget is used: holding the smallest spared direction as well would overrun it
+    assert held + min(share[c] for c in spared) > 2.0 * tol

@@ -6,8 +6,10 @@ results must equal it bit for bit (``assert_array_equal``), whichever executor r
 """
 
 import copy
+import json
 import multiprocessing
 import pickle
+import re
 import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -239,7 +241,26 @@ def test_command_line_sweep_on_arcade(tmp_path, capsys):
     main(["sweep", "--leaf-scale", "1,2", "--beta", "0", "--duration", "2e-4", "--samples", "3", "--quiet",
           "--out", str(tmp_path)])  # fmt: skip
     out = capsys.readouterr().out
-    assert "first natural frequency [Hz] by leaf scale: x1: 10.22" in out  # scripts/modes.py: 10.2 Hz
+    # the guide's first frequency for each leaf scale, computed here on the model file with the leaves scaled, by
+    # the study's linearization (central differences of MuJoCo's qacc; independent of the sweep's normal modes)
+    from mjflex.app.study._metrics import linearized_frequencies
+    from mjflex.app.sweep.arcade import arcade_edit
+
+    expected = {}
+    for scale in (1, 2):
+        spec = mujoco.MjSpec.from_file("models/arcade.xml")
+        arcade_edit(spec, leaf_scale=scale, beta=0.0)
+        model = spec.compile()
+        expected[scale] = linearized_frequencies(model, mjflex.Flexures(model), model.qpos0).elastic[0]
+    line = next(x for x in out.splitlines() if x.startswith("first natural frequency [Hz] by leaf scale:"))
+    printed = {int(k): float(v) for k, v in re.findall(r"x([0-9.]+): ([0-9.]+)", line)}
+    assert printed.keys() == {1, 2} and expected[2] > expected[1]  # stiffer leaves: a higher guide mode
+    for scale, f in expected.items():
+        assert printed[scale] == pytest.approx(f, abs=0.0051)  # printed to 0.01 Hz
+    with open(tmp_path / "sweep_arcade.json") as f:
+        recorded = json.load(f)["first_frequency_hz"]
+    for scale, f in expected.items():  # full precision: the two linearizations agree to ~1e-8
+        assert recorded[f"{scale:g}"] == pytest.approx(f, rel=1e-6)
     ds = xr.load_dataset(tmp_path / "sweep_arcade.nc")
     assert dict(ds.sizes) == {"leaf_scale": 2, "beta": 1, "time": 3} and (ds["status"] == "ok").all()
     assert (tmp_path / "sweep_arcade.png").stat().st_size > 10_000 and (tmp_path / "sweep_arcade.json").exists()

@@ -51,7 +51,20 @@ def keyframes_converted(source_model, spec, model, state_from):
     return compile_spec(spec)
 
 
-def assemble(source_spec, source_model, links, *, closer, name, report, details, pre=None, post=None, plane=None):
+def assemble(
+    source_spec,
+    source_model,
+    links,
+    *,
+    closer,
+    name,
+    report,
+    details,
+    pre=None,
+    post=None,
+    plane=None,
+    fewest_joints=False,
+):
     """Build the variant.
 
     Parameters
@@ -73,10 +86,13 @@ def assemble(source_spec, source_model, links, *, closer, name, report, details,
     post : callable, optional
         ``post(tree, model) -> list of str``: last edits that need the compiled tree (e.g.
         tendons over the loops' joints); the file is compiled again afterwards.
+    fewest_joints : bool
+        Trees of the fewest joints (see :func:`~mjflex.mj._tree.spanning_forest`); default: of
+        the most, leaving the rigid and one-joint links to close loops.
     """
     tree = TreeXml(source_spec, source_model)
     masses = {n: float(source_model.body_mass[i]) for i, n in enumerate(body_names(source_model)) if n}
-    edges, closers, roots = spanning_forest(links, masses)
+    edges, closers, roots = spanning_forest(links, masses, fewest_joints=fewest_joints)
     for parent, child, link in edges:
         tree.nest(parent, child, link.joints, link.element)
         tree.drop_element(link.element, link.sites)

@@ -140,14 +140,16 @@ def _relative_jacobian(model, data, body_a, body_b, point, R_WE):
     return J
 
 
-def element_directions(model, flex, normal=None) -> list[Directions]:
-    """:class:`Directions` of every element of ``flex`` (its model at ``qpos0``).
+def element_directions(model, flex, normal=None, qpos=None) -> list[Directions]:
+    """:class:`Directions` of every element of ``flex`` (its model at ``qpos``, default ``qpos0``).
 
     Planar elements (3x3) are embedded in 6x6 with zero out-of-plane stiffness. ``normal``
     (world, unit): the plane of a planar scene; each element's principal axes then split into
     in-plane and out-of-plane ones (see :func:`_principal_axes`).
     """
     data = mujoco.MjData(model)
+    if qpos is not None:
+        data.qpos[:] = qpos
     mujoco.mj_forward(model, data)
     M = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, data, M)

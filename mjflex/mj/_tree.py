@@ -73,13 +73,18 @@ def free_world_bodies(model) -> set[str]:
     return out
 
 
-def spanning_forest(links, masses):
+def spanning_forest(links, masses, *, fewest_joints=False):
     """Split ``links`` into tree edges and loop closers.
 
-    A maximum spanning forest (Kruskal) weighted by the number of joints, so that links that
-    are hardest to close as a loop (several joints) become tree edges and rigid or one-joint
-    links are left to close loops. Each component is rooted at the world if it touches it,
-    else at its heaviest body.
+    A spanning forest (Kruskal) weighted by the number of joints. By default a *maximum* one,
+    so that links that are hardest to close as a loop (several joints) become tree edges and
+    rigid or one-joint links are left to close loops by equality constraints (what the native
+    builders need: they have no element to fall back on). With ``fewest_joints`` a *minimum*
+    one: the trees carry the fewest joints, so the model has the fewest degrees of freedom
+    (what :func:`mjflex.reduce` wants: a loop it cannot close by a constraint keeps its element).
+    The minimum also makes the degrees of freedom monotone: with fewer joints per link, or more
+    links, the minimum can only fall. Ties keep the order of ``links``. Each component is rooted
+    at the world if it touches it, else at its heaviest body.
 
     Returns
     -------
@@ -97,7 +102,8 @@ def spanning_forest(links, masses):
             x = parent[x]
         return x
 
-    order = sorted(range(len(links)), key=lambda i: -len(links[i].joints))
+    sign = 1 if fewest_joints else -1
+    order = sorted(range(len(links)), key=lambda i: sign * len(links[i].joints))
     tree, closers = [], []
     for i in order:
         link = links[i]

@@ -17,7 +17,8 @@ and returns a :class:`~mjflex.mj.variant.Variant` in which
   planar joints, holds every out-of-plane direction rigid, drops the out-of-plane modes from
   the band, and turns the elements that stay into 3x3 planar records;
 * **loops** (a closed chain cannot be one kinematic tree): the elements of a spanning forest
-  become the trees' joints; each element left over closes a loop, either by equality
+  with the fewest joints become the trees' joints (so the reduced model has the fewest degrees
+  of freedom); each element left over closes a loop, either by equality
   constraints where MuJoCo can express its joint (rigid: a weld; one hinge: two ``connect``
   constraints on its axis, its spring carried by a one-direction mjflex element) or by staying
   a full element. ``loops="auto"`` (default) uses constraints unless they would lock the
@@ -33,7 +34,10 @@ rigid raises the square of a mode's frequency by about the share it stored there
 in series (more when the mechanism stiffens it in parallel, as closed loops do), so the
 shares only order the candidates: the longest prefix, smallest share first, whose exact
 constrained eigenproblem (those directions held rigid in the full model's modal coordinates)
-keeps every retained frequency within ``freq_tol`` is held rigid. The local frequency of each
+keeps every retained frequency within ``freq_tol`` is held rigid (an element that the prefix
+leaves with more than ``max_joints`` compliant directions stays an element, inside the search).
+The choice only grows with the tolerance: a looser ``freq_tol`` holds a superset of directions,
+keeps fewer elements and, with trees of the fewest joints, never more degrees of freedom. The local frequency of each
 direction (its stiffness against the apparent inertia of the two bodies) is reported
 alongside as an intuition; it is not the criterion, because a direction's in-situ frequency
 depends on the whole mechanism. The variant's own modes are computed and compared at the end
@@ -120,43 +124,63 @@ def _constrained_error(lam, rows, target, n_rigid, floor):
     return float(np.max(np.abs(f - target) / target, initial=0.0))
 
 
+def _held(n, cand, reducible, forced, max_joints, allowed=None):
+    """Rigid directions (n_el, 6), reducible elements and the indices into ``cand`` held rigid, for the prefix ``n``.
+
+    The first ``n`` candidates are held rigid (those ``allowed``, if given); elements then left
+    with more than ``max_joints`` compliant directions stay elements, their directions released.
+    """
+    rigid = forced.copy()
+    for e, i in cand[:n]:
+        rigid[e, i] = allowed is None or allowed[e, i]
+    active = reducible & ((~rigid).sum(axis=1) <= max_joints)
+    return rigid, active, [k for k, (e, i) in enumerate(cand[:n]) if rigid[e, i] and active[e]]
+
+
 def _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol, max_joints):
     """Which principal directions to hold rigid (n_el, 6), which elements stay reducible, and the error.
 
-    Candidates are ordered by their largest modal strain-energy share; the longest prefix whose
-    exact constrained eigenproblem keeps every retained frequency within ``freq_tol`` is taken
-    (frequencies only rise as constraints are added, so the search is a bisection). Elements
-    left with more than ``max_joints`` compliant directions stay elements; their directions are
-    released and the search repeats.
+    Every candidate direction (of a reducible element, not already forced) is ordered by its
+    largest modal strain-energy share, an order that no tolerance changes. A prefix of that
+    order is held rigid, except in elements it leaves with more than ``max_joints`` compliant
+    directions: those stay elements, all their directions released. As the prefix grows the
+    directions it holds only grow (an element leaves the released ones once enough of its
+    directions are in the prefix, never the other way), so the retained frequencies only rise
+    (constraints are added) and the longest prefix whose exact constrained eigenproblem keeps
+    them within ``freq_tol`` is found by bisection. Directions the scene needs (not
+    ``allowed``) count in that search as if rigid, then stay compliant; that only releases
+    more, which lowers the frequencies back towards the full model's.
+
+    Monotone by construction: a looser ``freq_tol`` gives a longer prefix and allows more
+    directions (``allowed`` grows with it), hence a superset of rigid directions, fewer released
+    elements and fewer coupled ones: a looser tolerance never keeps more. (Searching again after
+    releasing elements, as this did before, made the result depend on which elements a
+    tolerance released, and a looser one could keep more.)
     """
     lam = (2.0 * np.pi * freq) ** 2
     target = freq[mask]
-    n_rigid = int(np.sum(freq <= _rigid_floor(freq)))
-    score = shares.max(axis=2, initial=0.0)
-    active = np.array(reducible, dtype=bool)
     floor = _rigid_floor(freq)
+    n_rigid = int(np.sum(freq <= floor))
+    score = shares.max(axis=2, initial=0.0)
+    reducible = np.array(reducible, dtype=bool)
     fixed = np.array([dirs[e].J[i] @ modes for e, i in zip(*np.nonzero(forced), strict=True)]).reshape(-1, len(lam))
-    while True:
-        cand = [(e, i) for e in np.nonzero(active)[0] for i in range(6)
-                if allowed[e, i] and not forced[e, i] and np.isfinite(score[e, i])]  # fmt: skip
-        cand.sort(key=lambda c: score[c])
-        rows = np.vstack([fixed, np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))])
-        nf = len(fixed)
-        lo, hi = 0, len(cand)
-        while lo < hi:  # largest n with error(n) <= freq_tol
-            mid = (lo + hi + 1) // 2
-            if _constrained_error(lam, rows[: nf + mid], target, n_rigid, floor) <= freq_tol:
-                lo = mid
-            else:
-                hi = mid - 1
-        rigid = forced.copy()
-        for e, i in cand[:lo]:
-            rigid[e, i] = True
-        too_many = active & ((~rigid).sum(axis=1) > max_joints)
-        if not too_many.any():
-            error = _constrained_error(lam, rows[: nf + lo], target, n_rigid, floor)
-            return rigid, active, error
-        active &= ~too_many
+    cand = [(e, i) for e in np.nonzero(reducible)[0] for i in range(6)
+            if not forced[e, i] and np.isfinite(score[e, i])]  # fmt: skip
+    cand.sort(key=lambda c: score[c])
+    rows = np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))
+
+    def error(held):
+        return _constrained_error(lam, np.vstack([fixed, rows[held]]), target, n_rigid, floor)
+
+    lo, hi = 0, len(cand)
+    while lo < hi:  # largest n with error(n) <= freq_tol
+        mid = (lo + hi + 1) // 2
+        if error(_held(mid, cand, reducible, forced, max_joints)[2]) <= freq_tol:
+            lo = mid
+        else:
+            hi = mid - 1
+    rigid, active, held = _held(lo, cand, reducible, forced, max_joints, allowed)
+    return rigid, active, error(held)
 
 
 def scene_state(model, initial):
@@ -191,15 +215,17 @@ def scene_shares(model, flex, dirs, scene):
     steps = max(1, round(duration / model.opt.timestep))
     peak, total = np.zeros((len(dirs), 6)), 0.0
     with flex:
-        for i in range(steps):
+        for _ in range(steps):
             mujoco.mj_step(model, data)
             if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.isfinite(data.qvel).all():
                 raise ValueError(f"scene: the full model diverged at t = {data.time:.3g} s; fix the scene or its step")
-            if i % 10 == 0 or i == steps - 1:
-                mujoco.mj_forward(model, data)
-                delta = np.einsum("eij,ej->ei", T, flex.displacements(data))
-                peak = np.maximum(peak, 0.5 * k * delta**2)
-                total = max(total, flex.potential_energy(data))
+            # every step: the stiff directions this is for ring at the highest frequencies, whose peaks a
+            # sparser sampling misses (every 10th step underestimated a 30 kHz axial ring by 2x); the
+            # strain energy needs the poses only, so kinematics suffice
+            mujoco.mj_kinematics(model, data)
+            delta = np.einsum("eij,ej->ei", T, flex.displacements(data))
+            peak = np.maximum(peak, 0.5 * k * delta**2)
+            total = max(total, flex.potential_energy(data))
     return peak / max(total, 1e-300)
 
 
@@ -420,7 +446,7 @@ def _build(plan, loops, name):
     closer = _Closer(loops, plan.flex, plan.dirs, plan.drop, arm)
     details = dict(plan.details, loops=loops, constraints="project")
     return assemble(plan.spec, plan.model, links, closer=closer, pre=kept_records, name=name, report=plan.report,
-                    details=details, plane=plan.normal)  # fmt: skip
+                    details=details, plane=plan.normal, fewest_joints=True)  # fmt: skip
 
 
 def _modes(variant):

@@ -15,6 +15,7 @@ import numpy as np
 
 from .._output import replace_together
 from ._run import Divergence
+from ._stability import PERTURBATION
 
 
 def who(variant, integrator, method):
@@ -48,6 +49,8 @@ class Row:
     source: str = "grid"  # "grid", "bisection" (stability search) or "model" (the file's own setting)
     model_setting: bool = False  # the model file's own integrator, step and methods
     pareto: bool = False
+    # ran through, but above the step its Limit recommends: stable only for this scene (never recommended)
+    beyond_limit: bool = False
 
     @property
     def label(self) -> str:
@@ -59,7 +62,14 @@ class Row:
 
 @dataclass
 class Limit:
-    """Largest stable step of one (variant, method, integrator), bracketed by measured runs."""
+    """Largest stable step of one (variant, method, integrator): measured on the scene, linear, recommended.
+
+    ``largest_stable``/``smallest_unstable`` bracket the limit of the study's own scene (measured
+    runs). A mode the scene leaves unexcited cannot diverge in those runs, so the study also finds
+    the ``linear_step`` of the model linearized at the initial pose (any motion) and the mode
+    that diverges above it (:mod:`mjflex.app.study._stability`), and recommends the smaller of
+    the two, checked by a run of the scene with a random velocity perturbation (``checks``).
+    """
 
     variant: str
     method: str
@@ -68,15 +78,53 @@ class Limit:
     smallest_unstable: float | None  # smallest larger step that diverged [s]
     divergence: Divergence | None = None  # how the smallest unstable step diverged
     steps_given: bool = False  # the candidate steps were given (steps=), not the default range
+    linear_step: float | None = None  # largest step at which the linearized model is stable [s]
+    linear_note: str = ""  # why there is no linear_step, when there is none
+    linear_mode: dict | None = None  # the mode diverging first above it: frequency_hz, where, share, scene_share
+    checks: list = field(default_factory=list)  # perturbed runs: {"timestep", "diverged": text or None}
+    recommended: float | None = None  # the smaller of the two limits, halved until a perturbed run went through
+    checked: bool = False  # the linear limit and the perturbed runs were done
 
-    def text(self) -> str:
-        name = who(self.variant, self.integrator, self.method)
+    def measured_text(self) -> str:
         if self.largest_stable is None:
-            return f"{name}: diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
+            return f"diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
         if self.smallest_unstable is None:
             widen = "add a larger step to --steps (steps=)" if self.steps_given else "widen with --max-step (max_step=)"
-            return f"{name}: stable at every step tried (largest {self.largest_stable:.3g} s); {widen}"
-        return f"{name}: stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
+            return f"stable at every step tried (largest {self.largest_stable:.3g} s); {widen}"
+        return f"stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
+
+    def mode_text(self) -> str:
+        mode = self.linear_mode
+        if not mode:
+            return ""
+        hz = mode["frequency_hz"]
+        if mode["oscillating"]:
+            what = f"the {hz:.0f} Hz mode" if hz >= 1000 else f"the {hz:.4g} Hz mode"
+        else:
+            what = f"a damping-limited motion ({2 * math.pi * hz:.3g} 1/s)"
+        where = (f"strain energy mostly in {mode['where']}" if mode["kind"] == "strain"
+                 else f"moving mostly {mode['where']}")  # fmt: skip
+        return f"{what} ({where}, {100 * mode['share']:.3g} %; {mode['scene_share']:.1g} of the scene's initial energy)"
+
+    def text(self) -> str:
+        head = f"{who(self.variant, self.integrator, self.method)}: {self.measured_text()}"
+        if not self.checked:
+            return head
+        if self.linear_step is None:
+            head += f"; {self.linear_note}"
+        else:
+            head += f"; linear limit {self.linear_step:.3g} s, set by {self.mode_text()}"
+        over = [c for c in self.checks if c["status"] == "diverged" and self.recommended is not None
+                and c["timestep"] > self.recommended * (1 + 1e-9)]  # fmt: skip
+        if over and self.linear_step is not None:
+            head += (f". The scene leaves that mode unexcited: with a random velocity perturbation of relative size "
+                     f"{PERTURBATION:g} the run at {over[-1]['timestep']:.3g} s diverged at t = "
+                     f"{over[-1]['time']:.3g} s")  # fmt: skip
+        if self.recommended is not None:
+            return head + f". Use h <= {self.recommended:.3g} s (a perturbed run there goes through)"
+        if self.checks:
+            return head + f". No step recommended: perturbed runs diverged down to {self.checks[-1]['timestep']:.3g} s"
+        return head
 
     def to_dict(self):
         return asdict(self)
@@ -163,7 +211,21 @@ class StudyResult:
         return 0.0 if r is None or r.error_estimate is None else 3.0 * r.error_estimate
 
     def ok_rows(self):
-        return [r for r in self.rows if r.status == "ok" and r.pose_error is not None and r.cost]
+        """Rows that ran through with an error and a cost, at a step their limit recommends."""
+        return [r for r in self.rows if r.status == "ok" and r.pose_error is not None and r.cost and not r.beyond_limit]
+
+    def flag_beyond_limits(self):
+        """Flag (and annotate) the rows that ran through at a step above their group's recommended step."""
+        limits = {(lim.variant, lim.method, lim.integrator): lim for lim in self.limits}
+        for row in self.rows:
+            lim = limits.get((row.variant, row.method, row.integrator))
+            if row.status != "ok" or lim is None or not lim.checked:
+                continue
+            if lim.recommended is None or row.timestep > lim.recommended * (1.0 + 1e-9):
+                row.beyond_limit = True
+                why = f"above the recommended {lim.recommended:.3g} s" if lim.recommended else "no step recommended"
+                row.note = (f"{why}: stable only for this scene (see its stability limit); not recommended. "
+                            + row.note).strip()  # fmt: skip
 
     def mark_pareto(self):
         """Flag the rows no other row beats in both cost and pose error."""
@@ -232,8 +294,15 @@ class StudyResult:
             out.append(self._need(f"model variant '{name}' (<= 1 %)", best))
         stable = [lim for lim in self.limits if lim.largest_stable]
         if stable:
-            lim = max(stable, key=lambda x: x.largest_stable)
-            out.append(("the largest stable step", lim.text(), "-", "-", "-", "-"))
+            checked = [lim for lim in stable if lim.checked]
+            if checked:
+                usable = [lim for lim in checked if lim.recommended]
+                lim = max(usable, key=lambda x: x.recommended) if usable else None
+                text = f"{who(lim.variant, lim.integrator, lim.method)}: h <= {lim.recommended:.3g} s" if lim else "-"
+            else:
+                lim = max(stable, key=lambda x: x.largest_stable)
+                text = lim.text()
+            out.append(("the largest stable step", text, "-", "-", "-", "-"))
         own = self.model_setting_row()
         if own is not None:
             out.append(self._need("what the model file uses now", own))
@@ -308,7 +377,17 @@ class StudyResult:
                 "|---" * len(self.NEEDS_COLUMNS) + "|"]  # fmt: skip
         out += ["| " + " | ".join(row) + " |" for row in self.needs()]
         if self.limits:
-            out += ["", "## Largest stable step", ""] + [f"- {lim.text()}" for lim in self.limits]
+            out += ["", "## Largest stable step", ""]
+            if any(lim.checked for lim in self.limits):
+                out += [
+                    "Measured: the bisection of this scene's runs. Linear limit: the model linearized at the initial "
+                    "pose, for any motion; the mode named is the one that diverges first above it. Used: the smaller "
+                    f"of the two, checked by a run of the scene with a random velocity perturbation of relative size "
+                    f"{PERTURBATION:g}; candidates above it ran through only because the scene leaves a mode unexcited "
+                    "and are never recommended.",
+                    "",
+                ]
+            out += [f"- {lim.text()}" for lim in self.limits]
         if self.variants:
             out += ["", "## Variants", ""] + [f"- **{k}**: {v}" for k, v in self.variants.items()]
         clock = "CPU" if self.clock == "cpu" else "wall"

@@ -16,6 +16,7 @@ from ._options import METHODS, check_options
 from ._result import Limit, Reference, Row, StudyResult
 from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import StudyError, build_variant, flexures_of, initial_state, load, tracked_items, variant_state
+from ._stability import MAX_HALVINGS, MAX_NV, limiting_mode, linear_limit, linearization, perturbation
 from .variants import DEFAULT_VARIANTS
 
 INTEGRATORS = ("rk4", "euler", "implicitfast", "discrete")
@@ -85,6 +86,7 @@ class _Study:
         self.repeat, self.max_run_wall, self.n_freq = repeat, max_run_wall, frequencies
         self.ref_traj = self.scales = self.energy_limit = None
         self._freq = {}
+        self._linear = {}  # (variant, method) -> the linearization at the initial pose (_stability)
         self._timed = []  # (row or reference, sim, integrator, method, h, sampled outcome) to time
 
     # ---------------------------------------------------------------- reference
@@ -238,7 +240,67 @@ class _Study:
                       None if n_bad is None else runs[n_bad].divergence)  # fmt: skip
         if left and n_ok is not None and n_bad is not None:
             self._refine_limit(sim, method, integrator, limit, left, limit_rtol)
+        self._check_limit(sim, method, integrator, limit, limit_rtol)
         return [runs[n] for n in sorted(runs)], limit
+
+    def _check_limit(self, sim, method, integrator, limit, rtol):
+        """The linear limit, the mode it names, and the recommended step checked by perturbed runs (see _stability)."""
+        guess = limit.largest_stable or limit.smallest_unstable
+        if guess is None:
+            return
+        who = f"{sim.name} {integrator} {sim.methods_label(method)}"
+        self.bar.set_description(f"{who} linear limit")
+        if sim.model.nv > MAX_NV:
+            limit.checked, limit.linear_note = True, f"linear limit not computed (nv = {sim.model.nv} > {MAX_NV})"
+            self._check_recommended(sim, method, integrator, limit, None, rtol)
+            return
+        key = (sim.name, method)
+        if key not in self._linear:
+            sim.configure(integrator, method, guess)
+            self._linear[key] = linearization(sim)
+        lin = self._linear[key]
+        h_lin, T, last = linear_limit(sim, integrator, method, guess, rtol, self.plan.duration, lin["growth"])
+        limit.linear_step, limit.checked = h_lin, True
+        if T is not None:
+            limit.linear_mode = limiting_mode(sim, T, lin)
+        if h_lin is None:
+            limit.linear_note = (f"the linearized model is unstable at every step down to {last:.3g} s" if T is not None
+                                 else f"the linearized model is stable at every step up to {last:.3g} s")  # fmt: skip
+        self._check_recommended(sim, method, integrator, limit, h_lin, rtol)
+
+    def _check_recommended(self, sim, method, integrator, limit, h_lin, rtol):
+        """Perturbed runs at the smaller of the two limits (halved until one runs through) and at the measured one."""
+        if limit.largest_stable is None:
+            return
+        dv = perturbation(sim, self.scales.energy)
+        h = min(limit.largest_stable, h_lin) if h_lin is not None else limit.largest_stable
+        for _ in range(MAX_HALVINGS + 1):
+            out = self._perturbed_run(sim, method, integrator, h, dv, limit)
+            if out.ok:
+                limit.recommended = h
+                break
+            if out.skipped:
+                break
+            h *= 0.5
+        if h_lin is not None and limit.largest_stable > h_lin * (1.0 + rtol):  # show what the scene hides
+            self._perturbed_run(sim, method, integrator, limit.largest_stable, dv, limit)
+
+    def _perturbed_run(self, sim, method, integrator, h, dv, limit):
+        """The scene at step ``h`` with the velocity perturbation ``dv`` added; recorded in ``limit.checks``."""
+        self.bar.set_description(f"{sim.name} {integrator} {sim.methods_label(method)} perturbed h={h:.3g}")
+        every = max(1, round(self.plan.interval / h))
+        saved = sim.state["qvel"]
+        sim.state["qvel"] = saved + dv
+        try:
+            out = run_sampled(sim, integrator, method, h, samples=math.ceil(self.plan.duration / (every * h)),
+                              every=every, energy_limit=self.energy_limit, max_wall=self.max_run_wall)  # fmt: skip
+        finally:
+            sim.state["qvel"] = saved
+        self.bar.update()
+        status = "diverged" if out.divergence else ("skipped" if out.skipped else "ok")
+        limit.checks.append({"timestep": h, "status": status, "time": out.divergence.time if out.divergence else None,
+                             "divergence": out.divergence.text() if out.divergence else out.skipped})  # fmt: skip
+        return out
 
     def _refine_limit(self, sim, method, integrator, limit, left, rtol):
         """Geometric bisection of ``limit``'s bracket with steps that need not divide the interval."""
@@ -312,6 +374,7 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
         finally:
             bar.close()
     result.wall_s = time.perf_counter() - started
+    result.flag_beyond_limits()
     result.mark_pareto()
     swept = [r for r in result.rows if r.source != "model"]
     if swept and not any(r.status == "ok" for r in swept):
@@ -371,7 +434,7 @@ def _run(result, scene, bar, *, methods, integrators, steps, variants, repeat, b
     entries = DEFAULT_VARIANTS if variants is None else variants
     sims = [full] + _variant_sims(entries, scene.source, scene.src, scene.data0, scene.items, scene.frame, result)
     groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
-    bar.total = bar.n + groups * (len(plan.grid) + 3) + 1 + max(1, repeat)  # ~3 bisection runs per group
+    bar.total = bar.n + groups * (len(plan.grid) + 5) + 1 + max(1, repeat)  # ~3 bisection, 2 perturbed runs a group
     bar.refresh()
     for sim in sims:
         for method in methods if sim.has_flexures else [None]:
