@@ -306,7 +306,7 @@ def block_demo(results):
     return (
         f"Recorded by `{r['command']}` ({r['date'][:10]}, {r['machine']['cpus']} cores, {_gl_kind(d['gl'])}, "
         f"1-minute load average {r['machine']['load_average_1min']:g} at the end; {d['runs']} fresh runs of each, "
-        "median and min–max): the demo takes {_median_range(d['wall_s'])} from start "
+        f"median and min–max): the demo takes {_median_range(d['wall_s'])} from start "
         f"to exit ({sig(d['cpu_s']['median'])} s of CPU time); it reports {phases}. The video's {d['frames']} frames "
         f"({d['width']}×{d['height']}, {d['look']['name']} look) take {d['frame_ms']['median']:.1f} ms each, "
         f"rendered and encoded. With the look and size of before (`--quality full --width 1280 --height 720`) the "

@@ -321,14 +321,15 @@ def main(argv=None):
     demo.add_argument("--duration", type=positive_float, default=0.08, help="simulated time [s] (default 0.08)")
     _study_parser(sub)
     for p in (sim, demo):
-        size = "default 1280x720, 960x540 where the GL renders in software; one given, 16:9" if p is demo else 640
-        p.add_argument("--width", type=int, default=None if p is demo else 640, help=f"video width [px] ({size})")
+        size = "1280x720, 960x540 where the GL renders in software; one given, 16:9" if p is demo else None
+        p.add_argument("--width", type=int, default=None if p is demo else 640,
+                       help=f"video width [px] (default {size or 640})")  # fmt: skip
         p.add_argument("--height", type=int, default=None if p is demo else 360,
-                       help=f"video height [px] ({size if p is demo else 360})")  # fmt: skip
+                       help=f"video height [px] (default {size or 360})")  # fmt: skip
         p.add_argument("--quality", choices=render.QUALITIES, default="auto",
-                       help="full: multisampling, skybox, shadows, reflections; fast: none of them (3-8x cheaper "
-                       "frames on a software GL, e.g. Mesa's llvmpipe without a GPU); auto (default): fast where "
-                       "the GL renders in software, full elsewhere")  # fmt: skip
+                       help="full: multisampling, skybox, shadows, reflections; fast: none of them (what costs "
+                       "most where the GL renders in software, e.g. Mesa's llvmpipe without a GPU); auto (default): "
+                       "fast on a software GL, full elsewhere")  # fmt: skip
         p.add_argument("--fps", type=int, default=30)
         p.add_argument("--slowdown", type=positive_float, default=100.0,
                        help="slow-motion factor of the video (default 100)")  # fmt: skip
