@@ -283,6 +283,60 @@ def block_integrators(results):
     )
 
 
+# ------------------------------------------------------------------------------------- the demo
+
+DEMO_DEFAULT, DEMO_BEFORE = "default", "before: full look, 1280x720"
+
+
+def _median_range(stats, digits=2):
+    """``7.9 s (7.5–8.3)``: median and min–max of scripts/demo.py's statistics."""
+    m, lo, hi = (sig(stats[k], digits) for k in ("median", "min", "max"))
+    return f"{m} s ({lo}–{hi})"
+
+
+def _gl_kind(gl):
+    return f"{gl['renderer']}, {'software' if gl['software'] else 'hardware'} GL"
+
+
+def row_demo(r):
+    d, b = r["commands"][DEMO_DEFAULT], r["commands"][DEMO_BEFORE]
+    return (
+        f"`python -m mjflex demo`, start to exit ({r['machine']['cpus']} cores, {_gl_kind(d['gl'])})",
+        f"{_median_range(d['wall_s'])} with {d['frame_ms']['median']:.1f} ms a frame ({d['width']}×{d['height']}, "
+        f"{d['look']['name']} look); {_median_range(b['wall_s'])} and {b['frame_ms']['median']:.0f} ms a frame with "
+        "the full look at 1280×720",
+    )
+
+
+def block_demo(results):
+    r = results["demo"]
+    d, b = r["commands"][DEMO_DEFAULT], r["commands"][DEMO_BEFORE]
+    names = {"start-up": "start-up (Python, imports)", "kernels": "kernel compilation", "model": "model",
+             "run": "run", "rendering set-up": "GL set-up", "rendering": "rendering", "encoding": "waiting for the "
+             "encoder", "panels": "panels", "plots": "plots"}  # fmt: skip
+    phases = ", ".join(f"{names.get(k, k)} {sig(v['median'])} s" for k, v in d["phases_s"].items())
+    f = r["frame_costs"]
+    rows = []
+    for w, h in dict.fromkeys((x["width"], x["height"]) for x in f["rows"]):
+        cells = [f"{x['cpu_ms']:.1f}" for x in f["rows"] if (x["width"], x["height"]) == (w, h)]
+        enc = [f"{x['cpu_ms']:.1f}" for x in f["encoders"] if (x["width"], x["height"]) == (w, h)]
+        rows.append([f"{w}×{h}", *cells, " / ".join(enc)])
+    looks = list(dict.fromkeys(x["look"] for x in f["rows"]))
+    encoders = " / ".join(dict.fromkeys(x["encoder"] for x in f["encoders"]))
+    return (
+        f"Recorded by `{r['command']}` ({r['date'][:10]}, {r['machine']['cpus']} cores, {_gl_kind(d['gl'])}, "
+        f"1-minute load average {r['machine']['load_average_1min']:g} at the end; {d['runs']} fresh runs of each, "
+        f"median and min–max): the demo takes {_median_range(d['wall_s'])} from start "
+        f"to exit ({sig(d['cpu_s']['median'])} s of CPU time); it reports {phases}. The video's {d['frames']} frames "
+        f"({d['width']}×{d['height']}, {d['look']['name']} look) take {d['frame_ms']['median']:.1f} ms each, "
+        f"rendered and encoded. With the look and size of before (`--quality full --width 1280 --height 720`) the "
+        f"command takes {_median_range(b['wall_s'])} and a frame {b['frame_ms']['median']:.0f} ms.\n\n"
+        f"CPU time of one frame [ms] (drawing and read-back, the GL's threads included; median of {f['repeats']} "
+        f"rounds of {f['frames']} frames), and of the encoder ({encoders}):\n\n"
+        + table(["size", *looks, "encoder"], rows)
+    )
+
+
 # ----------------------------------------------------------------------------- large deflections
 
 
@@ -364,6 +418,7 @@ MEASURED = [
     ("long_run", row_long_run),
     ("bench_sweep", row_bench_sweep),
     ("fit_flexure", row_fit_flexure),
+    ("demo", row_demo),
 ]
 
 
@@ -397,6 +452,7 @@ BLOCKS = {
     "long-run-verdict": (LONG_RUNS, block_long_run_verdict),
     "sweep-arcade": (["sweep_arcade"], block_sweep_arcade),
     "sweep-bench": (["bench_sweep"], block_sweep_bench),
+    "demo": (["demo"], block_demo),
 }
 
 

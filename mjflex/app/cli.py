@@ -17,6 +17,7 @@ from ..mj import Flexures, ModelError
 from . import render
 from ._output import file_problem, folder_problem
 from .simulate import INTEGRATORS, DivergenceError, configure, simulate, step_count, summarize
+from .timing import Stopwatch, process_start
 
 #: Exit status of a run that diverged (1: bad input, 2: bad command line).
 EXIT_DIVERGED = 3
@@ -63,6 +64,10 @@ def check_output_folder(path, option="--out"):
 
 def check_video_size(width, height):
     """Raise SystemExit (before the run) if a ``width`` x ``height`` video cannot be rendered here."""
+    small_w, small_h = render.MIN_VIDEO_SIZE
+    if width < small_w or height < small_h:
+        raise SystemExit(f"error: --width and --height must be at least {small_w} x {small_h} pixels for a video (its "
+                         f"frames carry the time and a colour bar); got {width} x {height}")  # fmt: skip
     try:
         problem = render.image_size_problem(width, height, ("--width", "--height"))
     except RuntimeError as exc:
@@ -112,14 +117,18 @@ def _frames(run, fps, slowdown):
 
 
 def run_model(model, name, *, duration, method=None, integrator=None, timestep=None, keyframe=None, damping=True,
-              video=None, width=640, height=360, fps=30, slowdown=100.0, every_step=False, progress=True):  # fmt: skip
+              video=None, width=640, height=360, fps=30, slowdown=100.0, every_step=False, progress=True,
+              quality="auto", clock=None):  # fmt: skip
     """Simulate ``model`` and optionally render a video; returns ``(summary, run, flex)``.
 
     Everything is checked before the run (SystemExit with a message). Samples are taken every
     video frame (or every step with ``every_step``); states are kept only for the video, which is
-    rendered and encoded frame by frame after the run. A divergence raises
-    :class:`mjflex.app.simulate.DivergenceError`.
+    rendered and encoded frame by frame after the run (``quality``: of
+    :func:`mjflex.app.render.choose_look`). A divergence raises
+    :class:`mjflex.app.simulate.DivergenceError`. ``clock``: a :class:`~mjflex.app.timing.Stopwatch`
+    given the phases "model", "kernels" (compiling and installing the force callback) and "run".
     """
+    clock, started, cpu = clock or Stopwatch(), time.perf_counter(), time.process_time()
     try:
         configure(model, integrator=integrator, timestep=timestep)
         step_count(duration, model.opt.timestep)
@@ -139,24 +148,27 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         if not damping:
             flex.set_viscous(element, False)
     data, key = _initial_state(model, keyframe)
+    clock.add("model", time.perf_counter() - started, time.process_time() - cpu)
+    with clock.phase("kernels"):
+        flex.install()  # compiles the force callback on its first use in a process
+        flex.uninstall()
     # without a video, samples only for the energy series (the maxima are tracked every step)
     sample_dt = None if every_step else 1.0 / (fps * slowdown) if video else duration / 2000
     if progress:
         start = f"keyframe {key!r}" if key else "qpos0 at rest"
         print(f"simulating {name} for {duration * 1e3:g} ms from {start}", file=sys.stderr)
+    started, cpu = time.perf_counter(), time.process_time()
     run, wall, steps = simulate(
         model, data, flex, duration, sample_dt=sample_dt, progress=progress, keep_qpos=bool(video) or every_step
     )
     summary = summarize(name, model, flex, run, wall, steps)
+    clock.add("run", time.perf_counter() - started, time.process_time() - cpu)
     if video:
-        renderer = render.RunRenderer(model, flex, run, width=width, height=height)
-        try:
+        with render.RunRenderer(model, flex, run, width=width, height=height, look=quality) as renderer:
             picks, slowdown = _frames(run, fps, slowdown)
-            count = render.write_video(video, (renderer.frame(k) for k in picks), fps)
-        finally:
-            renderer.close()
+            written = renderer.write_video(video, picks, fps)
         if progress:
-            print(f"wrote {video} ({count} frames, {fps} fps, {slowdown:.4g}x slow motion)", file=sys.stderr)
+            print(f"wrote {video} ({render.video_text(written, renderer, slowdown)})", file=sys.stderr)
     return summary, run, flex
 
 
@@ -211,34 +223,19 @@ def arcade_model():
 
 
 def _demo_command(args):
-    started = time.perf_counter()
+    from .demo import command_clock, run_demo, video_size  # matplotlib and the figures load only for this command
+
+    clock = command_clock(args.process_started)
     check_output_folder(args.out)
-    if args.width < 2 or args.height < 2:
-        raise SystemExit("error: the demo's --width and --height must be at least 2 (its panels are half size)")
-    check_video_size(args.width, args.height)
+    with clock.phase("rendering set-up"):  # the GL's kind sets the default size; its limit is checked before the run
+        try:
+            width, height = video_size(args.width, args.height, render.gl_info())
+        except RuntimeError as exc:
+            raise SystemExit(f"error: no video can be rendered here: {exc}") from None
+        check_video_size(width, height)
     os.makedirs(args.out, exist_ok=True)
-    model, source = arcade_model()
-    video = os.path.join(args.out, "arcade.mp4")
-    with _stop_on_divergence(os.path.basename(source)):
-        summary, run, flex = run_model(
-            model, os.path.basename(source), duration=args.duration, keyframe="paper_run", video=video,
-            width=args.width, height=args.height, fps=args.fps, slowdown=args.slowdown, every_step=True,
-            progress=not args.quiet,
-        )  # fmt: skip
-    title = "ARCADE-like guide: 105 rad/s spin + 5 m/s cylinder (paper sec. 6)"
-    renderer = render.RunRenderer(model, flex, run, width=args.width // 2, height=args.height // 2)
-    t = run.array("time")
-    picks = [int(np.argmin(np.abs(t - 0.5e-3 * i))) for i in range(6)]  # 0.5 ms apart, as Fig. 4
-    render.panel_figure(os.path.join(args.out, "arcade_panels.png"), [renderer.frame(k, label=False) for k in picks],
-                        t[picks], title)  # fmt: skip
-    renderer.close()
-    render.energy_plot(os.path.join(args.out, "arcade_energy.png"), run, title)
-    render.stroke_plot(os.path.join(args.out, "arcade_stroke.png"), run, title)
-    with open(os.path.join(args.out, "arcade_summary.json"), "w") as f:
-        json.dump(summary.to_dict(), f, indent=2)
-    print(summary.text())
-    _print_command_time(started)
-    print(f"wrote {args.out}/arcade.mp4, arcade_panels.png, arcade_energy.png, arcade_stroke.png, arcade_summary.json")
+    run_demo(args.out, duration=args.duration, width=width, height=height, fps=args.fps,
+             slowdown=args.slowdown, quality=args.quality, progress=not args.quiet, clock=clock)  # fmt: skip
 
 
 def _floats(text):
@@ -422,9 +419,15 @@ def build_parser():
     demo.add_argument("--duration", type=positive_float, default=0.08, help="simulated time [s]")
     _study_parser(sub)
     for p in (sim, demo):
-        p.add_argument("--width", type=positive_int, default=1280 if p is demo else 640,
-                       help="video width [pixels]" + ("; the panels are half size" if p is demo else ""))  # fmt: skip
-        p.add_argument("--height", type=positive_int, default=720 if p is demo else 360, help="video height [pixels]")
+        size = "1280x720, 960x540 where the GL renders in software; one given, 16:9" if p is demo else None
+        p.add_argument("--width", type=positive_int, default=None if p is demo else 640,
+                       help=f"video width [pixels] (default {size or 640})")  # fmt: skip
+        p.add_argument("--height", type=positive_int, default=None if p is demo else 360,
+                       help=f"video height [pixels] (default {size or 360})")  # fmt: skip
+        p.add_argument("--quality", choices=render.QUALITIES, default="auto",
+                       help="full: multisampling, skybox, shadows, reflections; fast: none of them (what costs "
+                       "most where the GL renders in software, e.g. Mesa's llvmpipe without a GPU); auto (default): "
+                       "fast on a software GL, full elsewhere")  # fmt: skip
         p.add_argument("--fps", type=positive_int, default=30, help="video frames per second")
         p.add_argument("--slowdown", type=positive_float, default=100.0, help="slow-motion factor of the video")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -437,6 +440,7 @@ def main(argv=None):
     ap = build_parser()
     args = ap.parse_args(argv)
     args.provenance = provenance(argv)
+    args.process_started = process_start() if argv is None else None  # the command line: start-up is timed
     if args.command == "docs":
         from .docs import build_docs
 

@@ -1,4 +1,4 @@
-"""Headless rendering of runs: flexures coloured by strain, videos, panels and plots.
+"""Headless rendering of runs: flexures coloured by their bending strain, videos.
 
 Rendering uses MuJoCo's offscreen renderer, whose OpenGL backend MuJoCo takes from the
 ``MUJOCO_GL`` environment variable. mjflex never sets it when imported. The rule: a backend
@@ -6,23 +6,43 @@ the user chose (``MUJOCO_GL`` set) is always used; when nothing was chosen and m
 to render (:func:`make_renderer`: the command line's ``--video`` and ``demo``, :class:`RunRenderer`)
 on Linux without a display (no ``DISPLAY`` / ``WAYLAND_DISPLAY``), it selects EGL
 (``MUJOCO_GL=egl``, also inherited by child processes). Set ``MUJOCO_GL=osmesa`` where EGL is
-not available (OSMesa: software, slower). Videos are encoded while frames are rendered, one at a
-time, by the ffmpeg binary shipped in the ``imageio-ffmpeg`` package (no system ffmpeg needed).
-Figures are drawn with matplotlib's object-oriented API, so the user's pyplot backend is left as
-it is.
+not available (OSMesa: software, slower).
+
+What a frame costs depends on the GL: a software one (Mesa's llvmpipe, what EGL gives on a
+machine without a GPU) draws on the CPU, where multisampling, the skybox, shadows and
+reflections cost most of a frame. :func:`gl_info` reads the ``GL_RENDERER`` string of a
+context, and :func:`choose_look` leaves those out on a software GL unless asked for
+(``quality="full"``); see :class:`Look`. Videos are encoded while frames are rendered, one at a
+time, by the ffmpeg binary shipped in the ``imageio-ffmpeg`` package (no system ffmpeg needed),
+with x264's fastest preset at a fixed quantizer (:data:`ENCODER`). Figures: :mod:`.figures`.
 """
 
 import functools
 import importlib
-import itertools
 import os
 import platform
+import queue
+import resource
+import threading
+import time
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from ..mj.build import SHOWN_SITE_GROUPS
 from .simulate import element_strain_per_radian
+
+#: x264 settings of the videos: the fastest preset at quantizer 23. On ARCADE's frames at 960x540 it
+#: needs a fraction of the encoder time of mediapy's default (preset medium, qp 28; scripts/demo.py
+#: measures both) with a higher fidelity (PSNR 40 dB against 39 dB), for files about twice as
+#: large (9 kB a frame).
+ENCODER = {"preset": "ultrafast", "qp": 23}
+
+#: Substrings of ``GL_RENDERER`` (lower case) of GL implementations that draw on the CPU.
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "software rasterizer", "swiftshader", "lavapipe",
+                      "microsoft basic render", "gdi generic", "apple software renderer")  # fmt: skip
+QUALITIES = ("auto", "full", "fast")
 
 
 def _ffmpeg():
@@ -59,15 +79,130 @@ def no_gl_context(backend, exc) -> RuntimeError:
     )
 
 
-def make_renderer(model, width, height):
-    """An offscreen ``mujoco.Renderer``; raises RuntimeError saying how to get a GL context."""
+@dataclass(frozen=True)
+class GLInfo:
+    """The OpenGL implementation MuJoCo renders with: ``MUJOCO_GL`` and the context's own strings.
+
+    ``renderer`` is ``GL_RENDERER`` (e.g. ``"llvmpipe (LLVM 15.0.6, 256 bits)"``), None where it
+    could not be read (then :attr:`software` is None: unknown, not guessed).
+    """
+
+    backend: str
+    renderer: str | None = None
+    vendor: str | None = None
+    version: str | None = None
+
+    @property
+    def software(self) -> bool | None:
+        if self.renderer is None:
+            return None
+        return any(name in self.renderer.lower() for name in SOFTWARE_RENDERERS)
+
+    def text(self) -> str:
+        kind = {True: "software", False: "hardware", None: "unknown"}[self.software]
+        return f"{self.renderer or 'GL renderer not known'} ({kind}, MUJOCO_GL={self.backend})"
+
+
+@functools.lru_cache(maxsize=4)
+def _gl_query(backend):
+    """``(strings, max_size)`` from one 16x16 context of the backend, made once per backend.
+
+    ``strings``: ``GL_RENDERER``, ``GL_VENDOR``, ``GL_VERSION`` (None where PyOpenGL cannot
+    query the context); ``max_size``: the largest offscreen image side [pixels],
+    ``GL_MAX_RENDERBUFFER_SIZE`` (MuJoCo's offscreen buffer is a renderbuffer) or
+    ``GL_MAX_VIEWPORT_DIMS``, whichever is smaller (None where unreadable). RuntimeError (saying
+    how to get a context) when none can be made.
+    """
+    from mujoco.rendering.classic import gl_context
+
+    if gl_context.GLContext is None:
+        return None, None
+    try:
+        context = gl_context.GLContext(16, 16)
+    except Exception as exc:  # the GL backends raise a variety of errors
+        raise no_gl_context(backend, exc) from exc
+    strings = size = None
+    try:
+        context.make_current()
+        from OpenGL import GL  # after the backend's import, which chose PyOpenGL's platform
+
+        try:
+            strings = tuple(GL.glGetString(name).decode(errors="replace") for name in
+                            (GL.GL_RENDERER, GL.GL_VENDOR, GL.GL_VERSION))  # fmt: skip
+        except Exception:  # a context PyOpenGL cannot query: the strings stay unknown
+            pass
+        try:
+            dims = GL.glGetIntegerv(GL.GL_MAX_VIEWPORT_DIMS)
+            size = int(min(int(GL.glGetIntegerv(GL.GL_MAX_RENDERBUFFER_SIZE)), *(int(d) for d in np.ravel(dims))))
+        except Exception:
+            pass
+        return strings, size
+    finally:
+        context.free()
+
+
+def gl_info() -> GLInfo:
+    """What ``GL_RENDERER`` a context of the selected backend reports (a 16x16 context, made once per backend).
+
+    Raises RuntimeError (saying how to get a context) when none can be made.
+    """
+    backend = select_gl_backend()
+    strings, _ = _gl_query(os.environ.get("MUJOCO_GL", ""))
+    return GLInfo(backend, *strings) if strings else GLInfo(backend)
+
+
+@dataclass(frozen=True)
+class Look:
+    """The parts of a frame that cost most in a software GL, each on or off.
+
+    ``antialias``: the model's multisampling (``vis.quality.offsamples``, 4 by default) or none;
+    ``skybox`` and ``haze`` go together (off: a black background). Shadows and reflections only
+    show where the model has shadow-casting lights and reflective materials.
+    """
+
+    antialias: bool = True
+    skybox: bool = True
+    shadows: bool = True
+    reflections: bool = True
+    name: str = "full"
+
+    def apply(self, scene):
+        flags = mujoco.mjtRndFlag
+        for flag, on in ((flags.mjRND_SKYBOX, self.skybox), (flags.mjRND_HAZE, self.skybox),
+                         (flags.mjRND_SHADOW, self.shadows), (flags.mjRND_REFLECTION, self.reflections)):  # fmt: skip
+            scene.flags[flag] = on
+
+
+FULL = Look()
+FAST = Look(antialias=False, skybox=False, shadows=False, reflections=False, name="fast")
+
+
+def choose_look(quality, info: GLInfo) -> Look:
+    """``quality``: ``"full"``, ``"fast"`` or ``"auto"`` (fast on a software GL, full otherwise or if unknown)."""
+    if quality not in QUALITIES:
+        raise ValueError(f"quality must be one of {QUALITIES}; got {quality!r}")
+    if quality == "auto":
+        return FAST if info.software else FULL
+    return FAST if quality == "fast" else FULL
+
+
+def make_renderer(model, width, height, *, antialias=True):
+    """An offscreen ``mujoco.Renderer``; raises RuntimeError saying how to get a GL context.
+
+    ``antialias=False`` creates it without multisampling (the model's ``offsamples`` is restored).
+    """
     backend = select_gl_backend()
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    samples = model.vis.quality.offsamples
+    if not antialias:
+        model.vis.quality.offsamples = 0  # read when the context is made
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:  # the GL backends raise a variety of errors
         raise no_gl_context(backend, exc) from exc
+    finally:
+        model.vis.quality.offsamples = samples
 
 
 def default_camera(model):
@@ -80,72 +215,200 @@ def default_camera(model):
 
 
 def strain_colors(values, scale):
-    """RGBA (n, 4): green (0) through yellow to red (``>= scale``)."""
+    """RGBA (n, 4): green (0) through yellow (``scale / 2``) to red (``>= scale``)."""
     x = np.clip(np.asarray(values, dtype=float) / scale, 0.0, 1.0)
     r = np.clip(2.0 * x, 0.0, 1.0)
     g = np.clip(2.0 * (1.0 - x), 0.0, 1.0)
     return np.stack([r, 0.85 * g, 0.1 * np.ones_like(x), np.ones_like(x)], -1)
 
 
-def _label(image, text):
-    from PIL import Image, ImageDraw, ImageFont
+@dataclass
+class ColourScale:
+    """What the flexures' colours show: ``values`` ``(samples, n)``, green at 0 to red at ``vmax``.
 
-    img = Image.fromarray(image)
-    size = max(10, image.shape[0] // 28)
-    try:
-        font = ImageFont.load_default(size=size)
-    except TypeError:  # Pillow < 10.1: fixed-size bitmap font
-        font = ImageFont.load_default()
-    ImageDraw.Draw(img).text((size // 2, size // 3), text, fill=(255, 255, 255), font=font)
-    return np.asarray(img)
-
-
-class RunRenderer:
-    """Renders stored states of a run with each flexure's site coloured by its strain."""
-
-    def __init__(self, model, flex, run, *, width=640, height=360, strain_scale=None, camera=None):
-        self.model, self.flex, self.run = model, flex, run
-        self.renderer = make_renderer(model, width, height)
-        self.data = mujoco.MjData(model)
-        self.camera = camera or default_camera(model)
-        self.option = mujoco.MjvOption()
-        for g in SHOWN_SITE_GROUPS:
-            self.option.sitegroup[g] = 1
-        self.sites = flex.site_ids[:, 0]
-        per_rad = element_strain_per_radian(flex)
-        bending = np.abs(run.array("bending"))
-        self.strain = np.where(np.isfinite(per_rad), bending * per_rad, bending)  # rotation where no strain known
-        self.scale = strain_scale or max(float(np.nanmax(self.strain)), 1e-12)
-
-    def frame(self, k, label=True):
-        self.data.qpos[:] = self.run.qpos[k]
-        mujoco.mj_forward(self.model, self.data)
-        self.model.site_rgba[self.sites] = strain_colors(self.strain[k], self.scale)
-        self.renderer.update_scene(self.data, camera=self.camera, scene_option=self.option)
-        image = self.renderer.render()
-        return _label(image, f"t = {self.run.time[k] * 1e3:7.3f} ms") if label else image
-
-    def close(self):
-        self.renderer.close()
-
-
-def write_video(path, frames, fps) -> int:
-    """Encode ``frames`` (an iterable of ``(H, W, 3)`` uint8 images) as an H.264 MP4; returns the count.
-
-    Frames are passed to imageio-ffmpeg's ffmpeg one at a time as they come, so a generator
-    that renders them keeps one image in memory, whatever the length of the video.
+    ``label`` (``short`` in a video frame) and ``unit`` name the displayed quantity, ``values *
+    factor`` in ``unit``.
     """
+
+    values: np.ndarray
+    vmax: float
+    label: str
+    short: str
+    unit: str
+    factor: float
+
+    def ticks_text(self, value) -> str:
+        return f"{value * self.factor:.3g}"
+
+
+def colour_scale(flex, run, vmax=None) -> ColourScale:
+    """Each element's bending at each sample of ``run``, as strain where every element states its strain.
+
+    With ``strain_per_radian`` in every record: the peak bending strain at the element's
+    thinnest section (``|rotation about z| * strain_per_radian``, shown in %); otherwise the
+    rotation about the element's z axis of every element (shown in degrees), so that one
+    colour means one value. ``vmax`` (in the values' own units: strain or rad) defaults to
+    the largest value of the run.
+    """
+    bending = np.abs(run.array("bending"))
+    per_rad = element_strain_per_radian(flex)
+    if np.isfinite(per_rad).all():
+        values, unit, factor = bending * per_rad, "%", 100.0
+        label, short = "bending strain at the surface of the thinnest section", "bending strain"
+    else:
+        values, unit, factor = bending, "deg", 180 / np.pi
+        label, short = "rotation about the element's z (bending) axis", "bending rotation"
+    top = float(np.nanmax(values)) if values.size else 0.0
+    return ColourScale(values, vmax or max(top, 1e-12), label, short, unit, factor)
+
+
+def _font(size):
+    from PIL import ImageFont
+
+    try:
+        return ImageFont.load_default(size=size)
+    except TypeError:  # Pillow < 10.1: fixed-size bitmap font
+        return ImageFont.load_default()
+
+
+#: Smallest video (width, height) [pixels]: the frames carry the time and a colour bar (:class:`_Overlay`).
+MIN_VIDEO_SIZE = (64, 36)
+
+
+class _Overlay:
+    """The time (top left) and a colour bar of the scale (bottom left) drawn into video frames.
+
+    The colour bar is drawn once; per frame only the small box of the time is drawn.
+    """
+
+    def __init__(self, width, height, scale: ColourScale | None):
+        from PIL import Image, ImageDraw
+
+        self.size = max(10, height // 28)
+        self.font = _font(self.size)
+        self.box = (min(width, 12 * self.size), min(height, int(1.6 * self.size)))  # time: w, h
+        self.legend = None
+        if scale is None:
+            return
+        s = self.size
+        w, h = min(width, 16 * s), min(height, int(3.4 * s))
+        img = Image.new("RGB", (w, h), (24, 24, 28))
+        bar = strain_colors(np.linspace(0.0, 1.0, w - s)[None, :].repeat(int(0.6 * s), 0), 1.0)[..., :3]
+        img.paste(Image.fromarray((255 * bar).astype(np.uint8)), (s // 2, int(1.3 * s)))
+        draw = ImageDraw.Draw(img)
+        draw.text((s // 2, s // 6), f"{scale.short} [{scale.unit}]", fill=(235, 235, 235),
+                  font=self.font)  # fmt: skip
+        ticks = int(2.0 * s)
+        draw.text((s // 2, ticks), "0", fill=(235, 235, 235), font=self.font)
+        top = scale.ticks_text(scale.vmax)
+        draw.text((w - s // 2 - draw.textlength(top, font=self.font), ticks), top, fill=(235, 235, 235),
+                  font=self.font)  # fmt: skip
+        self.legend = np.asarray(img)
+
+    def draw(self, image, text):
+        from PIL import Image, ImageDraw
+
+        w, h = self.box
+        patch = Image.fromarray(image[:h, :w])
+        ImageDraw.Draw(patch).text((self.size // 2, self.size // 3), text, fill=(255, 255, 255), font=self.font)
+        image[:h, :w] = np.asarray(patch)
+        if self.legend is not None and self.legend.shape[0] < image.shape[0] // 2:
+            lh, lw = self.legend.shape[:2]
+            image[-lh:, :lw] = self.legend
+        return image
+
+
+@dataclass
+class VideoStats:
+    """A written video: frames, size, and where its wall time went [s].
+
+    ``frames_s``: making the frames (the generator: scene, drawing, read-back, labels);
+    ``encode_wait_s``: waiting for the encoder (its start, its full queue, its finishing);
+    ``cpu_s``: CPU time of this process meanwhile (every thread: the GL's, the writer's);
+    ``encoder_cpu_s``: CPU time of the ffmpeg process (it runs beside the frames, on other cores).
+    """
+
+    path: str
+    frames: int
+    width: int
+    height: int
+    fps: float
+    frames_s: float
+    encode_wait_s: float
+    cpu_s: float
+    encoder_cpu_s: float
+
+    def per_frame_ms(self) -> dict:
+        n = max(self.frames, 1)
+        return {"frames": 1e3 * self.frames_s / n, "encode_wait": 1e3 * self.encode_wait_s / n,
+                "cpu": 1e3 * self.cpu_s / n, "encoder_cpu": 1e3 * self.encoder_cpu_s / n,
+                "total": 1e3 * (self.frames_s + self.encode_wait_s) / n}  # fmt: skip
+
+
+def _children_cpu():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def write_video(path, frames, fps, *, queue_frames=2) -> VideoStats:
+    """Encode ``frames`` (an iterable of ``(H, W, 3)`` uint8 images) as an H.264 MP4 (:data:`ENCODER`).
+
+    Frames go to imageio-ffmpeg's ffmpeg as they come, through a queue of at most
+    ``queue_frames`` frames that a thread writes to ffmpeg's input: a generator that renders
+    them keeps a few images in memory whatever the length of the video, and goes on rendering
+    while ffmpeg reads and encodes (on other cores).
+    """
+    clock = time.perf_counter
     frames = iter(frames)
+    t0 = clock()
     first = next(frames, None)
     if first is None:
         raise ValueError(f"no frames to write to {path}")
+    made, waited, count = clock() - t0, 0.0, 0
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    count = 0
-    with _ffmpeg().VideoWriter(path, shape=first.shape[:2], fps=fps) as writer:
-        for image in itertools.chain((first,), frames):
-            writer.add_image(image)
-            count += 1
-    return count
+    cpu, own = _children_cpu(), time.process_time()
+    t0 = clock()
+    with _ffmpeg().VideoWriter(path, shape=first.shape[:2], fps=fps, qp=ENCODER["qp"],
+                               ffmpeg_args=["-preset", ENCODER["preset"]]) as writer:  # fmt: skip
+        pending, failed = queue.Queue(maxsize=queue_frames), []
+
+        def feed():
+            while (image := pending.get()) is not None:
+                if not failed:
+                    try:
+                        writer.add_image(image)
+                    except BaseException as exc:  # raised in the caller's thread below
+                        failed.append(exc)
+
+        feeder = threading.Thread(target=feed, name="mjflex-video-writer", daemon=True)
+        feeder.start()
+        waited += clock() - t0
+        image = first
+        try:
+            while image is not None and not failed:
+                t0 = clock()
+                pending.put(image)
+                t1 = clock()
+                count += 1
+                image = next(frames, None)
+                waited, made = waited + t1 - t0, made + clock() - t1
+        finally:
+            t0 = clock()
+            pending.put(None)
+            feeder.join()
+        if failed:
+            raise failed[0]
+        t0 = clock()
+    waited += clock() - t0  # ffmpeg finishing the last frames
+    height, width = first.shape[:2]
+    own = time.process_time() - own
+    return VideoStats(str(path), count, width, height, fps, made, waited, own, _children_cpu() - cpu)
+
+
+def video_text(stats: VideoStats, renderer, slowdown) -> str:
+    """``247 frames 960x540, 30 fps, 100x slow motion; fast look, llvmpipe (...) (software, ...)``."""
+    return (f"{stats.frames} frames {stats.width}x{stats.height}, {stats.fps:g} fps, {slowdown:.4g}x slow motion; "
+            f"{renderer.look.name} look, {renderer.gl.text()}")  # fmt: skip
 
 
 def read_video(path):
@@ -159,58 +422,58 @@ def read_video(path):
     return np.stack(frames) if frames else np.zeros((0, height, width, 3), np.uint8)
 
 
-def _figure(**kwargs):
-    """A matplotlib figure that needs no pyplot backend (saved with ``fig.savefig``)."""
-    from matplotlib.figure import Figure
+class RunRenderer:
+    """Renders stored states of a run with each flexure's site coloured by its bending (:func:`colour_scale`).
 
-    return Figure(**kwargs)
+    ``look``: a :class:`Look`, or a quality name of :func:`choose_look` (default ``"auto"``: fast
+    on a software GL). ``width``/``height`` in pixels. Use as a context manager or :meth:`close`.
+    """
 
+    def __init__(self, model, flex, run, *, width=640, height=360, look="auto", strain_scale=None, camera=None):
+        self.model, self.flex, self.run = model, flex, run
+        self.gl = gl_info()
+        self.look = choose_look(look, self.gl) if isinstance(look, str) else look
+        self.renderer = make_renderer(model, width, height, antialias=self.look.antialias)
+        self.width, self.height = width, height
+        self.data = mujoco.MjData(model)
+        self.camera = camera or default_camera(model)
+        self.option = mujoco.MjvOption()
+        for g in SHOWN_SITE_GROUPS:
+            self.option.sitegroup[g] = 1
+        self.sites = flex.site_ids[:, 0]
+        self.scale = colour_scale(flex, run, strain_scale)
+        self.overlay = _Overlay(width, height, self.scale)
 
-def panel_figure(path, images, times, title):
-    """A 2x3 figure of rendered frames, as the paper's Fig. 4."""
-    fig = _figure(figsize=(12, 5.2))
-    axes = fig.subplots(2, 3)
-    for ax, image, t in zip(axes.ravel(), images, times, strict=False):
-        ax.imshow(image)
-        ax.set_title(f"t = {t * 1e3:.1f} ms", fontsize=10)
-        ax.axis("off")
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    @property
+    def strain(self):
+        """``(samples, n)`` values the colours show (see :attr:`scale`)."""
+        return self.scale.values
 
+    def frame(self, k, label=True, look=None):
+        """Sample ``k`` as an ``(H, W, 3)`` uint8 image; ``label``: time and colour bar drawn in.
 
-def energy_plot(path, run, title):
-    """Kinetic, elastic and dissipated energy, and the balance error, against time."""
-    t = run.array("time") * 1e3
-    kinetic, elastic = run.array("kinetic"), run.array("flexure_potential") + run.array("mujoco_potential")
-    dissipated = run.array("dissipated")
-    total = kinetic + elastic
-    fig = _figure(figsize=(8, 6))
-    a, b = fig.subplots(2, 1, sharex=True)
-    a.plot(t, elastic, label="flexure potential energy")
-    a.plot(t, dissipated, label="dissipated by flexure damping")
-    a.plot(t, kinetic - kinetic[0], label="kinetic energy - initial")
-    a.set_ylabel("energy [J]")
-    a.legend(loc="upper left", fontsize=8)
-    a.set_title(title)
-    b.plot(t, total + dissipated - total[0], color="k")
-    b.set_ylabel("balance error [J]\n(E + dissipated - E0)")
-    b.set_xlabel("time [ms]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+        ``look``: a :class:`Look` for this frame only (its ``antialias`` is the renderer's).
+        """
+        self.data.qpos[:] = self.run.qpos[k]
+        mujoco.mj_forward(self.model, self.data)
+        self.model.site_rgba[self.sites] = strain_colors(self.scale.values[k], self.scale.vmax)
+        self.renderer.update_scene(self.data, camera=self.camera, scene_option=self.option)
+        (look or self.look).apply(self.renderer.scene)
+        image = self.renderer.render()
+        return self.overlay.draw(image, f"t = {self.run.time[k] * 1e3:.3f} ms") if label else image
 
+    def write_video(self, path, picks, fps) -> VideoStats:
+        """The samples ``picks`` as a video at ``fps``, labelled; see :func:`write_video`."""
+        return write_video(path, (self.frame(k) for k in picks), fps)
 
-def stroke_plot(path, run, title):
-    """Axial position of the cylinder relative to the base against time."""
-    fig = _figure(figsize=(8, 3.5))
-    ax = fig.subplots()
-    ax.plot(run.array("time") * 1e3, run.array("stroke") * 1e3)
-    ax.set_xlabel("time [ms]")
-    ax.set_ylabel("cylinder stroke [mm]")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    def close(self):
+        self.renderer.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 #: Image side [pixels] every OpenGL 3.0 implementation renders offscreen (the minimum the specification
@@ -218,30 +481,17 @@ def stroke_plot(path, run, title):
 GUARANTEED_IMAGE_SIZE = 1024
 
 
-@functools.cache
 def max_image_size() -> int:
-    """Largest width or height [pixels] of an offscreen image here: the GL's ``GL_MAX_RENDERBUFFER_SIZE``
-    (MuJoCo's offscreen buffer is a renderbuffer) and ``GL_MAX_VIEWPORT_DIMS``, whichever is smaller.
+    """Largest width or height [pixels] of an offscreen image here (see :func:`_gl_query`).
 
-    Queried once per process from a 1x1 context of the backend :func:`select_gl_backend` picks;
-    RuntimeError (saying how to get a GL context) where there is none.
+    Queried once per process, from the same context as :func:`gl_info`; RuntimeError (saying how
+    to get a GL context) where there is none or the limit cannot be read.
     """
     backend = select_gl_backend()
-    from mujoco.rendering.classic import gl_context
-
-    context = None
-    try:
-        context = gl_context.GLContext(1, 1)
-        context.make_current()
-        from OpenGL import GL
-
-        dims = GL.glGetIntegerv(GL.GL_MAX_VIEWPORT_DIMS)
-        return int(min(int(GL.glGetIntegerv(GL.GL_MAX_RENDERBUFFER_SIZE)), *(int(d) for d in np.ravel(dims))))
-    except Exception as exc:  # the GL backends raise a variety of errors
-        raise no_gl_context(backend, exc) from exc
-    finally:
-        if context is not None:
-            context.free()
+    _, size = _gl_query(os.environ.get("MUJOCO_GL", ""))
+    if size is None:
+        raise no_gl_context(backend, "GL_MAX_RENDERBUFFER_SIZE could not be read from the context")
+    return size
 
 
 def image_size_problem(width, height, what=("width", "height")) -> str | None:
