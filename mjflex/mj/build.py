@@ -9,7 +9,7 @@ import numpy as np
 from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
-from . import schema
+from . import _native, schema
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
@@ -24,12 +24,13 @@ SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
 @dataclass
 class FlexureHandle:
-    """The spec elements that make up one flexure."""
+    """The spec elements that make up one flexure: its sites, and its text record or plugin instance."""
 
     name: str
     site_a: "mujoco.MjsSite"
     site_b: "mujoco.MjsSite"
-    text: "mujoco.MjsText"
+    text: "mujoco.MjsText | None"
+    plugin: "mujoco.MjsPlugin | None" = None
 
 
 def _unit_quat(quat, name):
@@ -88,7 +89,7 @@ def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
 def add_flexure(
     spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True,
+    exclude_contact=True, kind="record",
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -137,15 +138,30 @@ def add_flexure(
         MuJoCo would push them apart. ``False`` keeps their contacts. A pair with the world is
         never excluded here (the world holds floors and obstacles; MuJoCo's parent-child filter
         exempts it likewise): :class:`mjflex.Flexures` warns if such geoms touch at rest.
+    kind : {"record", "plugin"}
+        How the element is written (:mod:`mjflex.mj.schema`): a text record, whose forces
+        :class:`mjflex.Flexures` adds through MuJoCo's ``mjcb_passive``, or an instance of the
+        engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to the model (any
+        MuJoCo program with mjflex installed runs it). Both carry the same parameters.
 
     Returns
     -------
     FlexureHandle
     """
     validation.method_code(method)
+    if kind not in ("record", "plugin"):
+        raise ValueError(f'kind must be "record" or "plugin"; got {kind!r}')
     site_names = schema.site_names(name)
-    if spec.text(schema.PREFIX + name) is not None or any(spec.site(s) is not None for s in site_names):
-        raise ValueError(f"flexure {name!r} already exists in the spec (its sites or text record); pick another name")
+    if (
+        spec.text(schema.PREFIX + name) is not None
+        or any(spec.site(s) is not None for s in site_names)
+        or any(p.name == name for p in spec.plugins)
+    ):
+        raise ValueError(
+            f"flexure {name!r} already exists in the spec (its sites, text record or plugin instance); pick another name"
+        )
+    if kind == "plugin":
+        activate_plugin(spec)
     K = schema.element_matrix(K, f"K of flexure {name!r}")
     B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
@@ -179,8 +195,53 @@ def add_flexure(
         exclude_contacts(spec, *bodies)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
                                   *_checked_terms(terms, method, K, name))  # fmt: skip
+    if kind == "plugin":
+        return FlexureHandle(name, sites[0], sites[1], None, add_plugin_element(spec, record, *site_names))
     text = spec.add_text(name=schema.PREFIX + name, data=record.to_text())
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def activate_plugin(spec) -> None:
+    """Let ``spec`` use the engine plugin ``mjflex.flexure`` (its native library must be built)."""
+    if _native.loaded() is None:
+        import mjflex_plugin
+
+        try:
+            mjflex_plugin.library()
+        except mjflex_plugin.NativeLibraryError as exc:
+            raise RuntimeError(f"plugin elements need mjflex's native library: {exc}") from None
+    spec.activate_plugin(schema.PLUGIN_NAME)  # idempotent
+
+
+def add_plugin_element(spec, record, site_a: str, site_b: str):
+    """Add ``record`` to ``spec`` as an instance of ``mjflex.flexure`` between two existing sites; returns it.
+
+    The instance is named after the element and attached to no body (MuJoCo computes it anyway).
+    """
+    activate_plugin(spec)
+    plugin = spec.add_plugin(name=record.name, plugin_name=schema.PLUGIN_NAME, active=True)
+    plugin.config = schema.config_from_record(record, site_a, site_b)
+    return plugin
+
+
+def records_to_plugins(spec) -> list[str]:
+    """Turn every text-record element of ``spec`` into an ``mjflex.flexure`` plugin instance (same sites).
+
+    Returns the element names. Their parameters carry over exactly (see
+    :func:`mjflex.mj.schema.config_from_record`); the sites stay where they are.
+    """
+    sites = {s.name for s in spec.sites}
+    converted = []
+    for text in list(spec.texts):
+        match = schema.match_record(text.name, sites)
+        if match is None or not match[3]:
+            continue
+        element, site_a, site_b, _ = match
+        record = schema.parse_text(element, text.data)
+        spec.delete(text)
+        add_plugin_element(spec, record, site_a, site_b)
+        converted.append(element)
+    return converted
 
 
 def _checked_terms(terms, method, K, name):
