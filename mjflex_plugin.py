@@ -37,7 +37,7 @@ def _folder():
     spec = importlib.util.find_spec("mjflex")  # locates the package without importing it (no numba)
     if spec is None or not spec.submodule_search_locations:
         return None
-    return os.path.join(list(spec.submodule_search_locations)[0], "native")
+    return os.path.join(next(iter(spec.submodule_search_locations)), "native")
 
 
 def _candidates():

@@ -28,7 +28,7 @@ def _mujoco_folder():
     spec = importlib.util.find_spec("mujoco")  # without importing it (no bindings, no entry points)
     if spec is None or not spec.submodule_search_locations:
         return None
-    return list(spec.submodule_search_locations)[0]
+    return next(iter(spec.submodule_search_locations))
 
 
 def _header_version(folder):
@@ -87,8 +87,13 @@ def _cflags():
 
 setup(
     ext_modules=[
-        Extension("mjflex.native.libmjflex", sources=SOURCES, depends=[SOURCES[0].replace(".c", ".h")],
-                  extra_compile_args=_cflags(), optional=True)  # fmt: skip
+        Extension(
+            "mjflex.native.libmjflex",
+            sources=SOURCES,
+            depends=[f.replace(".c", ".h") for f in SOURCES if os.path.exists(f.replace(".c", ".h"))],
+            extra_compile_args=_cflags(),
+            optional=True,
+        )
     ],
     cmdclass={"build_ext": BuildNative},
 )

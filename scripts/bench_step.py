@@ -210,7 +210,7 @@ def main():
     if args.startup_runs:
         with tempfile.TemporaryDirectory() as tmp:
             paths = {"plugin": os.path.join(tmp, "plugin.xml"), "mjcb_passive": os.path.join(tmp, "record.xml")}
-            for (kind, path), s in zip(paths.items(), (plugin_specs["twist"], spec), strict=True):
+            for path, s in zip(paths.values(), (plugin_specs["twist"], spec), strict=True):
                 with open(path, "w") as f:
                     f.write(s.to_xml())
             start = startup(paths, args.startup_runs)

@@ -23,7 +23,7 @@ B_DEMO = 0.02 * K_DEMO
 
 def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timestep=1e-3, gravity=False, terms=None,
                   kind="record"):  # fmt: skip
-    """Bodies A and B on free joints joined at their midpoint by one flexure named ``link`` (``kind``: how it is written)."""
+    """Bodies A and B on free joints joined at their midpoint by one flexure ``link`` (``kind``: how it is written)."""
     spec = mujoco.MjSpec()
     spec.modelname = "two_body"
     spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")

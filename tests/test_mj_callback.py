@@ -312,7 +312,10 @@ def test_diverging_rollout_threads_warn_instead_of_ending_the_process(chained):
     assert "survived True" in result.stdout
     # a warning (the process survived); without its "WARNING: " prefix, which MuJoCo writes separately and two
     # threads printing at once can move away from the message
-    assert "mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s (step index 0, counting from 0)" in result.stdout + result.stderr
+    assert (
+        "mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s (step index 0, counting from 0)"
+        in result.stdout + result.stderr
+    )
 
 
 def test_without_the_native_library_the_python_fallback_gives_the_same_forces(monkeypatch):

@@ -71,7 +71,9 @@ def test_pickled_provider_runs_identically_in_another_process():
         there = pool.submit(_simulate, flex, qvel).result(timeout=300)
         message = pool.submit(_diverge, flex).result(timeout=300)
     assert np.array_equal(there, here)
-    assert message.startswith("mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s (step index 0, counting from 0)")
+    assert message.startswith(
+        "mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s (step index 0, counting from 0)"
+    )
 
 
 # ------------------------------------------------------------------ mujoco.batch.Batch

@@ -94,7 +94,9 @@ def test_divergence_is_flagged(in_process):
     assert (0 < bad["time_diverged"]).all() and (bad["time_diverged"] < DURATION).all()
     assert (bad["element"] == "hinge").all()
     # the provider reports the element before MuJoCo's bad-acceleration check fires
-    assert str(bad["error"].values[0]).startswith("mjflex: flexure 'hinge' of model 'two_body' diverged in the step from t = ")
+    assert str(bad["error"].values[0]).startswith(
+        "mjflex: flexure 'hinge' of model 'two_body' diverged in the step from t = "
+    )
     ok = ds.where(ds["k_scale"] != 1e4, drop=True)
     assert (ok["status"] == "ok").all() and (ok["error"] == "").all()
     # a plain loop agrees that this variant diverges (with auto-reset off, as in the sweep; with

@@ -37,7 +37,6 @@ import os
 import threading
 
 import mujoco
-import numpy as np
 
 from . import _native
 

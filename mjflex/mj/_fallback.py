@@ -54,7 +54,9 @@ def evaluate(model, data, tables, mode, *, qfrc=None, out6=None, out1=None, n=No
             continue
         method = _METHODS[int(row["method"])]
         K = row["K"].reshape(6, 6) if spring else np.zeros((6, 6))
-        terms = rec.terms if spring and rec.terms is not None and len(rec.terms) and method == rec.terms.method else None
+        terms = (
+            rec.terms if spring and rec.terms is not None and len(rec.terms) and method == rec.terms.method else None
+        )
         if mode & _native.ENERGY:
             out1[i] = potential(Ra, pa, Rb, pb, K, method=method, terms=terms, check=False)
             continue
@@ -91,39 +93,47 @@ class Watch:
     def __init__(self, n):
         self.n, self.seen, self.started = n, [0, 0, 0], False
         self.last_time = self.step_start = 0.0
-        self.cand = None  # (element, accel, time, step)
-        self.tally = {}  # element -> [count, first step, first verdict, last step]
+        self.cand = None  # (element, accel, time, step, resets)
+        self.resets = 0  # resets seen: repeats at equal times are different events
+        self.tally = {}  # element -> [count, first step, first verdict, (last step, resets)]
 
     def _recent(self, t, h):
         return self.cand is not None and t - 1.5 * h <= self.cand[2] <= t
 
-    def _count(self, e, step, verdict):
+    def _count(self, e, step, resets, verdict):
         entry = self.tally.get(e)
         first = entry is None
         if first:
-            self.tally[e] = entry = [0, step, verdict, step]
+            self.tally[e] = entry = [0, step, verdict, None]
         entry[0] += 1
-        entry[3] = step
+        entry[3] = (step, resets)
         return first
+
+    def _counted(self, e, step, resets):
+        entry = self.tally.get(e)
+        return entry is not None and entry[3] == (step, resets)
 
     def judge(self, model, data):
         """``[(element, first, verdict)]`` of a bad step MuJoCo found since the last look."""
         now = [int(data.warning[w].number) for w in _BAD]
         rose = next((i for i in range(3) if now[i] > self.seen[i]), None)
         out = []
-        if self.started and data.time < self.last_time and rose is None:
+        reset = self.started and data.time < self.last_time
+        if reset and rose is None:
             rose = next((i for i in range(3) if now[i] > 0), None)
             if rose is None:
+                resets = self.resets
                 self.__init__(self.n)  # the user's reset: a new run
+                self.resets = resets + 1
                 return out
         if rose is not None and self._recent(self.last_time, model.opt.timestep):
-            e, accel, _, step = self.cand
-            entry = self.tally.get(e)
-            if not (entry and entry[3] == step):
-                verdict = (False, accel, step, rose)
-                out.append((e, self._count(e, step, verdict), verdict))
+            e, accel, _, step, resets = self.cand
+            if not self._counted(e, step, resets):
+                verdict = (math.isinf(accel), accel, step, rose)
+                out.append((e, self._count(e, step, resets, verdict), verdict))
             self.cand = None
         self.seen = now
+        self.resets += bool(reset)
         return out
 
     def record(self, model, data, scan):
@@ -135,14 +145,14 @@ class Watch:
             self.cand = None
         e = scan["nonfinite"]
         if e >= 0:
-            self.cand = (e, math.inf, t, self.step_start)
-            entry = self.tally.get(e)
-            if entry and entry[3] == self.step_start:
+            self.cand = (e, math.inf, t, self.step_start, self.resets)
+            if self._counted(e, self.step_start, self.resets):
                 return []
             verdict = (True, math.inf, self.step_start, -1)
-            return [(e, self._count(e, self.step_start, verdict), verdict)]
-        if scan["largest"] >= 0 and scan["accel"] > _CANDIDATE_ACCEL and (self.cand is None or scan["accel"] >= self.cand[1]):
-            self.cand = (scan["largest"], scan["accel"], t, self.step_start)
+            return [(e, self._count(e, self.step_start, self.resets, verdict), verdict)]
+        big = scan["largest"] >= 0 and scan["accel"] > _CANDIDATE_ACCEL
+        if big and (self.cand is None or scan["accel"] >= self.cand[1]):
+            self.cand = (scan["largest"], scan["accel"], t, self.step_start, self.resets)
         return []
 
 

@@ -107,7 +107,9 @@ def _bind(lib):
     size = lib.mjfx_element_field(None)
     for name in ELEMENT_DTYPE.names:
         if lib.mjfx_element_field(name.encode()) != ELEMENT_DTYPE.fields[name][1]:
-            raise RuntimeError(f"mjflex: the native mjfxElement.{name} is not where ELEMENT_DTYPE has it; rebuild mjflex")
+            raise RuntimeError(
+                f"mjflex: the native mjfxElement.{name} is not where ELEMENT_DTYPE has it; rebuild mjflex"
+            )
     if size != ELEMENT_DTYPE.itemsize:
         raise RuntimeError(f"mjflex: the native mjfxElement has {size} bytes, ELEMENT_DTYPE {ELEMENT_DTYPE.itemsize}")
     return lib

@@ -375,7 +375,9 @@ def difference(mine: Tables, other: Tables, mine_model, other_model) -> str | No
         moved = _rest_moved(mine, other, e)
         if moved:
             return f"the sites of flexure '{name}' moved by {moved}"
-    if not (np.array_equal(mine.chain, other.chain) and np.array_equal(mine_model.body_rootid, other_model.body_rootid)):
+    if not (
+        np.array_equal(mine.chain, other.chain) and np.array_equal(mine_model.body_rootid, other_model.body_rootid)
+    ):
         return "its kinematic trees differ"
     return None
 

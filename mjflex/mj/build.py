@@ -158,7 +158,8 @@ def add_flexure(
         or any(p.name == name for p in spec.plugins)
     ):
         raise ValueError(
-            f"flexure {name!r} already exists in the spec (its sites, text record or plugin instance); pick another name"
+            f"flexure {name!r} already exists in the spec (its sites, text record or plugin instance); pick another "
+            "name"
         )
     if kind == "plugin":
         activate_plugin(spec)

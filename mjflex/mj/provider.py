@@ -29,7 +29,11 @@ def _restore(model, copies, enabled, viscous, methods):
     """Unpickle a :class:`Flexures`: rebuilt from its model, with its switches and served copies."""
     flex = Flexures(model)
     el = flex._elements
-    el["enabled"][: len(enabled)], el["viscous"][: len(viscous)], el["method"][: len(methods)] = enabled, viscous, methods
+    el["enabled"][: len(enabled)], el["viscous"][: len(viscous)], el["method"][: len(methods)] = (
+        enabled,
+        viscous,
+        methods,
+    )
     return flex.serve(copies) if copies else flex
 
 

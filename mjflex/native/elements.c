@@ -283,8 +283,14 @@ static int recent(const mjfxWatch* w, const mjModel* m, double t) {
   return w->cand >= 0 && w->cand_time <= t && w->cand_time >= t - 1.5 * h;
 }
 
-static void tally(mjfxWatch* w, int e, double step, mjfxVerdict* v) {
+static int counted(const mjfxWatch* w, int e, double step, long resets) {
+  const mjfxTally* t = w->tally + e;
+  return t->count > 0 && t->last == step && t->last_run == resets;
+}
+
+static void tally(mjfxWatch* w, int e, double step, long resets, mjfxVerdict* v) {
   mjfxTally* t = w->tally + e;
+  t->last_run = resets;
   v->first = t->count == 0;
   if (t->count == 0) {
     t->time = step;
@@ -309,7 +315,9 @@ void mjfx_watch_judge(mjfxWatch* w, const mjModel* m, const mjData* d, int commi
     if (any >= 0) {
       rose = any;  // MuJoCo's auto-reset: it zeroes the counters, then counts the bad state again
     } else if (commit) {
+      long resets = w->resets;
       mjfx_watch_clear(w, w->n);  // the user's mj_resetData (or a new mjData): a new run
+      w->resets = resets + 1;
       return;
     } else {
       return;
@@ -317,23 +325,23 @@ void mjfx_watch_judge(mjfxWatch* w, const mjModel* m, const mjData* d, int commi
   }
   if (rose >= 0 && recent(w, m, w->last_time) && w->cand < w->n) {
     int e = w->cand;
-    const mjfxTally* t = w->tally + e;
-    if (!(t->count > 0 && t->last == w->cand_step)) {  // not counted for this step already
+    if (!counted(w, e, w->cand_step, w->cand_resets)) {  // not counted for this event already (non-finite)
       v->element = e;
       v->nonfinite = isinf(w->cand_accel);
       v->accel = w->cand_accel;
       v->step = w->cand_step;
       v->bad = rose;
       if (commit) {
-        tally(w, e, w->cand_step, v);
+        tally(w, e, w->cand_step, w->cand_resets, v);
       } else {
-        v->first = t->count == 0;
+        v->first = w->tally[e].count == 0;
       }
     }
     if (commit) w->cand = -1;
   }
   if (commit) {
     for (int i = 0; i < 3; i++) w->seen[i] = now[i];
+    if (reset) w->resets++;
     w->reset = 0;
   }
 }
@@ -358,20 +366,21 @@ void mjfx_watch_record(mjfxWatch* w, const mjModel* m, const mjData* d, const mj
   if (scan->nonfinite >= 0 && scan->nonfinite < w->n) {
     int e = scan->nonfinite;
     w->cand = e, w->cand_accel = INFINITY, w->cand_time = t, w->cand_step = w->step_start;
-    const mjfxTally* tl = w->tally + e;
-    if (!(tl->count > 0 && tl->last == w->step_start)) {
+    w->cand_resets = w->resets;
+    if (!counted(w, e, w->step_start, w->resets)) {
       v->element = e;
       v->nonfinite = 1;
       v->accel = INFINITY;
       v->step = w->step_start;
       v->bad = -1;
-      tally(w, e, w->step_start, v);
+      tally(w, e, w->step_start, w->resets, v);
     }
     return;
   }
   if (scan->largest >= 0 && scan->largest < w->n && scan->accel > CANDIDATE_ACCEL &&
       (w->cand < 0 || scan->accel >= w->cand_accel)) {
     w->cand = scan->largest, w->cand_accel = scan->accel, w->cand_time = t, w->cand_step = w->step_start;
+    w->cand_resets = w->resets;
   }
 }
 

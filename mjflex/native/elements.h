@@ -88,6 +88,7 @@ typedef struct mjfxTally_ {
   double time;        // start of the step of the first one [s]
   double accel;       // the first one's implied acceleration
   double last;        // start of the step of the last one counted [s]
+  long last_run;      // the watch's reset count when it was counted (with last: one event counts once)
 } mjfxTally;
 
 typedef struct mjfxWatch_ {
@@ -98,6 +99,8 @@ typedef struct mjfxWatch_ {
   double last_time;    // d->time of the last evaluation
   double step_start;   // start of the step the last evaluation belongs to
   double cand_accel, cand_time, cand_step;
+  long resets;         // resets seen (MuJoCo's automatic ones too): tells repeats at equal times apart
+  long cand_resets;    // resets when the candidate was found
   int n;               // number of tallies
   int exact;           // steps are marked by mjfx_watch_step_end (the plugin), resets by the flag
   mjfxTally tally[];   // n of them

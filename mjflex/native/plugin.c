@@ -352,6 +352,11 @@ const mjfxWatch* mjfx_plugin_watch(const mjModel* m, const mjData* d) {
 
 //------------------------------------------------------------------------------ registration
 
+// The MuJoCo version whose headers this was compiled against (a test builds a copy that claims another).
+#ifndef MJFX_HEADER_VERSION
+#define MJFX_HEADER_VERSION mjVERSION_HEADER
+#endif
+
 // 0 until registration ran: 1 registered, -1 refused (header and library versions differ)
 static int g_status = 0;
 
@@ -360,16 +365,16 @@ int mjfx_status(void) {
 }
 
 int mjfx_header_version(void) {
-  return mjVERSION_HEADER;
+  return MJFX_HEADER_VERSION;
 }
 
 mjPLUGIN_LIB_INIT(mjflex_flexure) {
-  if (mj_version() != mjVERSION_HEADER) {
+  if (mj_version() != MJFX_HEADER_VERSION) {
     mju_warning(
         "mjflex: this build of the mjflex.flexure plugin was compiled against the headers of MuJoCo %d but is loaded "
         "by MuJoCo %d (mjModel and mjData change between releases); it is not registered. Rebuild it against the "
         "installed mujoco: pip install --force-reinstall --no-deps --no-build-isolation <mjflex source>",
-        mjVERSION_HEADER, mj_version());
+        MJFX_HEADER_VERSION, mj_version());
     g_status = -1;
     return;
   }
