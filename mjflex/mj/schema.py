@@ -71,7 +71,7 @@ the record's content, each value a string:
 - ``strain_per_radian``: a number (optional);
 - ``source``: the record's ``"source"`` object as JSON text, verbatim (optional).
 
-Numbers are separated by white space and written with 17 significant digits by
+Numbers are separated by white space and written as the shortest text that reads back to the same double by
 :func:`config_from_record`, so the conversion is lossless. Every value is validated when MuJoCo
 compiles the model, by the record's rules: a bad one is a compile error naming the element and
 the fix. A model must not hold one element both ways (a compile error as well). Example::
