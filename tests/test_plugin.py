@@ -288,3 +288,19 @@ def test_a_python_callback_beside_the_plugin():
     finally:
         mujoco.set_mjcb_passive(None)
     assert hits.value == 1 and np.array_equal(data.qfrc_passive, alone)
+
+
+def test_every_mjData_frees_its_instances():
+    """init allocates per mjData (the element, its dof chain, the leader's table and watch); destroy frees it."""
+    import copy as copy_module
+    import gc
+
+    model = _plugin_model()
+    native = _native.lib()
+    alive = native.mjfx_live_instances()
+    datas = [mujoco.MjData(model) for _ in range(5)]
+    datas += [copy_module.copy(d) for d in datas]
+    assert native.mjfx_live_instances() == alive + 10 * model.nplugin
+    del datas
+    gc.collect()
+    assert native.mjfx_live_instances() == alive

@@ -97,6 +97,7 @@ _SIGNATURES = {
     "mjfx_header_version": (_I, []),
     "mjfx_is_instance": (_I, [_P, _I]),
     "mjfx_element_prepare": (None, [_P, _P]),
+    "mjfx_live_instances": (ctypes.c_long, []),
 }
 
 

@@ -16,6 +16,7 @@
 // step, looks again, so that a step MuJoCo judged bad is reported from within that step.
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -62,8 +63,16 @@ static void free_table(Table* t) {
   free(t);
 }
 
+// instances alive in the process (a test checks that failed compiles leave none behind)
+static _Atomic long g_live = 0;
+
+long mjfx_live_instances(void) {
+  return atomic_load(&g_live);
+}
+
 static void free_instance(Instance* in) {
   if (!in) return;
+  atomic_fetch_sub(&g_live, 1);
   free(in->chain);
   free(in->exps);
   free(in->coefs);
@@ -125,9 +134,19 @@ static Table* gather(const mjModel* m, const mjData* d, int leader, int last) {
   return t;
 }
 
-static int init_fail(Instance* in, const char* msg) {
+// A failed init: report, free this instance (MuJoCo calls no destroy for it), and free the earlier
+// instances of the plugin in d too, their pointers zeroed: MuJoCo 4.0.0 destroys the instances it had
+// initialized (observed: tests/test_plugin_config.py counts live instances), the 3.x source frees the
+// mjData without destroying them; either way nothing leaks and nothing is freed twice.
+static int init_fail(const mjModel* m, mjData* d, int instance, Instance* in, const char* msg) {
   mju_warning("%s", msg);
   free_instance(in);
+  for (int i = 0; i < instance; i++) {
+    if (m->plugin[i] == m->plugin[instance] && d->plugin_data[i]) {
+      free_instance((Instance*)d->plugin_data[i]);
+      d->plugin_data[i] = 0;
+    }
+  }
   return -1;
 }
 
@@ -151,13 +170,14 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   char err[1000];
   const char* name = instance_name(m, instance);
   Instance* in = calloc(1, sizeof(Instance));
-  if (!in) return init_fail(NULL, "mjflex: out of memory");
+  if (!in) return init_fail(m, d, instance, NULL, "mjflex: out of memory");
+  atomic_fetch_add(&g_live, 1);
   if (!name[0]) {
     snprintf(err, sizeof(err),
              "mjflex: an instance of plugin %s (instance %d) has no name; an element is known by its name: declare it "
              "as <instance name=\"...\"> under <extension><plugin plugin=\"%s\">",
              MJFX_PLUGIN_NAME, instance, MJFX_PLUGIN_NAME);
-    return init_fail(in, err);
+    return init_fail(m, d, instance, in, err);
   }
   const char* values[MJFX_NATTRIBUTE];
   for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
@@ -166,7 +186,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   }
   mjfxParsed parsed;
   memset(&parsed, 0, sizeof(parsed));
-  if (mjfx_parse_config(name, values, &parsed, err, sizeof(err))) return init_fail(in, err);
+  if (mjfx_parse_config(name, values, &parsed, err, sizeof(err))) return init_fail(m, d, instance, in, err);
   in->el = parsed.el;
   in->exps = parsed.exps, in->coefs = parsed.coefs, in->nterms = parsed.nterms;
   mjfxElement* e = &in->el;
@@ -177,7 +197,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
              "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
              "added twice. Keep one of them (python -m mjflex convert writes either form)",
              name, record);
-    return init_fail(in, err);
+    return init_fail(m, d, instance, in, err);
   }
   int sites[2];
   for (int k = 0; k < 2; k++) {
@@ -188,7 +208,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
                "mjflex: flexure '%.200s' (plugin instance of %s): %s is missing. Add <config key=\"%s\" "
                "value=\"SITE\"/> naming the site of the element frame on body %s",
                name, MJFX_PLUGIN_NAME, key, key, k ? "B" : "A");
-      return init_fail(in, err);
+      return init_fail(m, d, instance, in, err);
     }
     sites[k] = mj_name2id(m, mjOBJ_SITE, site);
     if (sites[k] < 0) {
@@ -196,7 +216,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
                "mjflex: flexure '%.200s' (plugin instance of %s): %s '%.200s' is not a site of the model. Add <site "
                "name=\"%.200s\"/> at the element frame (body %s) or fix the name",
                name, MJFX_PLUGIN_NAME, key, site, site, k ? "B" : "A");
-      return init_fail(in, err);
+      return init_fail(m, d, instance, in, err);
     }
   }
   e->site_a = sites[0], e->site_b = sites[1];
@@ -206,7 +226,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
              "mjflex: flexure '%.200s' (plugin instance of %s): both sites are on body '%.200s'. Put site_a on one "
              "body and site_b on the other (a site of the world body grounds the element)",
              name, MJFX_PLUGIN_NAME, m->names + m->name_bodyadr[e->body_a]);
-    return init_fail(in, err);
+    return init_fail(m, d, instance, in, err);
   }
 
   // rest offset at qpos0 (round-off of the model file absorbed), as Python's tables measure it
@@ -214,7 +234,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   mjtNum* saved = NULL;
   if (moved) {
     saved = malloc(sizeof(mjtNum) * (m->nq ? m->nq : 1));
-    if (!saved) return init_fail(in, "mjflex: out of memory");
+    if (!saved) return init_fail(m, d, instance, in, "mjflex: out of memory");
     memcpy(saved, d->qpos, sizeof(mjtNum) * m->nq);
     memcpy(d->qpos, m->qpos0, sizeof(mjtNum) * m->nq);
   }
@@ -235,14 +255,14 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
              "reference configuration: place both at the same world pose",
              name, MJFX_PLUGIN_NAME, values[0], values[1], dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
              MJFX_COINCIDENCE_ANGLE);
-    return init_fail(in, err);
+    return init_fail(m, d, instance, in, err);
   }
   mjfx_element_prepare(m, e);
   mjfx_inverse_inertia(m, e->body_a, e->body_b, &e->inv_mass, &e->inv_inertia);
 
   // generalized-force map: free-joint fast path or the dof chain of each body
   in->chain = malloc(sizeof(int) * (2 * m->nv + 1));
-  if (!in->chain) return init_fail(in, "mjflex: out of memory");
+  if (!in->chain) return init_fail(m, d, instance, in, "mjflex: out of memory");
   int count = 0;
   e->free_a = mjfx_free_dofadr(m, e->body_a);
   e->chain_a0 = count;
@@ -257,7 +277,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   in->leader = leader_of(m, instance);
   if (in->leader == instance) {
     in->watch = malloc(mjfx_watch_size(m->nplugin));
-    if (!in->watch) return init_fail(in, "mjflex: out of memory");
+    if (!in->watch) return init_fail(m, d, instance, in, "mjflex: out of memory");
     in->watch->exact = 1;
     mjfx_watch_clear(in->watch, m->nplugin);
   }
@@ -267,7 +287,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
     leader->table = gather(m, d, in->leader, instance);
     if (!leader->table) {
       d->plugin_data[instance] = 0;
-      return init_fail(in, "mjflex: out of memory");
+      return init_fail(m, d, instance, in, "mjflex: out of memory");
     }
     mjfx_watch_clear(leader->watch, leader->table->n);
   }
