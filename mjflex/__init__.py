@@ -14,8 +14,15 @@ Layers
     Stiffness of notch hinges and leaf springs from geometry and material; never imports
     mujoco.
 ``mjflex.mj``
-    The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`), ``add_flexure`` on
-    an ``MjSpec``, :class:`Flexures` (the passive-force provider) and linearization.
+    The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`: text records or
+    instances of the engine plugin ``mjflex.flexure``), ``add_flexure`` on an ``MjSpec``,
+    :class:`Flexures` (the passive-force provider and every per-element analysis) and
+    linearization.
+``mjflex.native``
+    The per-step engine in C: the element math, the engine plugin ``mjflex.flexure`` (loaded by
+    ``import mujoco`` itself, through the ``mujoco.plugins`` entry point ``mjflex_plugin``) and
+    the ``mjcb_passive`` dispatcher; built by ``pip install``. ``mjflex.core`` is its independent
+    reference (and the batched API for users).
 ``mjflex.app``
     Applications on top: the ARCADE model, simulation runs, rendering, the speed-accuracy study
     (``mjflex.study``, :mod:`mjflex.app.study`), parameter sweeps (``mjflex.sweep`` and

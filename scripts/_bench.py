@@ -136,6 +136,10 @@ def _argv_without(argv, options):
     return out
 
 
+#: Environment variable set in the fresh processes of :func:`measured_in_processes`.
+CHILD = "MJFLEX_BENCH_CHILD"
+
+
 def measured_in_processes(args):
     """With ``args.runs > 1``: this script run ``args.runs`` times in fresh interpreters, payloads merged; else None.
 
@@ -147,6 +151,7 @@ def measured_in_processes(args):
     if args.runs == 1:
         return None
     env = {k: v for k, v in os.environ.items() if k != "MJFLEX_RECORD"}
+    env[CHILD] = "1"  # what a script measures once, not per run (e.g. start-up), it skips in the children
     payloads = []
     with tempfile.TemporaryDirectory() as folder:
         for i in range(args.runs):

@@ -21,8 +21,9 @@ K_DEMO = np.array(
 B_DEMO = 0.02 * K_DEMO
 
 
-def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timestep=1e-3, gravity=False, terms=None):
-    """Bodies A and B on free joints joined at their midpoint by one flexure named ``link``."""
+def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timestep=1e-3, gravity=False, terms=None,
+                  kind="record"):  # fmt: skip
+    """Bodies A and B on free joints joined at their midpoint by one flexure ``link`` (``kind``: how it is written)."""
     spec = mujoco.MjSpec()
     spec.modelname = "two_body"
     spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
@@ -39,11 +40,12 @@ def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timeste
         body.add_freejoint()
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.03, 0, 0], contype=0, conaffinity=0, mass=0, density=0)
     mjflex.add_flexure(spec, "link", "A", "B", pos=[0.1, 0.02, 0.5], quat=[0.8, 0.0, 0.6, 0.0], K=K, B=B, method=method,
-                       terms=terms)  # fmt: skip
+                       terms=terms, kind=kind)  # fmt: skip
     return spec
 
 
-def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4", timestep=1e-3, terms=None):
+def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4", timestep=1e-3, terms=None,
+                     kind="record"):  # fmt: skip
     """A chain hanging from the world: hinge, slide+hinge, ball joints; flexures between neighbours."""
     spec = mujoco.MjSpec()
     spec.modelname = "chain"
@@ -67,7 +69,8 @@ def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4",
     for i in range(1, n):
         xpos = poses[0][poses[2].index(f"link{i}")]
         mjflex.add_flexure(spec, f"flex{i}", f"link{i - 1}", f"link{i}", pos=xpos + [0.005, 0.002, 0.0],
-                           quat=[1, 0.1, 0.2, 0.0], K=K, B=B, method=method, poses=poses, terms=terms)  # fmt: skip
+                           quat=[1, 0.1, 0.2, 0.0], K=K, B=B, method=method, poses=poses, terms=terms,
+                           kind=kind)  # fmt: skip
     return spec
 
 

@@ -31,7 +31,7 @@ def test_diverged_run_says_so_and_exits_non_zero(tmp_path, capsys):
         cli.main(["simulate", TWO_BODY, "--timestep", "1e-3", "--duration", "0.05", "--json", str(summary)])
     out, err = capsys.readouterr()
     assert exit_.value.code == cli.EXIT_DIVERGED
-    assert "diverged in step" in err and "flexure 'hinge'" in err and "No summary" in err
+    assert "diverged in the step from t = " in err and "flexure 'hinge'" in err and "No summary" in err
     assert "energy" not in out and not summary.exists()
 
 
@@ -43,7 +43,10 @@ def test_divergence_found_by_mujoco_names_the_quantity_and_restores_auto_reset()
     data = mujoco.MjData(model)
     data.qvel[0] = 2e10  # beyond MuJoCo's mjMAXVAL (1e10)
     flags = model.opt.disableflags
-    with pytest.raises(DivergenceError, match=r"step 1 of 10 .*huge qvel\[0\]") as error:
+    # the one step convention of mjflex.mj.divergence: the step that starts at t, its index counted from 0
+    with pytest.raises(
+        DivergenceError, match=r"step index 0, counting from 0\) of its 10 steps: .*huge qvel\[0\]"
+    ) as error:
         simulate(model, data, flex, 10 * model.opt.timestep, progress=False)
     assert error.value.step == 1 and error.value.time == 0.0 and len(error.value.run.time) == 1
     assert model.opt.disableflags == flags  # auto-reset as the model had it

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 import mjflex
-from mjflex.mj import _kernels
 from tests.models import B_DEMO, K_DEMO, applied_wrenches_reference, hinge_chain_spec, perturb_joints
 
 AXIS = np.array([0.36, 0.48, 0.8])  # unit hinge / slide axis
@@ -112,8 +111,8 @@ def test_free_body_fast_path_equals_mj_applyFT():
     data.qvel[:] = rng.normal(size=12)
     mujoco.mj_forward(model, data)
     flex = mjflex.Flexures(model)
-    free = flex._ints[0, [_kernels.FREE_A, _kernels.FREE_B]]
-    assert free.tolist() == [0, 6]  # both bodies take the free-joint fast path
+    free = flex._elements[0][["free_a", "free_b"]].tolist()
+    assert list(free) == [0, 6]  # both bodies take the free-joint fast path
     W = flex.wrenches(data)[0]
     expected = np.zeros(model.nv)
     point = data.site_xpos[1]

@@ -71,7 +71,9 @@ def test_pickled_provider_runs_identically_in_another_process():
         there = pool.submit(_simulate, flex, qvel).result(timeout=300)
         message = pool.submit(_diverge, flex).result(timeout=300)
     assert np.array_equal(there, here)
-    assert message.startswith("mjflex: flexure 'link' of model 'two_body' diverged at time 0 s (step 0)")
+    assert message.startswith(
+        "mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s (step index 0, counting from 0)"
+    )
 
 
 # ------------------------------------------------------------------ mujoco.batch.Batch
@@ -138,7 +140,7 @@ def test_divergence_in_batch_threads(capfd):
     # MuJoCo's default handler writes its "WARNING: " prefix and the message in separate writes, so with two
     # threads printing at once a prefix can land beside another thread's message (seen under load): count the
     # messages themselves, each of which is written in one piece.
-    assert out.count("mjflex: flexure 'link' of model 'two_body' diverged at time") >= 4
+    assert out.count("mjflex: flexure 'link' of model 'two_body' diverged in the step from t = ") >= 4
     assert out.count("Nan, Inf or huge value in QACC") >= 4  # then MuJoCo's own handling: reset
     assert np.all(np.isfinite(batch.qpos)) and np.all(batch.time < 10 * 0.5)
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
@@ -148,7 +150,7 @@ def test_divergence_in_batch_threads(capfd):
     with flex, pytest.raises(mjbatch.SimulationError) as info:
         batch.step(nstep=10)
     assert info.value.ids.tolist() == [0, 1, 2, 3]
-    assert all("flexure 'link' of model 'two_body' diverged at time" in batch.error(i) for i in range(4))
+    assert all("flexure 'link' of model 'two_body' diverged in the step from t = " in batch.error(i) for i in range(4))
 
 
 # ------------------------------------------------------------------ registry under threads
@@ -178,7 +180,7 @@ def test_installing_from_many_threads_while_another_steps():
         for t in threads:
             t.join()
     assert np.array_equal(result["qpos"], reference)
-    assert not _callback._IN_SLOT and _callback._REGISTRY[_callback.k.H_USED] == 0
+    assert not _callback._IN_SLOT and _callback.slots_in_use() == 0  # the native registry is empty again
     assert mujoco.get_mjcb_passive() is None
 
 

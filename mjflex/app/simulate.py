@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 
 from ..mj import Flexures
+from ..mj.divergence import step_phrase
 
 INTEGRATORS = {"euler": "mjINT_EULER", "rk4": "mjINT_RK4", "implicit": "mjINT_IMPLICIT",
                "implicitfast": "mjINT_IMPLICITFAST", "discrete": "mjINT_DISCRETE"}  # fmt: skip
@@ -28,8 +29,9 @@ OTHER_WARNINGS = {
 class DivergenceError(RuntimeError):
     """The state of a run diverged; nothing after ``step`` is a result.
 
-    ``run`` holds the samples taken before the diverging step, ``step`` (1-based) and ``time``
-    [s, at the start of that step] say where.
+    ``run`` holds the samples taken before the diverging step; ``step`` (the number of steps
+    taken, the failing one included) and ``time`` [s, at the start of that step] say where. The
+    message names the step by the convention of :mod:`mjflex.mj.divergence`.
     """
 
     def __init__(self, message, run, step, time):
@@ -293,6 +295,10 @@ def simulate(
                 mujoco.mj_step(model, data)
                 wall += time.perf_counter() - t0  # stepping only; the bookkeeping below is not counted
                 problem = _divergence(model, data, before)
+                if problem is not None:  # mjflex may name the element that made the state bad
+                    t = t_start + (i - 1) * h
+                    found = [v for v in flex.divergences(data).values() if abs(v.time - t) <= 1e-9 * max(h, t)]
+                    problem = found[0].message if found else problem
                 if problem is None:
                     mujoco.mj_forward(model, data)  # derived quantities (energy, kinematics) of the new state
                     new_power, twist = flex.dissipation_power(data), flex.displacements(data)
@@ -301,7 +307,7 @@ def simulate(
             if problem is not None:
                 t = t_start + (i - 1) * h
                 raise DivergenceError(
-                    f"the run diverged in step {i} of {steps} (from t = {t:.6g} s): {problem.rstrip('.')}. "
+                    f"the run diverged in {step_phrase(t, h)} of its {steps} steps: {problem.rstrip('.')}. "
                     "Nothing from this step on is a result.",
                     run, i, t,
                 )  # fmt: skip

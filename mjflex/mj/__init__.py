@@ -1,6 +1,7 @@
-"""MuJoCo layer: flexure elements in MJCF, model building with MjSpec (compliant parts in existing models:
-:func:`make_compliant`), the passive-force provider, linearization (:func:`normal_modes`, damping from ratios),
-and the cheaper or MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
+"""MuJoCo layer: flexure elements in MJCF (text records or engine-plugin instances), model building with MjSpec
+(compliant parts in existing models: :func:`make_compliant`), the passive-force provider, divergence reports
+(:mod:`mjflex.mj.divergence`), linearization (:func:`normal_modes`, damping from ratios), and the cheaper or
+MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
 
 from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, reference_body_poses, remove_flexure
 from .compliance import Compliance, make_compliant, make_rigid

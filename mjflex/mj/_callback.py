@@ -1,231 +1,95 @@
-"""The process-global ``mjcb_passive`` callback, shared by every :class:`mjflex.Flexures`.
+"""The process-global ``mjcb_passive`` provider for text-record models, shared by every :class:`mjflex.Flexures`.
 
 MuJoCo has one passive callback per process, called for every model. mjflex installs one
-dispatcher and keeps a registry of the models it serves (a provider's own model and the
-copies it was asked to serve); every other model (including the temporary ones MuJoCo builds
-while compiling) is left untouched.
+dispatcher and keeps a registry of the models it serves (a provider's own model and the copies it
+was asked to serve); every other model (including the temporary ones MuJoCo builds while
+compiling) is left untouched. Elements written as engine-plugin instances need none of this: their
+forces belong to the model.
 
-Rules of the native dispatcher (a numba ``cfunc`` given to MuJoCo as a C function pointer)
------------------------------------------------------------------------------------------
-* It needs neither the GIL nor the Python bindings: compiling models while it is installed
-  works (a Python callback makes ``mj_compile`` fail with "Python exception raised"), and
-  ``mujoco.rollout`` and ``mujoco.batch.Batch`` threads run it.
-* It allocates nothing and validates nothing: everything it reads (the element tables, the
-  registry, the ``mjData`` offsets) was built and checked at installation. It finds the arrays of
-  ``mjData`` through offsets verified at start-up (:mod:`._layout`); when the layout of the
-  installed MuJoCo cannot be verified (``LayoutError``), the Python dispatcher below is used.
-* Registry: a fixed block of int64 words (``CAPACITY`` slots). Installation and removal take
-  ``_LOCK`` (several Python threads may install at once); slots never move, a slot is filled
-  before its model word is written, and removal clears the model word first, so a dispatcher
-  running in another thread for another model never reads a half-written slot. Do not install
-  or uninstall a provider while another thread is stepping one of *its* models.
-* The only thing it may do besides adding forces is report a diverging element (non-finite
-  wrench, or one that alone would accelerate a body beyond MuJoCo's ``mjMAXVAL``): it fills
-  ``qfrc_passive`` with NaN (so that MuJoCo's own checks see it) and reports the element's
-  message, with the time and step, through MuJoCo:
+The native dispatcher (``mjfx_passive`` in ``mjflex/native/callback.c``)
+-----------------------------------------------------------------------
+* A C function: it needs neither the GIL nor the Python bindings, so compiling models while it
+  is installed works (a Python callback makes ``mj_compile`` fail with "Python exception
+  raised"), and ``mujoco.rollout`` and ``mujoco.batch.Batch`` threads run it.
+* It allocates nothing and validates nothing: the element tables it reads were built and checked
+  when the provider was built; it reads ``mjData`` through the MuJoCo headers it was compiled
+  against (the version is checked when the library loads).
+* Registry: ``CAPACITY`` slots in C. Installation and removal take ``_LOCK`` (several Python
+  threads may install at once); a slot is filled before its model pointer is written, and removal
+  clears the pointer first, so a dispatcher running in another thread for another model never
+  reads a half-written slot. Do not install or uninstall a provider while another thread is
+  stepping one of *its* models. A previous C callback is chained (called first).
+* Divergence (the rules of :class:`mjflex.Flexures`, "Divergence"): it fills ``qfrc_passive``
+  with NaN only when an element's wrench is not finite, and reports an element through MuJoCo
+  (``mju_warning``, or ``mju_error`` with auto-reset off in a thread with an error handler). Per
+  ``mjData`` it keeps a small watch record (``MJFX_WATCHES`` per model, keyed by the data's
+  address, the least recently used reclaimed), which is how a diverging element is reported
+  once per run with a count of the repeats.
 
-  - ``mju_warning`` when MuJoCo's auto-reset is on (MuJoCo then warns and resets, as for its
-    own divergences) or when the calling thread has no MuJoCo error handler (``mujoco.rollout``
-    worker threads, where ``mju_error`` would end the process);
-  - ``mju_error`` otherwise: ``mujoco.FatalError`` from ``mj_step``/``mj_forward`` called in
-    Python, ``mujoco.batch.SimulationError`` naming the element from a ``Batch``.
-
-  Whether a thread has an error handler is read from MuJoCo's thread-local log handler
-  (``_mjPRIVATE_setTlsLogHandler``, set by the bindings, rollout and Batch around their calls);
-  where that symbol is missing, a thread with a Python thread state counts as handled.
-
-A Python dispatcher is used instead when a Python callback was already installed (it is
-chained; MuJoCo then cannot compile models while installed, and ``Batch`` refuses Python
-callbacks) or when the struct layout cannot be verified. It follows the same reporting rules.
+A Python dispatcher is used instead when a Python callback was already installed (it is chained;
+MuJoCo then cannot compile models while installed, and ``Batch`` refuses Python callbacks) or when
+the native library is not available (:mod:`._fallback`). It follows the same reporting rules.
 """
 
 import ctypes
+import functools
 import os
 import threading
-import warnings
 
-import llvmlite.binding as llvm
 import mujoco
-import numpy as np
-from llvmlite import ir
-from numba import cfunc, njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic
 
-from . import _kernels as k
-from ._layout import LayoutError, verified_offsets
+from . import _native
 
 #: Most models (a provider's model and its served copies, over all providers) that one process
-#: can serve at once; ``install`` raises beyond it.
+#: can serve at once; ``install`` raises beyond it (the native registry's ``MJFX_CAPACITY``).
 CAPACITY = 1024
-_REGISTRY = np.zeros(k.HEADER + k.SLOT * CAPACITY, dtype=np.int64)
-_SLOTS = _REGISTRY[k.HEADER :].reshape(CAPACITY, k.SLOT)
 _LOCK = threading.RLock()
 _STACKS = {}  # model address -> [(provider, model), ...], the innermost installation last
-_IN_SLOT = {}  # model address -> (slot, provider, model): the provider that serves it now
-_STATE = {"callback": None, "previous": None, "native": {}}
+_IN_SLOT = {}  # model address -> (slot, provider, model, buffers kept alive while published)
+_FREE = list(range(CAPACITY))  # free slots, the lowest first
+_STATE = {"callback": None, "previous": None, "native_pointer": None}
 _PROTO = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
 
 
-def _libmujoco():
-    folder = os.path.dirname(mujoco.__file__)
-    names = sorted(f for f in os.listdir(folder) if f.startswith(("libmujoco.so", "libmujoco.", "mujoco.dll")))
-    if not names:
-        raise LayoutError("libmujoco not found next to the mujoco package")
-    return ctypes.CDLL(os.path.join(folder, names[0]))
-
-
-def _native_header():
-    """Fill the registry header; raises LayoutError when the layout cannot be verified."""
-    off = verified_offsets()
-    _REGISTRY[k.H_CAPACITY] = CAPACITY
-    _REGISTRY[k.H_SPRING_BIT] = int(mujoco.mjtDisableBit.mjDSBL_SPRING)
-    _REGISTRY[k.H_DAMPER_BIT] = int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
-    _REGISTRY[k.H_AUTORESET_BIT] = int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
-    for word, name in [
-        (k.H_DISABLEFLAGS, "disableflags"), (k.H_TIME, "time"), (k.H_TIMESTEP, "timestep"),
-        (k.H_SITE_XPOS, "site_xpos"), (k.H_SITE_XMAT, "site_xmat"), (k.H_XPOS, "xpos"), (k.H_XMAT, "xmat"),
-        (k.H_CVEL, "cvel"), (k.H_SUBTREE_COM, "subtree_com"), (k.H_CDOF, "cdof"), (k.H_QFRC, "qfrc_passive"),
-    ]:  # fmt: skip
-        _REGISTRY[word] = off[name]
-
-
 def native_available() -> bool:
-    """Whether the native dispatcher can be used with the installed MuJoCo."""
-    with _LOCK:
-        if "available" not in _STATE["native"]:
-            try:
-                _native_header()
-                _libmujoco()
-                _STATE["native"]["available"] = True
-            except (LayoutError, OSError) as exc:
-                warnings.warn(f"mjflex: using the Python passive callback ({exc})", RuntimeWarning, stacklevel=3)
-                _STATE["native"]["available"] = False
-        return _STATE["native"]["available"]
+    """Whether the native dispatcher can be used (the library is built for the running MuJoCo)."""
+    native = _native.lib()
+    if native is not None and native.mjfx_registry_capacity() != CAPACITY:
+        raise RuntimeError("mjflex: the native registry's capacity differs from _callback.CAPACITY; rebuild mjflex")
+    return native is not None
 
 
 # --------------------------------------------------------------------------- reporting
 
 
-def _address(lib, name):
-    try:
-        return ctypes.cast(getattr(lib, name), ctypes.c_void_p).value
-    except AttributeError:
-        return None
+def errors_caught_here() -> bool:
+    """Whether ``mju_error`` in the calling thread would be caught (not end the process)."""
+    native = _native.loaded()
+    if native is not None:
+        return bool(native.mjfx_errors_caught_here())
+    return ctypes.pythonapi.PyGILState_GetThisThreadState() is not None
 
 
-def _c_function(function, argtypes, restype):
-    function.argtypes, function.restype = argtypes, restype
+def report_raises(model) -> bool:
+    """Whether a divergence report raises here: auto-reset off and an error handler in this thread."""
+    return bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET) and errors_caught_here()
+
+
+@functools.cache
+def _mju_warning():
+    folder = os.path.dirname(mujoco.__file__)
+    names = sorted(f for f in os.listdir(folder) if f.startswith(("libmujoco.so", "libmujoco.", "mujoco.dll")))
+    function = ctypes.CDLL(os.path.join(folder, names[0])).mju_warning
+    function.argtypes, function.restype = [ctypes.c_char_p, ctypes.c_char_p], None
     return function
 
 
-def _tls_probe(lib):
-    """A ctypes function ``() -> bool``: whether this thread has a MuJoCo error handler, or None."""
-    if _address(lib, "_mjPRIVATE_setTlsLogHandler") is None:
-        return None
-    return _c_function(lib._mjPRIVATE_setTlsLogHandler, [ctypes.c_void_p], ctypes.c_void_p)
-
-
-def errors_caught_here() -> bool:
-    """Whether ``mju_error`` in the calling thread would be caught (not end the process)."""
-    lib = _libmujoco()
-    probe = _tls_probe(lib)
-    if probe is None:
-        return ctypes.pythonapi.PyGILState_GetThisThreadState() is not None
-    previous = probe(None)
-    probe(previous)
-    return previous is not None
-
-
-def _variadic_call(symbol):
-    """An intrinsic ``f(format, time, step)`` calling the printf-like C function ``symbol``."""
-
-    @intrinsic
-    def call(typingctx, fmt, time, step):
-        def codegen(context, builder, signature, args):
-            char_p = ir.IntType(8).as_pointer()
-            fnty = ir.FunctionType(ir.VoidType(), [char_p], var_arg=True)
-            fn = cgutils.get_or_insert_function(builder.module, fnty, symbol)
-            builder.call(fn, [builder.bitcast(args[0], char_p), args[1], args[2]])
-            return context.get_dummy_value()
-
-        return types.void(types.voidptr, types.float64, types.float64), codegen
-
-    return call
-
-
-def _native_callback(previous_address):
-    """A ctypes function pointer to the native dispatcher (chaining a native previous callback)."""
-    cache = _STATE["native"]
-    if ("cb", previous_address) in cache:
-        return cache[("cb", previous_address)][0]
-    reg_addr = _REGISTRY.ctypes.data
-    lib = _libmujoco()
-    for name in ("mju_error", "mju_warning"):
-        llvm.add_symbol(name, _address(lib, name))
-    error_t, warning_t = _variadic_call("mju_error"), _variadic_call("mju_warning")
-    tls = _tls_probe(lib)
-    python_thread = _c_function(ctypes.pythonapi.PyGILState_GetThisThreadState, [], ctypes.c_void_p)
-    previous = None if previous_address is None else _PROTO(previous_address)
-
-    if tls is None:
-
-        def caught():
-            return k.int_from_voidptr(python_thread()) != 0
-    else:
-
-        def caught():
-            handler = tls(k.voidptr_from_int(0))
-            tls(handler)
-            return k.int_from_voidptr(handler) != 0
-
-    caught = njit(caught)
-
-    def report(m, d, msg):
-        time, autoreset, step = k.report_context(m, d, reg_addr)
-        if autoreset or not caught():
-            warning_t(k.voidptr_from_int(msg), time, step)
-        else:
-            error_t(k.voidptr_from_int(msg), time, step)
-
-    report = njit(report)
-
-    if previous is None:
-
-        def dispatcher(m, d):
-            msg = k.dispatch(k.int_from_voidptr(m), k.int_from_voidptr(d), reg_addr)
-            if msg != 0:
-                report(k.int_from_voidptr(m), k.int_from_voidptr(d), msg)
-
-    else:
-
-        def dispatcher(m, d):
-            previous(m, d)
-            msg = k.dispatch(k.int_from_voidptr(m), k.int_from_voidptr(d), reg_addr)
-            if msg != 0:
-                report(k.int_from_voidptr(m), k.int_from_voidptr(d), msg)
-
-    compiled = cfunc(types.void(types.voidptr, types.voidptr), error_model="numpy")(dispatcher)
-    pointer = _PROTO(compiled.address)
-    cache[("cb", previous_address)] = (pointer, compiled)
-    return pointer
-
-
-def message_text(model, data, message: bytes) -> str:
-    """An element's divergence message (a printf format of time and step) for ``data``."""
-    step = data.time / model.opt.timestep if model.opt.timestep > 0 else 0.0
-    return message[:-1].decode() % (data.time, step)
-
-
-def report_in_python(model, data, message: bytes) -> None:
-    """The Python dispatcher's report of a diverging element, by the same rules as the native one."""
-    text = message_text(model, data, message)
-    autoreset = not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET
-    if autoreset or not errors_caught_here():
-        warning = _c_function(_libmujoco().mju_warning, [ctypes.c_char_p], None)
-        warning(text.replace("%", "%%").encode())  # mju_warning takes a printf format
-    else:
+def report_in_python(model, text: str, first: bool) -> None:
+    """The Python dispatcher's report, by the native rules: raise, warn (a first divergence), or count only."""
+    if report_raises(model):
         raise mujoco.FatalError(text)
+    if first:
+        _mju_warning()(b"%s", text.encode())  # MuJoCo's warning handler, as for its own bad-state warnings
 
 
 def _python_dispatcher(m, d):
@@ -236,8 +100,19 @@ def _python_dispatcher(m, d):
         else:
             previous(m, d)
     served = _IN_SLOT.get(m._address)
-    if served is not None:
-        served[1]._apply_in_callback(m, d)
+    if served is None:
+        return
+    provider = served[1]
+    native = _native.lib()
+    if native is None:
+        provider._apply_in_python(m, d)
+        return
+    verdicts = (_native.Verdict * 2)()
+    native.mjfx_dispatch(m._address, d._address, 0, ctypes.byref(verdicts))
+    for v in verdicts:
+        if v.element >= 0:
+            name = provider.names[v.element]
+            report_in_python(m, _native.report_text(m, v, name), bool(v.first))
 
 
 # --------------------------------------------------------------------------- installation
@@ -247,15 +122,24 @@ def _is_ours(callback) -> bool:
     return callback is not None and callback is _STATE["callback"]
 
 
+def _native_pointer():
+    if _STATE["native_pointer"] is None:
+        address = ctypes.cast(_native.lib().mjfx_passive, ctypes.c_void_p).value
+        _STATE["native_pointer"] = _PROTO(address)
+    return _STATE["native_pointer"]
+
+
 def _install_dispatcher():
     current = mujoco.get_mjcb_passive()
     if _is_ours(current):
         return
     _STATE["previous"] = current
     if (current is None or isinstance(current, ctypes._CFuncPtr)) and native_available():
-        address = None if current is None else ctypes.cast(current, ctypes.c_void_p).value
-        callback = _native_callback(address)
+        _native.lib().mjfx_set_previous(None if current is None else ctypes.cast(current, ctypes.c_void_p).value)
+        callback = _native_pointer()
     else:
+        if _native.lib() is not None:
+            _native.lib().mjfx_set_previous(None)
         callback = _python_dispatcher
     mujoco.set_mjcb_passive(callback)
     _STATE["callback"] = callback
@@ -266,33 +150,43 @@ def _restore_dispatcher():
         mujoco.set_mjcb_passive(_STATE["previous"])
     # else: the user replaced our callback meanwhile; theirs stays
     _STATE["callback"] = _STATE["previous"] = None
+    if _native.loaded() is not None:
+        _native.loaded().mjfx_set_previous(None)
 
 
 def _publish(model, provider):
     """Give ``model`` a slot served by ``provider`` (the old slot, if any, is cleared after)."""
-    free = np.flatnonzero(_SLOTS[:CAPACITY, k.S_MODEL] == 0)
-    if free.size == 0:
+    if not _FREE:
         raise RuntimeError(
             f"mjflex serves at most {CAPACITY} models per process at once (mjflex.mj._callback.CAPACITY); "
             "uninstall providers you no longer step, serve identical copies through one model "
-            "(Batch.set_models(model)), or spread the work over processes"
+            "(Batch.set_models(model)), or spread the work over processes (or write the elements as "
+            "mjflex.flexure plugin instances, whose forces need no registry)"
         )
-    slot = int(free[0])
-    _SLOTS[slot, 1:] = provider._slot_words(model)[1:]
-    _SLOTS[slot, k.S_MODEL] = model._address  # last: the slot becomes visible complete
-    _REGISTRY[k.H_USED] = max(int(_REGISTRY[k.H_USED]), slot + 1)
+    slot = _FREE.pop(0)
+    keep = ()
+    native = _native.lib()
+    if native is not None:
+        t, n = provider._tables, provider._tables.served
+        names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in provider.names[:n]))
+        records = provider._records_for(model)
+        native.mjfx_registry_publish(
+            slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, t.exps.ctypes.data,
+            t.coefs.ctypes.data, ctypes.cast(names, ctypes.c_void_p), records.ctypes.data,
+        )  # fmt: skip
+        keep = (t, names, records)
     old = _IN_SLOT.get(model._address)
-    _IN_SLOT[model._address] = (slot, provider, model)
+    _IN_SLOT[model._address] = (slot, provider, model, keep)
     if old is not None:
         _clear(old[0])
 
 
 def _clear(slot):
-    _SLOTS[slot, k.S_MODEL] = 0  # first: no dispatcher matches the slot any more
-    used = int(_REGISTRY[k.H_USED])
-    while used > 0 and _SLOTS[used - 1, k.S_MODEL] == 0:
-        used -= 1
-    _REGISTRY[k.H_USED] = used
+    native = _native.lib()
+    if native is not None:
+        native.mjfx_registry_clear(slot)  # the model pointer first: no dispatcher matches the slot any more
+    _FREE.append(slot)
+    _FREE.sort()
 
 
 def register(provider, models) -> None:
@@ -350,6 +244,12 @@ def models_served() -> int:
     """How many models the registry serves now (at most :data:`CAPACITY` per process)."""
     with _LOCK:
         return len(_IN_SLOT)
+
+
+def slots_in_use() -> int:
+    """How many registry slots are in use (the native registry's count, else this module's)."""
+    native = _native.lib()
+    return native.mjfx_registry_used() if native is not None else len(_IN_SLOT)
 
 
 def dispatcher_installed() -> bool:

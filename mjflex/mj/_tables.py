@@ -1,5 +1,9 @@
 """What :class:`mjflex.Flexures` reads from a model: its elements, parsed, checked and laid out
-in the tables that the compiled loop uses (columns named in :mod:`._kernels`).
+in the element table that the C loop reads (one ``mjflex.mj._native.ELEMENT_DTYPE`` row each).
+
+An element is written in a model file either as a text record with two sites
+(:mod:`mjflex.mj.schema`) or as an instance of the engine plugin ``mjflex.flexure``
+(``schema.PLUGIN_ATTRIBUTES``); both give the same table row, so every analysis works on both.
 
 :func:`derive` is the single place where a model is read; the provider runs it once at
 construction, and again on a model it is asked to serve (a copy) to check that the copy holds
@@ -17,8 +21,9 @@ import numpy as np
 
 from ..core import validation
 from ..core.transforms import twist_from_transform
-from . import _contacts, schema
-from . import _kernels as k
+from . import _contacts, _native, schema
+
+RECORD, PLUGIN = "record", "plugin"
 
 
 class ModelError(ValueError):
@@ -31,20 +36,31 @@ def model_error(element, problem, fix):
 
 @dataclass
 class Tables:
-    """The elements of one model. ``ints`` (n, NI), ``floats`` (n, NF): see :mod:`._kernels`."""
+    """The elements of one model: text-record elements first, then plugin instances.
+
+    ``elements`` (n,) ``ELEMENT_DTYPE``; ``chain`` the dofs each non-free body's wrench maps to
+    (ranges ``chain_*0:chain_*1`` of a row); ``exps`` (M, 8) and ``coefs`` (M,) the polynomial
+    terms of all elements (rows ``terms_lo:terms_hi`` of a row). The arrays are C-contiguous
+    and never empty (the C loop gets valid addresses).
+    """
 
     names: tuple[str, ...]
-    texts: dict[str, str]  # element -> JSON data of its record
+    texts: dict[str, str]  # element -> its record's JSON data, or its plugin configuration as text
     records: list
     sites: list[tuple[str, str]]  # element -> (site a name, site b name)
-    ints: np.ndarray
-    floats: np.ndarray
+    kinds: tuple[str, ...]  # element -> RECORD or PLUGIN
+    instances: tuple[int, ...]  # element -> plugin instance id (-1 for a record)
+    elements: np.ndarray
     chain: np.ndarray
-    rootid: np.ndarray
     tolerance: np.ndarray  # (n,) coincidence tolerance [m] of each element
     joined_trees: dict[int, str]  # tree -> an element that joins it to another tree or a mocap body
-    exps: np.ndarray  # (max(M, 1), 8) int64: the polynomial terms of all elements (rows terms_lo:terms_hi)
-    coefs: np.ndarray  # (max(M, 1),) float64
+    exps: np.ndarray
+    coefs: np.ndarray
+
+    @property
+    def served(self) -> int:
+        """Number of text-record elements (the first rows): the ones the mjcb_passive provider adds."""
+        return self.kinds.count(RECORD)
 
 
 def names(model, objtype, count):
@@ -56,12 +72,12 @@ def fingerprint(model) -> bytes:
     h = hashlib.blake2b(digest_size=16)
     for a in (model.text_data, model.text_adr, model.names, model.site_pos, model.site_quat, model.site_bodyid,
               model.body_pos, model.body_quat, model.body_parentid, model.qpos0, model.jnt_pos, model.jnt_axis,
-              model.body_mass, model.body_inertia):  # fmt: skip
+              model.body_mass, model.body_inertia, model.plugin, model.plugin_attr, model.plugin_attradr):  # fmt: skip
         h.update(np.ascontiguousarray(a).tobytes())
     return h.digest()
 
 
-def _records(model, site_ids):
+def _records(model, site_ids, claimed_sites=()):
     """``[(element, data, site a, site b, found)]`` of the model's records; warns about near misses."""
     out = []
     for i, tname in enumerate(names(model, mujoco.mjtObj.mjOBJ_TEXT, model.ntext)):
@@ -80,7 +96,7 @@ def _records(model, site_ids):
             continue
         adr, size = model.text_adr[i], model.text_size[i]
         out.append((*match[:1], bytes(model.text_data[adr : adr + size - 1]).decode("utf-8"), *match[1:]))
-    claimed = {r[2] for r in out}
+    claimed = {r[2] for r in out} | set(claimed_sites)
     for element in schema.orphan_site_pairs(site_ids, claimed):
         warnings.warn(
             f"mjflex: sites of an element '{element}' have no text record '{schema.PREFIX}{element}': the element "
@@ -146,7 +162,13 @@ def _length_scale(model, sa, sb):
 
 def rest_offset(ref, sa, sb):
     """Relative pose ``(R0, p0)`` of site b seen from site a in data ``ref`` (at ``qpos0``), and
-    its distance [m] and angle [rad]."""
+    its distance [m] and angle [rad].
+
+    Computed by the native library when it is in use, exactly as the engine plugin's ``init``
+    computes it, so that a text record and a plugin instance of one element are bit-identical.
+    """
+    if _native.available():
+        return _native.rest_offset(ref, sa, sb)
     R_a, R_b = ref.site_xmat[sa].reshape(3, 3), ref.site_xmat[sb].reshape(3, 3)
     R0 = R_a.T @ R_b
     p0 = R_a.T @ (ref.site_xpos[sb] - ref.site_xpos[sa])
@@ -211,19 +233,52 @@ def _inverse_inertia(model, bodies):
     return inv_m, inv_i
 
 
+def _plugin_elements(model, all_sites):
+    """``[(element, config text, site a, site b, record, instance)]`` of the model's mjflex.flexure instances."""
+    ours = _native.plugin_instances(model)
+    if not ours:
+        return []
+    attributes = _native.plugin_attributes()
+    out = []
+    for i in ours:
+        element = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, i) or ""
+        start = int(model.plugin_attradr[i])
+        values = bytes(model.plugin_attr[start:]).split(b"\x00")[: len(attributes)]
+        config = {a: v.decode("utf-8") for a, v in zip(attributes, values, strict=True)}
+        try:
+            record = schema.record_from_config(element, config)
+        except ValueError as exc:
+            problem = f"its plugin configuration is malformed: {str(exc).rstrip('.')}"
+            raise model_error(element, problem, "Fix its <config> attributes (see mjflex.mj.schema).") from None
+        text = schema.config_text(config)
+        site_a, site_b = (schema.attached_name(config[k], element, all_sites) or config[k]
+                          for k in ("site_a", "site_b"))  # fmt: skip
+        out.append((element, text, site_a, site_b, record, i))
+    return out
+
+
 def derive(model) -> Tables:
     """Parse, check and lay out the elements of ``model``; raises :class:`ModelError`."""
     m = model
     all_sites = names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite)
-    found = _records(m, {s for s in all_sites if s})
+    plugins = _plugin_elements(m, all_sites)
+    claimed = {p[2] for p in plugins}
+    found = [(e, text, a, b, None, -1) for e, text, a, b, _ in _records(m, {s for s in all_sites if s}, claimed)]
+    twice = sorted({e for e, *_ in found} & {e for e, *_ in plugins})
+    if twice:
+        raise model_error(
+            twice[0], "it is both a text record and an mjflex.flexure plugin instance (its forces would be added "
+            "twice)", "Keep one of them (python -m mjflex convert writes either form).",
+        )  # fmt: skip
+    found += plugins
     n = len(found)
-    ints, floats = np.zeros((n, k.NI), dtype=np.int64), np.zeros((n, k.NF))
+    elements = np.zeros(n, dtype=_native.ELEMENT_DTYPE)
     tolerance, chain, joined, records, sites, terms = np.zeros(n), [], {}, [], [], []
     ref = mujoco.MjData(m)
     ref.qpos[:] = m.qpos0
     mujoco.mj_kinematics(m, ref)
-    for e, (element, data, site_a, site_b, _) in enumerate(found):
-        rec = parse(element, data)
+    for e, (element, data, site_a, site_b, rec, _) in enumerate(found):
+        rec = parse(element, data) if rec is None else rec
         records.append(rec)
         sites.append((site_a, site_b))
         sa, sb = (
@@ -240,23 +295,23 @@ def derive(model) -> Tables:
         _check_coincident(element, (site_a, site_b), dist, angle, tolerance[e])
         if rec.site is not None:
             _check_frame_site(m, ref, element, rec.site, (site_a, sa), tolerance[e])
-        row = ints[e]
-        row[[k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B]] = sa, sb, ba, bb
-        row[k.METHOD] = validation.METHOD_CODES[rec.method]
-        row[k.ENABLED], row[k.VISCOUS] = rec.enabled, rec.viscous and rec.B is not None
-        row[k.OFFSET] = not (np.array_equal(R0, np.eye(3)) and not p0.any())
-        for body, free, c0, c1 in ((ba, k.FREE_A, k.CHAIN_A0, k.CHAIN_A1), (bb, k.FREE_B, k.CHAIN_B0, k.CHAIN_B1)):
-            row[free] = _free_dofadr(m, body)
-            dofs = [] if row[free] >= 0 else _dof_chain(m, body)
-            row[c0], row[c1] = len(chain), len(chain) + len(dofs)
+        row = elements[e]
+        row["site_a"], row["site_b"], row["body_a"], row["body_b"] = sa, sb, ba, bb
+        row["method"] = validation.METHOD_CODES[rec.method]
+        row["enabled"], row["viscous"] = rec.enabled, rec.viscous and rec.B is not None
+        row["offset"] = not (np.array_equal(R0, np.eye(3)) and not p0.any())
+        for body, side in ((ba, "a"), (bb, "b")):
+            row[f"free_{side}"] = _free_dofadr(m, body)
+            dofs = [] if row[f"free_{side}"] >= 0 else _dof_chain(m, body)
+            row[f"chain_{side}0"], row[f"chain_{side}1"] = len(chain), len(chain) + len(dofs)
             chain.extend(dofs)
         K = schema.embed_planar(rec.K) if rec.planar else rec.K
         B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
-        floats[e, k.K_AT : k.K_AT + 36] = K.ravel()
-        floats[e, k.B_AT : k.B_AT + 36] = B.ravel()
-        floats[e, k.R0_AT : k.R0_AT + 9] = R0.ravel()
-        floats[e, k.P0_AT : k.P0_AT + 3] = p0
-        floats[e, k.INV_MASS], floats[e, k.INV_INERTIA] = _inverse_inertia(m, (ba, bb))
+        row["K"], row["B"], row["R0"], row["p0"] = K.ravel(), B.ravel(), R0.ravel(), p0
+        row["kstruct"], row["bstruct"] = matrix_structure(K), matrix_structure(B)
+        row["inv_mass"], row["inv_inertia"] = _inverse_inertia(m, (ba, bb))
+        if _native.available():  # the derived fields exactly as the plugin's init computes them
+            _native.prepare(m, elements, e)
         _lay_out_terms(row, rec.terms, terms)
         trees = [int(m.body_treeid[b]) for b in (ba, bb)]
         mocap = any(m.body_mocapid[b] >= 0 for b in (ba, bb))
@@ -267,34 +322,43 @@ def derive(model) -> Tables:
         texts={r[0]: r[1] for r in found},
         records=records,
         sites=sites,
-        ints=ints,
-        floats=floats,
-        chain=np.array(chain + [0], dtype=np.int64),  # never empty: a valid address
-        rootid=np.ascontiguousarray(m.body_rootid, dtype=np.int64),
+        kinds=tuple(RECORD if r[5] < 0 else PLUGIN for r in found),
+        instances=tuple(r[5] for r in found),
+        elements=elements if n else np.zeros(1, dtype=_native.ELEMENT_DTYPE),
+        chain=np.array(chain + [0], dtype=np.int32),  # never empty: a valid address
         tolerance=tolerance,
         joined_trees=joined,
         **_terms_table(terms),
     )
 
 
+def matrix_structure(M: np.ndarray) -> int:
+    """``_native.DIAGONAL``, ``ZERO`` or ``FULL`` for a 6x6 matrix (as ``mjfx_matrix_structure``)."""
+    off = M[~np.eye(6, dtype=bool)]
+    if off.any():
+        return _native.FULL
+    return _native.DIAGONAL if np.diagonal(M).any() else _native.ZERO
+
+
 def _lay_out_terms(row, terms, tables):
     """Give element ``row`` the next rows of the terms' table (``tables``: the (exps, coefs) so far)."""
     lo = sum(len(c) for _, c in tables)
-    row[k.TERMS_LO] = row[k.TERMS_HI] = lo
+    row["terms_lo"] = row["terms_hi"] = lo
     if terms is None or len(terms) == 0:
         return
-    exps = np.zeros((len(terms), k.TERM_COLUMNS), dtype=np.int64)
+    exps = np.zeros((len(terms), _native.TERM_COLUMNS), dtype=np.int32)
     exps[:, : terms.exponents.shape[1]] = terms.exponents
     tables.append((exps, terms.coefficients))
-    row[k.TERMS_HI] = lo + len(terms)
-    row[k.TERMS_TOP] = int(terms.exponents.max())
+    row["terms_hi"] = lo + len(terms)
+    row["terms_top"] = int(terms.exponents.max())
 
 
 def _terms_table(tables):
     """The terms of all elements as ``exps`` (M, 8) and ``coefs`` (M,); one zero row when there are none."""
     if not tables:
-        return {"exps": np.zeros((1, k.TERM_COLUMNS), dtype=np.int64), "coefs": np.zeros(1)}
-    return {"exps": np.concatenate([e for e, _ in tables]), "coefs": np.concatenate([c for _, c in tables])}
+        return {"exps": np.zeros((1, _native.TERM_COLUMNS), dtype=np.int32), "coefs": np.zeros(1)}
+    exps = np.ascontiguousarray(np.concatenate([e for e, _ in tables]), dtype=np.int32)
+    return {"exps": exps, "coefs": np.ascontiguousarray(np.concatenate([c for _, c in tables]))}
 
 
 class Touch(NamedTuple):
@@ -330,9 +394,9 @@ def contacts_at_rest(model, tables: Tables) -> list[Touch]:
         return []
     weld, parent, filterparent = model.body_weldid, model.body_parentid, _contacts.filterparent(model)
     joined, rigid = {}, []
-    for e, row in enumerate(tables.ints):
-        joined.setdefault(frozenset((int(weld[row[k.BODY_A]]), int(weld[row[k.BODY_B]]))), tables.names[e])
-        merged = _contacts.rigid_weld(model, row[k.BODY_A], row[k.BODY_B])
+    for e, row in enumerate(tables.elements):
+        joined.setdefault(frozenset((int(weld[row["body_a"]]), int(weld[row["body_b"]]))), tables.names[e])
+        merged = _contacts.rigid_weld(model, row["body_a"], row["body_b"])
         if merged is not None:
             rigid.append((tables.names[e], merged))
     pairs = _contacts.explicit_pairs(model) if rigid else set()
@@ -359,8 +423,8 @@ def contacts_at_rest(model, tables: Tables) -> list[Touch]:
     return found
 
 
-STRUCTURE = (k.SITE_A, k.SITE_B, k.BODY_A, k.BODY_B, k.FREE_A, k.FREE_B, k.CHAIN_A0, k.CHAIN_A1, k.CHAIN_B0,
-             k.CHAIN_B1)  # fmt: skip
+STRUCTURE = ["site_a", "site_b", "body_a", "body_b", "free_a", "free_b", "chain_a0", "chain_a1", "chain_b0",
+             "chain_b1"]  # fmt: skip
 
 
 def difference(mine: Tables, other: Tables, mine_model, other_model) -> str | None:
@@ -374,19 +438,21 @@ def difference(mine: Tables, other: Tables, mine_model, other_model) -> str | No
     for e, name in enumerate(mine.names):
         if mine.texts[name] != other.texts[name]:
             return f"the text record of flexure '{name}' differs"
-        if not np.array_equal(mine.ints[e, list(STRUCTURE)], other.ints[e, list(STRUCTURE)]):
+        if mine.elements[STRUCTURE][e] != other.elements[STRUCTURE][e]:
             return f"flexure '{name}' joins other sites, bodies or dofs"
         moved = _rest_moved(mine, other, e)
         if moved:
             return f"the sites of flexure '{name}' moved by {moved}"
-    if not (np.array_equal(mine.chain, other.chain) and np.array_equal(mine.rootid, other.rootid)):
+    if not (
+        np.array_equal(mine.chain, other.chain) and np.array_equal(mine_model.body_rootid, other_model.body_rootid)
+    ):
         return "its kinematic trees differ"
     return None
 
 
 def _rest_moved(mine, other, e):
-    R = mine.floats[e, k.R0_AT : k.R0_AT + 9].reshape(3, 3).T @ other.floats[e, k.R0_AT : k.R0_AT + 9].reshape(3, 3)
-    dp = other.floats[e, k.P0_AT : k.P0_AT + 3] - mine.floats[e, k.P0_AT : k.P0_AT + 3]
+    R = mine.elements["R0"][e].reshape(3, 3).T @ other.elements["R0"][e].reshape(3, 3)
+    dp = other.elements["p0"][e] - mine.elements["p0"][e]
     angle = float(np.linalg.norm(twist_from_transform(R, np.zeros(3), check=False)[:3]))
     dist = float(np.linalg.norm(dp))
     if dist > mine.tolerance[e] or angle > schema.COINCIDENCE_ANGLE:

@@ -10,7 +10,7 @@ import numpy as np
 from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
-from . import schema
+from . import _native, schema
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
@@ -25,12 +25,13 @@ SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
 @dataclass
 class FlexureHandle:
-    """The spec elements that make up one flexure."""
+    """The spec elements that make up one flexure: its sites, and its text record or plugin instance."""
 
     name: str
     site_a: "mujoco.MjsSite"
     site_b: "mujoco.MjsSite"
-    text: "mujoco.MjsText"
+    text: "mujoco.MjsText | None"
+    plugin: "mujoco.MjsPlugin | None" = None
 
 
 def _unit_quat(quat, name):
@@ -126,7 +127,7 @@ def _site(spec, site):
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True,
+    exclude_contact=True, kind="record",
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -182,6 +183,11 @@ def add_flexure(
         MuJoCo would push them apart. ``False`` keeps their contacts. A pair with the world is
         never excluded here (the world holds floors and obstacles; MuJoCo's parent-child filter
         exempts it likewise): :class:`mjflex.Flexures` warns if such geoms touch at rest.
+    kind : {"record", "plugin"}
+        How the element is written (:mod:`mjflex.mj.schema`): a text record, whose forces
+        :class:`mjflex.Flexures` adds through MuJoCo's ``mjcb_passive``, or an instance of the
+        engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to the model (any
+        MuJoCo program with mjflex installed runs it). Both carry the same parameters.
 
     Returns
     -------
@@ -189,9 +195,20 @@ def add_flexure(
     """
     _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact)
     validation.method_code(method)
+    if kind not in ("record", "plugin"):
+        raise ValueError(f'kind must be "record" or "plugin"; got {kind!r}')
     site_names = schema.site_names(name)
-    if spec.text(schema.PREFIX + name) is not None or any(spec.site(s) is not None for s in site_names):
-        raise ValueError(f"flexure {name!r} already exists in the spec (its sites or text record); pick another name")
+    if (
+        spec.text(schema.PREFIX + name) is not None
+        or any(spec.site(s) is not None for s in site_names)
+        or any(p.name == name for p in spec.plugins)
+    ):
+        raise ValueError(
+            f"flexure {name!r} already exists in the spec (its sites, text record or plugin instance); pick another "
+            "name"
+        )
+    if kind == "plugin":
+        activate_plugin(spec)
     K = schema.element_matrix(K, f"K of flexure {name!r}")
     B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
@@ -225,6 +242,8 @@ def add_flexure(
         ))  # fmt: skip
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
+    if kind == "plugin":
+        return FlexureHandle(name, sites[0], sites[1], None, add_plugin_element(spec, record, *site_names))
     text = spec.add_text(name=schema.PREFIX + name, data=text_data)
     return FlexureHandle(name, sites[0], sites[1], text)
 
@@ -256,12 +275,21 @@ def remove_flexure(spec, name) -> None:
     The ``<exclude>`` that ``add_flexure`` may have written is left alone (other elements may
     join the same pair). Raises ValueError when the spec holds no such element.
     """
-    parts = [spec.site(s) for s in schema.site_names(name)] + [spec.text(schema.PREFIX + name)]
-    if any(p is None for p in parts):
+    sites = [spec.site(s) for s in schema.site_names(name)]
+    parameters = spec.text(schema.PREFIX + name) or _plugin_instance(spec, name)
+    if parameters is None or any(p is None for p in sites):
         raise ValueError(f"flexure {name!r} is not in the spec (sites {schema.site_names(name)}, record "
-                         f"{schema.PREFIX + name!r})")  # fmt: skip
-    for part in parts:
+                         f"{schema.PREFIX + name!r} or {schema.PLUGIN_NAME} instance {name!r})")  # fmt: skip
+    for part in [*sites, parameters]:
         spec.delete(part)
+
+
+def _plugin_instance(spec, name):
+    """The ``mjflex.flexure`` instance named ``name`` in ``spec``, or None."""
+    for plugin in spec.plugins:
+        if plugin.name == name and plugin.plugin_name == schema.PLUGIN_NAME:
+            return plugin
+    return None
 
 
 def _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact):
@@ -290,6 +318,49 @@ def _record_text(record):
     except ValueError as exc:
         raise ValueError(f"flexure {record.name!r}: {exc}") from None
     return text
+
+
+def activate_plugin(spec) -> None:
+    """Let ``spec`` use the engine plugin ``mjflex.flexure`` (its native library must be built)."""
+    if _native.loaded() is None:
+        import mjflex_plugin
+
+        try:
+            mjflex_plugin.library()
+        except mjflex_plugin.NativeLibraryError as exc:
+            raise RuntimeError(f"plugin elements need mjflex's native library: {exc}") from None
+    spec.activate_plugin(schema.PLUGIN_NAME)  # idempotent
+
+
+def add_plugin_element(spec, record, site_a: str, site_b: str):
+    """Add ``record`` to ``spec`` as an instance of ``mjflex.flexure`` between two existing sites; returns it.
+
+    The instance is named after the element and attached to no body (MuJoCo computes it anyway).
+    """
+    activate_plugin(spec)
+    plugin = spec.add_plugin(name=record.name, plugin_name=schema.PLUGIN_NAME, active=True)
+    plugin.config = schema.config_from_record(record, site_a, site_b)
+    return plugin
+
+
+def records_to_plugins(spec) -> list[str]:
+    """Turn every text-record element of ``spec`` into an ``mjflex.flexure`` plugin instance (same sites).
+
+    Returns the element names. Their parameters carry over exactly (see
+    :func:`mjflex.mj.schema.config_from_record`); the sites stay where they are.
+    """
+    sites = {s.name for s in spec.sites}
+    converted = []
+    for text in list(spec.texts):
+        match = schema.match_record(text.name, sites)
+        if match is None or not match[3]:
+            continue
+        element, site_a, site_b, _ = match
+        record = schema.parse_text(element, text.data)
+        spec.delete(text)
+        add_plugin_element(spec, record, site_a, site_b)
+        converted.append(element)
+    return converted
 
 
 def _checked_terms(terms, method, K, name):

@@ -1,5 +1,6 @@
 """The passive-force provider: parse a model's flexures once, then add their forces every step."""
 
+import ctypes
 import difflib
 import warnings
 
@@ -7,9 +8,9 @@ import mujoco
 import numpy as np
 
 from ..core import validation
-from . import _callback, _tables
-from . import _kernels as k
+from . import _callback, _fallback, _native, _tables
 from ._tables import ModelError
+from .divergence import Divergence, step_index
 
 __all__ = ["Flexures", "ModelError"]
 
@@ -27,7 +28,12 @@ TABLE_DTYPE = np.dtype(
 def _restore(model, copies, enabled, viscous, methods):
     """Unpickle a :class:`Flexures`: rebuilt from its model, with its switches and served copies."""
     flex = Flexures(model)
-    flex._ints[:, k.ENABLED], flex._ints[:, k.VISCOUS], flex._ints[:, k.METHOD] = enabled, viscous, methods
+    el = flex._elements
+    el["enabled"][: len(enabled)], el["viscous"][: len(viscous)], el["method"][: len(methods)] = (
+        enabled,
+        viscous,
+        methods,
+    )
     return flex.serve(copies) if copies else flex
 
 
@@ -57,13 +63,22 @@ class Flexures:
     ----------
     model : mujoco.MjModel
         A model whose elements are written in its file as described in
-        :mod:`mjflex.mj.schema` (sites ``E/a``, ``E/b`` and a text record ``mjflex:E``).
-        All elements are parsed and validated here, once; a malformed one raises
-        :class:`ModelError`.
+        :mod:`mjflex.mj.schema`: text records (sites ``E/a``, ``E/b`` and a text record
+        ``mjflex:E``), instances of the engine plugin ``mjflex.flexure``, or both (text records
+        come first in the per-element arrays). All elements are parsed and validated here,
+        once; a malformed one raises :class:`ModelError`.
 
     Notes
     -----
-    ``install()`` (or ``with flex:``) adds the elements' generalized forces to
+    Engine-plugin elements: their forces belong to the model (every copy, ``Batch``,
+    ``mujoco.rollout``, the viewer), so ``install()`` / ``with flex:`` / :meth:`serve` leave them
+    alone: for them these are documented no-ops, so that code written for text-record models runs
+    unchanged on plugin models (installing them again would add their forces twice). Their
+    run-time switches are configuration attributes of the model: ``set_enabled`` & co. raise and
+    say how to change them. Everything that reads a ``data`` works on both kinds alike, through
+    the same C code as the forces.
+
+    Text-record elements: ``install()`` (or ``with flex:``) adds the elements' generalized forces to
     ``data.qfrc_passive`` inside every ``mj_step`` / ``mj_forward`` of this model (and of the
     copies given to :meth:`serve`), for every integrator and any kinematic tree. The functions
     that read a ``data`` (``wrenches``, ``potential_energy``, ...) use its kinematics as they are
@@ -104,13 +119,16 @@ class Flexures:
     first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
     map ``(v+ - v)/h``.
 
-    Divergence: an element whose wrench is not finite, or alone would accelerate one of its
-    bodies beyond 1e10 (MuJoCo's ``mjMAXVAL``), is reported with its name, the time and the
-    step, and ``qfrc_passive`` is set to NaN so that MuJoCo's own handling follows: with
-    MuJoCo's auto-reset on (its default) a warning, then MuJoCo's reset; with auto-reset
-    disabled ``mujoco.FatalError`` from ``mj_step`` (``mujoco.batch.SimulationError`` from a
-    ``Batch``), or a warning in ``mujoco.rollout``'s worker threads, where an error would end
-    the process.
+    Divergence (:mod:`mjflex.mj.divergence` has the rules): at any finite state the forces are
+    finite and exact (``mj_forward``, ``mj_inverse`` at large deflections). A non-finite wrench
+    sets ``qfrc_passive`` to NaN and is reported at once; a step that MuJoCo finds bad (NaN or
+    beyond 1e10 in ``qpos``/``qvel``/``qacc``) is blamed on the element whose force alone
+    accelerated a body the most. The report names the element and "the step from t = ... s (step
+    index k, counting from 0)": a warning with MuJoCo's auto-reset on (its default; MuJoCo then
+    resets), or in ``mujoco.rollout``'s worker threads, where an error would end the process;
+    with auto-reset disabled ``mujoco.FatalError`` from ``mj_step`` (``mujoco.batch.SimulationError``
+    from a ``Batch``). Each element is printed once per run of an ``MjData`` (until
+    ``mj_resetData``); repeats are counted: :meth:`divergences`.
     """
 
     def __init__(self, model: mujoco.MjModel):
@@ -124,31 +142,39 @@ class Flexures:
         t = self._tables
         self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
-        self._ints, self._floats, self._chain, self._rootid = t.ints, t.floats, t.chain, t.rootid
-        self._exps, self._coefs = t.exps, t.coefs
+        self._elements = t.elements  # the C loop's table (one row per element; switches live here)
         self._fingerprints = {}
         self._warn_contacts(model)
         self._sleep_policy(model)
         self._fingerprints[model._address] = _tables.fingerprint(model)
-        self._messages = [self._message(name) for name in self.names]
-        self._message_addresses = np.array([np.frombuffer(b, np.uint8).ctypes.data for b in self._messages] or [0])
+        self._watches = {}  # the Python fallback's divergence records, by data address
+        self._records = {}  # model address -> the native per-mjData divergence records of a served model
 
     def __reduce__(self):
-        ints = self._ints
-        switches = (ints[:, k.ENABLED].copy(), ints[:, k.VISCOUS].copy(), ints[:, k.METHOD].copy())
+        el = self._elements[: len(self)]
+        switches = (el["enabled"].copy(), el["viscous"].copy(), el["method"].copy())
         return _restore, (self.model, tuple(self._copies), *switches)
 
-    # ------------------------------------------------------------------ building
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """How each element is written in the model: ``"record"`` (text record) or ``"plugin"`` (engine plugin)."""
+        return self._tables.kinds
 
-    def _message(self, element):
-        name = self.model.names[: self.model.names.index(b"\x00")].decode() or "unnamed"
-        text = (
-            f"mjflex: flexure '{element}' of model '{name}'".replace("%", "%%")
-            + " diverged at time %.9g s (step %.0f): its wrench is not finite or would alone accelerate a body "
-            "beyond 1e10 (MuJoCo's mjMAXVAL). Reduce the time step (mjflex.mj.linearize.normal_modes gives the "
-            "stiffest mode), or check the qpos/qvel you set."
-        )
-        return text.encode() + b"\x00"
+    def _records_for(self, model):
+        """The native divergence records of ``model`` (kept across installs: a run outlives them)."""
+        records = self._records.get(model._address)
+        if records is None:
+            native, n = _native.lib(), self._served
+            records = self._records[model._address] = np.zeros(native.mjfx_registry_records_size(n), np.uint8)
+            native.mjfx_registry_records_init(records.ctypes.data, n)
+        return records
+
+    @property
+    def _served(self) -> int:
+        """Number of text-record elements (the first ones): the ones ``install`` adds."""
+        return self._tables.served
+
+    # ------------------------------------------------------------------ building
 
     def _warn_contacts(self, model):
         """Warn once about elements whose bodies touch, or touch neighbours they were welded away from
@@ -159,7 +185,7 @@ class Flexures:
             t = own[0]
             a, b = (
                 mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
-                for i in self._ints[self._index[t.element], [k.BODY_A, k.BODY_B]]
+                for i in self._elements[self._index[t.element]][["body_a", "body_b"]].tolist()
             )
             more = f" (and {len(own) - 1} more elements: {', '.join(t[0] for t in own[1:4])}...)"
             warnings.warn(
@@ -176,7 +202,7 @@ class Flexures:
             joined = {
                 t.element: [
                     mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
-                    for i in self._ints[self._index[t.element], [k.BODY_A, k.BODY_B]]
+                    for i in self._elements[self._index[t.element]][["body_a", "body_b"]].tolist()
                 ]
                 for t in neighbours
             }
@@ -263,7 +289,7 @@ class Flexures:
             self._sleep_policy(model)
         copies = tuple(m for m in dict.fromkeys(models) if m is not self.model)
         with _callback._LOCK:
-            if self._depth and self.names:
+            if self._depth and self._served:
                 _callback.unregister(self, [m for m in self._copies if m not in copies])
                 _callback.register(self, [m for m in copies if m not in self._copies])
             self._copies = copies
@@ -289,30 +315,16 @@ class Flexures:
                 raise TypeError(f"serve() expects mujoco.MjModel copies of flex.model; got {type(model).__name__}")
         return models
 
-    def _slot_words(self, model):
-        words = np.zeros(k.SLOT, dtype=np.int64)
-        words[k.S_MODEL] = model._address
-        words[k.S_N] = len(self.names)
-        words[k.S_INTS], words[k.S_FLOATS] = self._ints.ctypes.data, self._floats.ctypes.data
-        words[k.S_CHAIN], words[k.S_NCHAIN] = self._chain.ctypes.data, len(self._chain)
-        words[k.S_ROOTID] = self._rootid.ctypes.data
-        words[k.S_NSITE], words[k.S_NBODY], words[k.S_NV] = model.nsite, model.nbody, model.nv
-        words[k.S_MESSAGES] = self._message_addresses.ctypes.data
-        words[k.S_EXPS], words[k.S_COEFS], words[k.S_NTERMS] = (
-            self._exps.ctypes.data,
-            self._coefs.ctypes.data,
-            len(self._coefs),
-        )
-        return words
-
     def install(self) -> "Flexures":
         """Start adding the forces in ``mj_step`` / ``mj_forward`` of the served models (counted, see Notes).
 
         Checks first that the models still hold the elements as built (edited site or body
-        poses raise :class:`ModelError`) and warns about trees that may sleep.
+        poses raise :class:`ModelError`) and warns about trees that may sleep. Engine-plugin
+        elements are left alone (their forces are the model's own); a model with only those
+        installs nothing.
         """
         with _callback._LOCK:
-            if self._depth == 0 and self.names:
+            if self._depth == 0 and self._served:
                 for i, model in enumerate(self.models):
                     self._check_model(model, "flex.model" if i == 0 else f"served model {i - 1}")
                     self._warn_sleepy(model)
@@ -329,13 +341,19 @@ class Flexures:
             if self._depth == 0:
                 return
             self._depth -= 1
-            if self._depth == 0 and self.names:
+            if self._depth == 0 and self._served:
                 _callback.unregister(self, self.models)
 
     @property
     def installed(self) -> bool:
-        """Whether this provider adds the forces to its model now (False if another callback replaced ours)."""
-        return bool(self.names) and _callback.serving(self.model) is self and _callback.dispatcher_installed()
+        """Whether the elements' forces are added to the model now (False if another callback replaced ours).
+
+        Always True for a model whose elements are all engine-plugin instances (the forces are the
+        model's own); False for a model without elements.
+        """
+        if not self._served:
+            return bool(self.names)
+        return _callback.serving(self.model) is self and _callback.dispatcher_installed()
 
     def __enter__(self):
         return self.install()
@@ -364,30 +382,41 @@ class Flexures:
                 "pass mujoco.MjData(flex.model), or build a Flexures for the data's model"
             )
 
-    def _run(self, data, mode, out6=None, out1=None, qfrc=None, model=None, accel_limit=np.inf):
-        """Evaluate the elements on ``data``; returns -1 or the index of the first diverging element."""
-        flags = (model or self.model).opt.disableflags
-        return k.flexure_loop(
-            mode, self._ints, self._floats, self._chain, self._rootid, self._exps, self._coefs, data.site_xpos,
-            data.site_xmat, data.xpos,
-            data.xmat, data.cvel, data.subtree_com, data.cdof,
-            not flags & mujoco.mjtDisableBit.mjDSBL_SPRING, not flags & mujoco.mjtDisableBit.mjDSBL_DAMPER,
-            accel_limit, np.zeros(0) if qfrc is None else qfrc, np.zeros((0, 6)) if out6 is None else out6,
-            np.zeros(0) if out1 is None else out1,
-        )  # fmt: skip
+    def _evaluate(self, data, mode, out6=None, out1=None, qfrc=None, model=None):
+        """Evaluate the elements on ``data``; returns -1 or the index of the first non-finite wrench."""
+        t, model = self._tables, model or self.model
+        if _native.available():
+            return _native.evaluate(model, data, t.elements, t.chain, t.exps, t.coefs, mode, qfrc=qfrc, out6=out6,
+                                    out1=out1, n=len(self))  # fmt: skip
+        return _fallback.evaluate(model, data, t, mode, qfrc=qfrc, out6=out6, out1=out1, n=len(self))
 
     def _query(self, data, mode, out6=None, out1=None, qfrc=None):
         self._check_data(data)
-        status = self._run(data, mode, out6, out1, qfrc)
+        status = self._evaluate(data, mode, out6, out1, qfrc)
         if status >= 0:
-            raise mujoco.FatalError(_callback.message_text(self.model, data, self._messages[status]))
+            h = self.model.opt.timestep
+            raise mujoco.FatalError(
+                f"mjflex: flexure '{self.names[status]}' of model '{_model_name(self.model)}': its wrench is not "
+                f"finite at t = {data.time:.9g} s (step index {step_index(data.time, h)}, counting from 0): the state "
+                "is NaN or infinite, or the forces overflow float64. Check the qpos/qvel you set, or reduce the time "
+                "step (mjflex.mj.linearize.normal_modes gives the stiffest mode)."
+            )
 
-    def _apply_in_callback(self, model, data):
-        """The Python dispatcher's work: add the forces; report a diverging element like the native one."""
-        status = self._run(data, k.APPLY, qfrc=data.qfrc_passive, model=model, accel_limit=k.ACCEL_LIMIT)
-        if status >= 0:
-            data.qfrc_passive[:] = np.nan
-            _callback.report_in_python(model, data, self._messages[status])
+    def _apply_in_python(self, model, data):
+        """The Python fallback dispatcher's work: add the served forces; report like the native one."""
+        _fallback.apply_and_watch(self, model, data)
+
+    def divergences(self, data) -> dict[str, Divergence]:
+        """The divergences of each element in the current run of ``data`` (those that diverged at least once).
+
+        A run is ``data`` from its creation or the last ``mj_resetData`` on (:mod:`mjflex.mj.divergence`):
+        the first divergence of an element is printed, the repeats (MuJoCo's auto-reset restarting
+        a diverging model) are only counted here. For the ``mjcb_passive`` provider a bad step that
+        MuJoCo found in the last ``mj_step`` is included (``pending``) before its next evaluation
+        reports it. Elements not installed on ``data``'s model count nothing.
+        """
+        self._check_data(data)
+        return _fallback.divergences(self, data) if not _native.available() else _divergences(self, data)
 
     def index(self, name) -> int:
         """Row of element ``name`` (or the row ``name`` itself, an int) in the per-element arrays."""
@@ -411,19 +440,19 @@ class Flexures:
     def wrenches(self, data) -> np.ndarray:
         """Wrench of each element on its body B, ``(n, 6)``: ``[moment about site b; force]``, world axes [N m; N]."""
         out = np.empty((len(self), 6))
-        self._query(data, k.WRENCH, out6=out)
+        self._query(data, _native.WRENCH, out6=out)
         return out
 
     def generalized_forces(self, data) -> np.ndarray:
         """Generalized forces ``(nv,)`` the elements add to ``qfrc_passive`` in this state."""
         out = np.zeros(self.model.nv)
-        self._query(data, k.APPLY, qfrc=out)
+        self._query(data, _native.APPLY, qfrc=out)
         return out
 
     def potential_energies(self, data) -> np.ndarray:
         """Elastic energy of each element, ``(n,)`` [J]."""
         out = np.empty(len(self))
-        self._query(data, k.ENERGY, out1=out)
+        self._query(data, _native.ENERGY, out1=out)
         return out
 
     def potential_energy(self, data) -> float:
@@ -433,7 +462,7 @@ class Flexures:
     def dissipation_powers(self, data) -> np.ndarray:
         """Power dissipated by each element's damping, ``(n,)`` [W] (non-negative)."""
         out = np.empty(len(self))
-        self._query(data, k.POWER, out1=out)
+        self._query(data, _native.POWER, out1=out)
         return out
 
     def dissipation_power(self, data) -> float:
@@ -443,7 +472,7 @@ class Flexures:
     def displacements(self, data) -> np.ndarray:
         """Finite twist ``[tau; t]`` of frame b relative to frame a for each element, ``(n, 6)`` [rad; m]."""
         out = np.empty((len(self), 6))
-        self._query(data, k.COORDS, out6=out)
+        self._query(data, _native.COORDS, out6=out)
         return out
 
     def table(self, data) -> np.ndarray:
@@ -468,12 +497,24 @@ class Flexures:
     @property
     def site_ids(self) -> np.ndarray:
         """Site ids ``(n, 2)`` of the frames a and b of each element."""
-        return self._ints[:, [k.SITE_A, k.SITE_B]].copy()
+        el = self._elements[: len(self)]
+        return np.stack([el["site_a"], el["site_b"]], axis=1).astype(np.int64).reshape(-1, 2)
 
     @property
     def body_ids(self) -> np.ndarray:
         """Body ids ``(n, 2)`` of the bodies A and B of each element."""
-        return self._ints[:, [k.BODY_A, k.BODY_B]].copy()
+        el = self._elements[: len(self)]
+        return np.stack([el["body_a"], el["body_b"]], axis=1).astype(np.int64).reshape(-1, 2)
+
+    def _switchable(self, name):
+        i = self.index(name)
+        if self.kinds[i] == _tables.PLUGIN:
+            raise ValueError(
+                f"flexure {name!r} is an mjflex.flexure plugin instance: its switches and method are configuration "
+                'attributes of the model (<config key="enabled" value="false"/>, "viscous", "method"); edit them in '
+                "the spec (spec.plugins[...].config) or the file, and compile again"
+            )
+        return i
 
     # ------------------------------------------------------------------ run-time switches
 
@@ -482,37 +523,75 @@ class Flexures:
 
         ``enabled`` must be a bool (TypeError otherwise: ``bool("false")`` is True).
         """
-        i, enabled = self.index(name), validation.check_flag(enabled, "enabled")
-        self._ints[i, k.ENABLED] = enabled
+        i, enabled = self._switchable(name), validation.check_flag(enabled, "enabled")
+        self._elements[i]["enabled"] = enabled
 
     def set_viscous(self, name: str | int, viscous: bool) -> None:
         """Switch the damping of element ``name`` (or row ``name``) on or off; ``viscous`` a bool."""
-        i, viscous = self.index(name), validation.check_flag(viscous, "viscous")
+        i, viscous = self._switchable(name), validation.check_flag(viscous, "viscous")
         if viscous and self.records[i].B is None:
             raise ValueError(
                 f'flexure {self.names[i]!r} has no damping matrix B in the model; add "B" to its text record'
             )
-        self._ints[i, k.VISCOUS] = bool(viscous)
+        self._elements[i]["viscous"] = bool(viscous)
 
     def set_method(self, name: str | int, method: str) -> None:
         """Use ``"twist"`` or ``"dualquat"`` for element ``name`` (not for one with polynomial terms)."""
-        i, code = self.index(name), validation.method_code(method)
+        i, code = self._switchable(name), validation.method_code(method)
         terms = self.records[i].terms
         if terms is not None and code != validation.METHOD_CODES[terms.method]:
             raise ValueError(
                 f"flexure {self.names[i]!r} has polynomial terms in {terms.method} coordinates, which do not carry "
                 f"over to {method}: fit (mjflex.fit_potential) or write terms for {method} in its record instead"
             )
-        self._ints[i, k.METHOD] = code
+        self._elements[i]["method"] = code
 
     @property
     def enabled(self) -> np.ndarray:
-        return self._ints[:, k.ENABLED].astype(bool)
+        return self._elements["enabled"][: len(self)].astype(bool)
 
     @property
     def viscous(self) -> np.ndarray:
-        return self._ints[:, k.VISCOUS].astype(bool)
+        return self._elements["viscous"][: len(self)].astype(bool)
 
     @property
     def methods(self) -> tuple[str, ...]:
-        return tuple(validation.METHOD_NAMES[int(c)] for c in self._ints[:, k.METHOD])
+        return tuple(validation.METHOD_NAMES[int(c)] for c in self._elements["method"][: len(self)])
+
+
+def _model_name(model) -> str:
+    return model.names[: model.names.index(b"\x00")].decode() or "unnamed"
+
+
+def _divergences(flex, data) -> dict[str, Divergence]:
+    """:meth:`Flexures.divergences` from the native watches (the plugin's and the registry's)."""
+    native, m, out = _native.lib(), flex.model, {}
+    h = m.opt.timestep
+    records = flex._records.get(m._address)
+    watches = (
+        ("plugin", native.mjfx_plugin_watch(m._address, data._address)),
+        ("record", None if records is None else native.mjfx_records_watch(records.ctypes.data, flex._served,
+                                                                           data._address)),
+    )  # fmt: skip
+    for source, watch in watches:
+        if not watch:
+            continue
+        # the plugin's tallies follow its table: the instances in order, as the plugin elements come after the records
+        index = dict(enumerate(range(flex._served, len(flex)))) if source == "plugin" else None
+        for i in range(native.mjfx_watch_size_of(watch)):
+            e = index.get(i) if index is not None else (i if i < flex._served else None)
+            v = _native.Verdict()
+            count = native.mjfx_watch_first(watch, i, ctypes.byref(v))
+            if e is None or count == 0:
+                continue
+            text = _native.report_text(m, v, flex.names[e])
+            out[flex.names[e]] = Divergence(flex.names[e], count, v.step, step_index(v.step, h), text)
+        pending = _native.Verdict()
+        native.mjfx_watch_peek(watch, m._address, data._address, ctypes.byref(pending))
+        e = pending.element if index is None else index.get(pending.element)
+        if pending.element >= 0 and e is not None and e < len(flex):
+            name, old = flex.names[e], out.get(flex.names[e])
+            text = old.message if old else _native.report_text(m, pending, name)
+            first = (pending.step, step_index(pending.step, h)) if old is None else (old.time, old.step)
+            out[name] = Divergence(name, (old.count if old else 0) + 1, *first, text, pending=True)
+    return out

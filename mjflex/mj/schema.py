@@ -83,6 +83,45 @@ Example (hand-written)::
       <text name="mjflex:hinge" data='{"mjflex": 1, "method": "twist",
             "K": [2.0, 40, 40, 1e6, 1e6, 3e6], "B": [1e-4, 0, 0, 0, 0, 0]}'/>
     </custom>
+
+The same element as an engine plugin instance
+---------------------------------------------
+mjflex's engine plugin ``mjflex.flexure`` (``PLUGIN_NAME``, compiled C, registered by
+``import mujoco``) holds one element per instance: its forces belong to the model, so the file
+runs in any MuJoCo program (viewer, ``Batch``, ``rollout``) without mjflex's Python layer. The
+instance's name is the element's name; its ``<config>`` attributes (``PLUGIN_ATTRIBUTES``) hold
+the record's content, each value a string:
+
+- ``site_a``, ``site_b``: the names of the two sites (any names; required). Unlike a text record,
+  the element does not find its sites by its name;
+- ``method``: ``twist`` (default) or ``dualquat``;
+- ``K``: 6 numbers (the diagonal) or 36 (the 6x6 matrix, row-major); 3 or 9 for a planar
+  element (required);
+- ``B``: as ``K``, the same size family (optional);
+- ``order``, ``exponents``, ``coefficients``: the polynomial terms: ``exponents`` holds the rows
+  of 6 (twist) or 8 (dual quaternion) integers one after the other, ``coefficients`` one number
+  per row, ``order`` as in the record;
+- ``enabled``, ``viscous``: ``true`` (default) or ``false``;
+- ``strain_per_radian``: a number (optional);
+- ``source``: the record's ``"source"`` object as JSON text, verbatim (optional).
+
+Numbers are separated by white space and written as the shortest text that reads back to the same double by
+:func:`config_from_record`, so the conversion is lossless. Every value is validated when MuJoCo
+compiles the model, by the record's rules: a bad one is a compile error naming the element and
+the fix. A model must not hold one element both ways (a compile error as well). Example::
+
+    <extension>
+      <plugin plugin="mjflex.flexure">
+        <instance name="hinge">
+          <config key="site_a" value="hinge/a"/>
+          <config key="site_b" value="hinge/b"/>
+          <config key="K" value="2 40 40 1e6 1e6 3e6"/>
+          <config key="B" value="1e-4 0 0 0 0 0"/>
+        </instance>
+      </plugin>
+    </extension>
+
+An instance need not be attached to a body (MuJoCo computes unattached instances too).
 """
 
 import difflib
@@ -102,6 +141,11 @@ SITE_B_SUFFIX = "/b"
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
 KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "source", "site")
+#: Name of mjflex's engine plugin, and its configuration attributes in the order MuJoCo stores
+#: their values (the native library's ``MJFX_ATTRIBUTES``; checked by the tests).
+PLUGIN_NAME = "mjflex.flexure"
+PLUGIN_ATTRIBUTES = ("site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients", "enabled",
+                     "viscous", "strain_per_radian", "source", "site")  # fmt: skip
 TERMS_KEYS = ("exponents", "coefficients")
 #: The two sites count as coincident when they are closer than this times the element's own
 #: length scale: the summed lengths of the site and body positions that place both sites,
@@ -329,6 +373,11 @@ def parse_text(element: str, data: str) -> FlexureRecord:
     payload = load_json(data)
     if not isinstance(payload, dict):
         raise ValueError(f'its data must be a JSON object such as {{"mjflex": 1, "K": [...]}}; got {shorten(payload)}')
+    return parse_payload(element, payload)
+
+
+def parse_payload(element: str, payload: dict) -> FlexureRecord:
+    """A record from its decoded JSON object; raises ValueError saying what to fix."""
     unknown = sorted(set(payload) - set(KEYS))
     if unknown:
         raise ValueError(f"unknown key(s) {shorten(unknown)}; the allowed keys are {list(KEYS)}")
@@ -388,3 +437,137 @@ def order_and_terms(payload, method, K):
         K6 = embed_planar(K) if K.shape == (3, 3) else K
         validation.check_psd_matrix(K6 + H, "K + the terms' stiffness at rest", 6, what="stiffness")
     return order, terms
+
+
+# ------------------------------------------------------------------------------ plugin instances
+
+
+def _numbers(text: str, key: str) -> list[float]:
+    try:
+        return [float(t) for t in text.split()]
+    except ValueError:
+        bad = next(t for t in text.split() if not _is_float(t))
+        raise ValueError(f"{key} has {bad[:40]!r}, which is not a number") from None
+
+
+def _is_float(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _square(values: list[float]) -> list:
+    n = {9: 3, 36: 6}.get(len(values))
+    return values if n is None else [values[i * n : (i + 1) * n] for i in range(n)]
+
+
+def record_from_config(element: str, config: dict) -> FlexureRecord:
+    """The record of a plugin instance from its configuration strings; raises ValueError (as a record would).
+
+    ``config`` maps attribute names (``PLUGIN_ATTRIBUTES``) to their values; missing ones are
+    empty. The plugin's ``init`` has validated them already when the model compiled; this
+    applies the record's rules again in Python (they agree).
+    """
+    get = {a: str(config.get(a, "")).strip() for a in PLUGIN_ATTRIBUTES}
+    payload = {"mjflex": SCHEMA_VERSION, "method": get["method"] or "twist"}
+    if not get["K"]:
+        raise ValueError("the stiffness K is missing")
+    for key in ("K", "B"):
+        if get[key]:
+            values = _numbers(get[key], key)
+            if len(values) not in (3, 6, 9, 36):
+                raise ValueError(f"{key} has {len(values)} numbers; give 3, 6, 9 or 36")
+            payload[key] = _square(values)
+    if get["order"]:
+        try:
+            payload["order"] = int(get["order"])
+        except ValueError:
+            raise ValueError(f"order must be an integer; got {get['order'][:40]!r}") from None
+    if get["exponents"] or get["coefficients"]:
+        cols = 6 if payload["method"] == "twist" else 8
+        try:
+            flat = [int(t) for t in get["exponents"].split()]
+        except ValueError:
+            raise ValueError("exponents must be integers") from None
+        if len(flat) % cols:
+            raise ValueError(f"exponents has {len(flat)} integers, not a multiple of {cols} (one row per term)")
+        payload["terms"] = {
+            "exponents": [flat[i : i + cols] for i in range(0, len(flat), cols)],
+            "coefficients": _numbers(get["coefficients"], "coefficients"),
+        }
+    for key in ("enabled", "viscous"):
+        if get[key]:
+            if get[key] not in ("true", "false"):
+                raise ValueError(f"{key} must be true or false; got {get[key][:40]!r}")
+            payload[key] = get[key] == "true"
+    if get["strain_per_radian"]:
+        values = _numbers(get["strain_per_radian"], "strain_per_radian")
+        if len(values) != 1:
+            raise ValueError("strain_per_radian must be one number")
+        payload["strain_per_radian"] = values[0]
+    if get["source"]:
+        try:
+            payload["source"] = json.loads(get["source"])
+        except (json.JSONDecodeError, RecursionError):
+            raise ValueError("source must be a JSON object") from None
+    if get["site"]:
+        payload["site"] = get["site"]
+    return parse_payload(element, payload)
+
+
+def _number_text(values) -> str:
+    return " ".join(repr(float(v)) for v in np.ravel(values))
+
+
+def attached_name(value: str, element: str, names) -> str | None:
+    """The site name a plugin configuration's ``value`` stands for among ``names``, or None.
+
+    ``value`` itself, or, in a model composed with ``MjSpec.attach`` (which prefixes and suffixes
+    every name but leaves configuration strings as written), ``P + value + S`` where the
+    instance's name ``element`` is ``P + E + S``. The plugin's ``init`` applies the same rule.
+    """
+    names = names if isinstance(names, set | frozenset | dict) else set(names)
+    if value in names or not value:
+        return value if value in names else None
+    for name in sorted(n for n in names if value in n):
+        at = name.find(value)
+        while at >= 0:
+            pre, suf = name[:at], name[at + len(value) :]
+            if len(pre) + len(suf) < len(element) and element.startswith(pre) and element.endswith(suf):
+                return name
+            at = name.find(value, at + 1)
+    return None
+
+
+def config_from_record(record: FlexureRecord, site_a: str, site_b: str) -> dict[str, str]:
+    """The plugin configuration of a record (lossless: 17 significant digits, the source verbatim)."""
+    config = {"site_a": site_a, "site_b": site_b, "method": record.method, "K": _number_text(_compact(record.K))}
+    if record.B is not None:
+        config["B"] = _number_text(_compact(record.B))
+    if record.terms is not None and len(record.terms):
+        config["order"] = str(int(record.order))
+        config["exponents"] = " ".join(str(int(v)) for v in record.terms.exponents.ravel())
+        config["coefficients"] = _number_text(record.terms.coefficients)
+    if not record.enabled:
+        config["enabled"] = "false"
+    if not record.viscous:
+        config["viscous"] = "false"
+    if record.strain_per_radian is not None:
+        config["strain_per_radian"] = repr(float(record.strain_per_radian))
+    if record.source is not None:
+        config["source"] = json.dumps(record.source)
+    if record.site is not None:
+        config["site"] = record.site
+    return config
+
+
+def _compact(M: np.ndarray) -> np.ndarray:
+    """The diagonal of a diagonal matrix, else the matrix."""
+    return np.diagonal(M) if not M[~np.eye(len(M), dtype=bool)].any() else M
+
+
+def config_text(config: dict) -> str:
+    """One string of a configuration (its attributes in order), to compare two instances."""
+    return "\n".join(f"{a}={config.get(a, '')}" for a in PLUGIN_ATTRIBUTES)

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from ...mj import Flexures
+from ...mj.divergence import step_phrase
 from ...mj.schema import site_names
 from ._metrics import PoseReader, Trajectory
 
@@ -53,15 +54,17 @@ def quiet_mujoco_warnings():
 class Divergence:
     """Where and how a run stopped being a result."""
 
-    time: float  # simulated time at detection [s]
+    time: float  # start of the diverging step [s] where mjflex named it, else the time at detection
     timestep: float  # [s]
     reason: str
-    element: str | None  # the flexure named by the error, or the one holding the most energy
+    element: str | None  # the flexure mjflex named, or the one holding the most energy
     body: str | None
+    exact: bool = False  # time is the start of the step that diverged (mjflex reported it)
 
     def text(self) -> str:
         where = f" at flexure '{self.element}'" if self.element else (f" at body '{self.body}'" if self.body else "")
-        return f"diverged at t = {self.time:.4g} s with h = {self.timestep:.3g} s{where}: {self.reason}"
+        when = f"in {step_phrase(self.time, self.timestep)}" if self.exact else f"by t = {self.time:.4g} s"
+        return f"diverged {when} with h = {self.timestep:.3g} s{where}: {self.reason}"
 
 
 @dataclass
@@ -228,7 +231,11 @@ def run_sampled(sim, integrator, method, h, *, samples, every, energy_limit=None
                         mujoco.mj_forward(m, d)
                 when = min(float(d.time), k * every * h) if np.isfinite(d.time) else k * every * h
                 element, body = sim.culprit(d, message, dof)
-                divergence = Divergence(when, h, reason, element, body)
+                found = sorted(sim.flex.divergences(d).values(), key=lambda v: v.time) if sim.has_flexures else []
+                if found:  # mjflex named the element and the step (mjflex.mj.divergence)
+                    divergence = Divergence(found[-1].time, h, found[-1].message, found[-1].element, body, exact=True)
+                else:
+                    divergence = Divergence(when, h, reason, element, body)
                 break
             rows.append(row)
             times.append(k * every * h)

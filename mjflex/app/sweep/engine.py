@@ -30,6 +30,7 @@ from mujoco import batch as mjbatch
 
 from ...mj import Flexures
 from ...mj import _callback as registry
+from ...mj.divergence import step_phrase
 from .recipe import Recipe
 
 BAD_STATE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
@@ -229,16 +230,17 @@ def _most_loaded(sim, row):
 def replay(sim: _Sim, row: np.ndarray, nstep: int, reported: str = "") -> None:
     """Step ``sim`` from state ``row`` in this thread until it fails; record why, where and when.
 
-    A flexure that reports a non-finite wrench is named as the element. When MuJoCo's checks
-    fire first (a huge or non-finite ``qpos``/``qvel``/``qacc``, the usual sign of a time
-    step too large for the stiffest mode), the element named is the flexure that held the
-    most elastic energy at the start of the failing step, the last finite state, and the
-    message says so. ``reported`` is the error ``Batch`` reported, if any (kept if the replay
-    does not fail).
+    A flexure that mjflex reports (a non-finite wrench, or the element whose force made the
+    state MuJoCo found bad: :meth:`mjflex.Flexures.divergences`) is named as the element, with
+    mjflex's message. When MuJoCo's checks fire and no element was that violent, the element
+    named is the flexure that held the most elastic energy at the start of the failing step, the
+    last finite state, and the message says so. Steps are named by the one convention of
+    :mod:`mjflex.mj.divergence` ("the step from t = ... s (step index k, counting from 0)").
+    ``reported`` is the error ``Batch`` reported, if any (kept if the replay does not fail).
     """
     m, d = sim.model, mujoco.MjData(sim.model)
     mujoco.mj_setState(m, d, row, _STATE)
-    t0, counts, last = d.time, _warning_counts(d), row.copy()
+    t0, counts, last, h = d.time, _warning_counts(d), row.copy(), m.opt.timestep
     for _ in range(nstep):
         t = d.time
         mujoco.mj_getState(m, d, last, _STATE)
@@ -246,14 +248,16 @@ def replay(sim: _Sim, row: np.ndarray, nstep: int, reported: str = "") -> None:
             mujoco.mj_step(m, d)
         except mujoco.FatalError as exc:
             text = str(exc)
-            return sim.diverge(text if "flexure '" in text else f"{text} (step starting at t = {t:.6g} s)",
-                               _element(text), t)  # fmt: skip
+            return sim.diverge(text if "flexure '" in text else f"{text} (in {step_phrase(t, h)})", _element(text), t)
         bad = (_warning_counts(d) > counts).any()
         if bad or not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
+            found = [v for v in sim.flex.divergences(d).values() if v.time == t] if len(sim.flex) else []
+            if found:  # mjflex names the element (the mjcb_passive provider reports it at its next evaluation)
+                return sim.diverge(found[0].message, found[0].element, t)
             what = _bad_state_text(m, d, counts) if bad else "the state became non-finite"
             element, energy = _most_loaded(sim, last)
             held = f"; flexure '{element}' held the most elastic energy ({energy:.3g} J) before it" if element else ""
-            return sim.diverge(f"{what} in the step starting at t = {t:.6g} s{held}", element, t)
+            return sim.diverge(f"{what} in {step_phrase(t, h)}{held}", element, t)
     sim.diverge(
         f"diverged between t = {t0:.6g} and {d.time:.6g} s ({reported or 'MuJoCo bad-state warning'}), but a replay "
         "of that interval in one thread did not reproduce it",

@@ -1,0 +1,202 @@
+"""ctypes bindings of mjflex's native library (``mjflex/native``): the one implementation of the per-step math.
+
+The library is found and loaded once per process by :mod:`mjflex_plugin` (the same copy that
+``import mujoco`` registered as the engine plugin ``mjflex.flexure``). Its C functions read
+``mjModel`` / ``mjData`` through the MuJoCo headers they were compiled against (the version is
+checked before loading), so Python passes ``model._address`` and ``data._address``.
+
+When the library is missing (no C compiler at install) or cannot be used, :func:`lib` returns
+None after one ``RuntimeWarning`` per process naming the cause and the fix, and mjflex runs its
+Python fallback (:mod:`._fallback`): same results, much slower, no plugin models.
+
+The element table
+-----------------
+``ELEMENT_DTYPE`` mirrors the C struct ``mjfxElement`` (``mjflex/native/elements.h``): one row
+per element, built once by :mod:`._tables`. Its offsets are checked against the library's
+(``mjfx_element_field``) when the library loads, so Python and C cannot drift apart.
+"""
+
+import ctypes
+import os
+import threading
+import warnings
+
+import numpy as np
+
+#: Modes of :func:`evaluate` (bits, as ``MJFX_*`` in elements.h).
+APPLY, WRENCH, ENERGY, POWER, COORDS = 1, 2, 4, 8, 16
+#: Structure codes of K and B (``MJFX_FULL``, ``MJFX_DIAGONAL``, ``MJFX_ZERO``).
+FULL, DIAGONAL, ZERO = 0, 1, 2
+#: Columns of a term's exponent row in the tables (twist uses the first 6).
+TERM_COLUMNS = 8
+
+_INT_FIELDS = (
+    "site_a", "site_b", "body_a", "body_b", "method", "enabled", "viscous", "offset", "free_a", "free_b",
+    "chain_a0", "chain_a1", "chain_b0", "chain_b1", "terms_lo", "terms_hi", "terms_top", "kstruct", "bstruct",
+)  # fmt: skip
+#: One element of a model, as the C loop reads it (``mjfxElement``).
+ELEMENT_DTYPE = np.dtype(
+    [("K", np.float64, (36,)), ("B", np.float64, (36,)), ("R0", np.float64, (9,)), ("p0", np.float64, (3,)),
+     ("qa", np.float64, (4,)), ("qb", np.float64, (4,)), ("inv_mass", np.float64), ("inv_inertia", np.float64),
+     *((f, np.int32) for f in _INT_FIELDS)],
+    align=True,
+)  # fmt: skip
+
+#: Set to a reason to force the Python fallback (tests, or ``MJFLEX_NATIVE=0`` in the environment).
+FORCE_FALLBACK = {"reason": "MJFLEX_NATIVE=0 in the environment" if os.environ.get("MJFLEX_NATIVE") == "0" else None}
+
+_LOCK = threading.Lock()
+_STATE = {}
+_P = ctypes.c_void_p
+_I = ctypes.c_int
+_D = ctypes.c_double
+_DP = ctypes.POINTER(ctypes.c_double)
+_IP = ctypes.POINTER(ctypes.c_int)
+
+
+class Verdict(ctypes.Structure):
+    """``mjfxVerdict``: what a look at an mjData's divergence watch asks to report."""
+
+    _fields_ = [("element", _I), ("first", _I), ("nonfinite", _I), ("accel", _D), ("step", _D), ("bad", _I)]
+
+
+class Scan(ctypes.Structure):
+    """``mjfxScan``."""
+
+    _fields_ = [("nonfinite", _I), ("largest", _I), ("accel", _D)]
+
+
+_SIGNATURES = {
+    "mjfx_element_field": (ctypes.c_long, [ctypes.c_char_p]),
+    "mjfx_attribute": (ctypes.c_char_p, [_I]),
+    "mjfx_evaluate": (_I, [_P, _P, _P, _I, _P, _P, _P, _I, _P, _P, _P, _P]),
+    "mjfx_rest_offset": (None, [_P, _I, _I, _P, _P, _DP, _DP]),
+    "mjfx_matrix_structure": (_I, [_P]),
+    "mjfx_registry_capacity": (_I, []),
+    "mjfx_registry_records_size": (ctypes.c_size_t, [_I]),
+    "mjfx_registry_publish": (None, [_I, _P, _I, _P, _P, _P, _P, _P, _P]),
+    "mjfx_registry_clear": (None, [_I]),
+    "mjfx_registry_used": (_I, []),
+    "mjfx_records_watch": (_P, [_P, _I, _P]),
+    "mjfx_registry_records_init": (None, [_P, _I]),
+    "mjfx_set_previous": (None, [_P]),
+    "mjfx_dispatch": (_I, [_P, _P, _I, _P]),
+    "mjfx_report_text": (_I, [_P, _P, ctypes.c_char_p, ctypes.c_char_p, _I]),
+    "mjfx_report_raises": (_I, [_P]),
+    "mjfx_errors_caught_here": (_I, []),
+    "mjfx_plugin_watch": (_P, [_P, _P]),
+    "mjfx_plugin_element": (_I, [_P, _P, _I, _P]),
+    "mjfx_watch_size_of": (_I, [_P]),
+    "mjfx_watch_first": (_I, [_P, _I, _P]),
+    "mjfx_watch_peek": (None, [_P, _P, _P, _P]),
+    "mjfx_check_config": (_I, [ctypes.c_char_p, _P, ctypes.c_char_p, _I]),
+    "mjfx_wrench_batch": (None, [_I, _I, *[_P] * 6, _I, *[_P] * 6, _I, _I, _P, _P]),
+    "mjfx_potential_batch": (None, [_I, _I, *[_P] * 7, _I, _I, _P]),
+    "mjfx_twist_batch": (None, [_I, _P, _P, _P, _P, _P]),
+    "mjfx_series_coefficients": (_I, [_P, _P, _I]),
+    "mjfx_header_version": (_I, []),
+    "mjfx_is_instance": (_I, [_P, _I]),
+    "mjfx_element_prepare": (None, [_P, _P]),
+    "mjfx_live_instances": (ctypes.c_long, []),
+}
+
+
+def _bind(lib):
+    for name, (restype, argtypes) in _SIGNATURES.items():
+        function = getattr(lib, name)
+        function.restype, function.argtypes = restype, argtypes
+    size = lib.mjfx_element_field(None)
+    for name in ELEMENT_DTYPE.names:
+        if lib.mjfx_element_field(name.encode()) != ELEMENT_DTYPE.fields[name][1]:
+            raise RuntimeError(
+                f"mjflex: the native mjfxElement.{name} is not where ELEMENT_DTYPE has it; rebuild mjflex"
+            )
+    if size != ELEMENT_DTYPE.itemsize:
+        raise RuntimeError(f"mjflex: the native mjfxElement has {size} bytes, ELEMENT_DTYPE {ELEMENT_DTYPE.itemsize}")
+    return lib
+
+
+def loaded():
+    """The native library if it loads, whether or not mjflex uses it (it registers the plugin)."""
+    with _LOCK:
+        if "loaded" not in _STATE:
+            import mjflex_plugin
+
+            try:
+                _STATE["loaded"] = _bind(mjflex_plugin.library())
+            except (mjflex_plugin.NativeLibraryError, RuntimeError, AttributeError) as exc:
+                _STATE["loaded"], _STATE["why"] = None, str(exc)
+        return _STATE["loaded"]
+
+
+def lib():
+    """The native library (ctypes), or None when mjflex runs its Python fallback (warned once per process)."""
+    native = loaded()
+    if native is not None and not FORCE_FALLBACK["reason"]:
+        return native
+    with _LOCK:
+        why = FORCE_FALLBACK["reason"] or _STATE.get("why")
+        if _STATE.get("warned") != why:
+            _STATE["warned"] = why
+            warnings.warn(
+                f"mjflex: using the Python fallback for the flexure forces (much slower; models with mjflex.flexure "
+                f"plugin elements cannot load without the native library): {why}",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+    return None
+
+
+def available() -> bool:
+    """Whether the native library is in use."""
+    return lib() is not None
+
+
+def plugin_instances(model) -> list[int]:
+    """Ids of the model's mjflex.flexure plugin instances (none can exist without the library)."""
+    native = loaded() if model.nplugin else None
+    if native is None:
+        return []
+    return [i for i in range(model.nplugin) if native.mjfx_is_instance(model._address, i)]
+
+
+def plugin_attributes() -> tuple[str, ...]:
+    """The configuration attributes of the plugin, in the order MuJoCo stores their values."""
+    native = loaded()
+    out, i = [], 0
+    while native is not None and (name := native.mjfx_attribute(i)) is not None:
+        out.append(name.decode())
+        i += 1
+    return tuple(out)
+
+
+def _ptr(a):
+    return None if a is None else a.ctypes.data
+
+
+def evaluate(model, data, elements, chain, exps, coefs, mode, *, qfrc=None, out6=None, out1=None, n=None):
+    """Run the C loop on ``data``; returns -1 or the index of the first element with a non-finite wrench."""
+    native = lib()
+    count = len(elements) if n is None else n
+    return native.mjfx_evaluate(
+        model._address, data._address, _ptr(elements), count, _ptr(chain), _ptr(exps), _ptr(coefs), mode,
+        _ptr(qfrc), _ptr(out6), _ptr(out1), None,
+    )  # fmt: skip
+
+
+def rest_offset(data, sa, sb):
+    """``(R0 (3, 3), p0 (3,), distance, angle)`` of site b seen from site a in ``data`` (the C computation)."""
+    R0, p0, dist, angle = np.empty(9), np.empty(3), ctypes.c_double(), ctypes.c_double()
+    lib().mjfx_rest_offset(data._address, int(sa), int(sb), R0.ctypes.data, p0.ctypes.data, dist, angle)
+    return R0.reshape(3, 3), p0, dist.value, angle.value
+
+
+def prepare(model, elements, i):
+    """Fill row ``i``'s derived fields (``mjfx_element_prepare``: offset, qa, qb, kstruct, bstruct)."""
+    lib().mjfx_element_prepare(model._address, elements.ctypes.data + i * elements.itemsize)
+
+
+def report_text(model, verdict, element: str) -> str:
+    buf = ctypes.create_string_buffer(1024)
+    lib().mjfx_report_text(model._address, ctypes.byref(verdict), element.encode(), buf, len(buf))
+    return buf.value.decode(errors="replace")

@@ -1,0 +1,196 @@
+// The mjcb_passive provider for text-record models: one process-global dispatcher and a
+// registry of the models it serves (mjflex/mj/_callback.py fills it).
+//
+// Rules (the registry semantics mjflex's tests guard):
+// * A slot is in use when its model pointer is non-NULL. Python fills a slot's fields before it
+//   stores the model pointer (release) and clears the pointer first when it frees the slot, so
+//   a dispatcher running in another thread for another model never reads a half-written slot.
+//   Slots never move; only the first g_used can be in use. The tables a slot points to are
+//   owned by Python and outlive the slot.
+// * The dispatcher allocates nothing and validates nothing: the tables were validated when the
+//   provider was built.
+// * Models not in the registry (other models, the temporary ones MuJoCo builds while
+//   compiling) are left untouched; a previous C callback is called first (chained).
+// * Divergence: each slot has MJFX_WATCHES per-mjData watch records, claimed by data address
+//   (an atomic compare-exchange); when all are taken the least recently used is reclaimed, so a
+//   diagnostic may be approximate when more mjData of one model are alive at once, but every
+//   read stays within the slot's tables.
+
+#include <stdatomic.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <mujoco/mujoco.h>
+
+#include "elements.h"
+
+#define MJFX_CAPACITY 1024
+#define MJFX_WATCHES 64
+
+typedef struct Record_ {
+  _Atomic uintptr_t owner;  // the mjData address, 0 when free
+  _Atomic uint64_t stamp;   // last use (for reclaiming)
+  mjfxWatch watch;          // followed by its tallies
+} Record;
+
+typedef struct Slot_ {
+  _Atomic(const mjModel*) model;
+  int n;
+  const mjfxElement* el;
+  const int* chain;
+  const int* exps;
+  const double* coefs;
+  const char* const* names;
+  unsigned char* records;  // MJFX_WATCHES records of record_size(n) bytes
+} Slot;
+
+static Slot g_slots[MJFX_CAPACITY];
+static _Atomic int g_used = 0;
+static _Atomic uint64_t g_clock = 0;
+static void (*_Atomic g_previous)(const mjModel*, mjData*) = NULL;
+
+static size_t record_size(int n) {
+  size_t size = offsetof(Record, watch) + mjfx_watch_size(n);
+  return (size + 15) & ~(size_t)15;
+}
+
+int mjfx_registry_capacity(void) {
+  return MJFX_CAPACITY;
+}
+
+size_t mjfx_registry_records_size(int n) {
+  return MJFX_WATCHES * record_size(n);
+}
+
+// Prepare a buffer of mjfx_registry_records_size(n) bytes: every watch record free.
+void mjfx_registry_records_init(unsigned char* records, int n) {
+  for (int r = 0; r < MJFX_WATCHES; r++) {
+    Record* rec = (Record*)(records + r * record_size(n));
+    atomic_store(&rec->owner, 0);
+    atomic_store(&rec->stamp, 0);
+    rec->watch.exact = 0;
+    mjfx_watch_clear(&rec->watch, n);
+  }
+}
+
+void mjfx_registry_publish(int slot, const mjModel* m, int n, const mjfxElement* el, const int* chain,
+                           const int* exps, const double* coefs, const char* const* names, unsigned char* records) {
+  if (slot < 0 || slot >= MJFX_CAPACITY) return;
+  Slot* s = g_slots + slot;
+  s->n = n, s->el = el, s->chain = chain, s->exps = exps, s->coefs = coefs, s->names = names;
+  s->records = records;
+  atomic_store_explicit(&s->model, m, memory_order_release);  // last: the slot becomes visible complete
+  int used = atomic_load(&g_used);
+  while (used < slot + 1 && !atomic_compare_exchange_weak(&g_used, &used, slot + 1)) {
+  }
+}
+
+void mjfx_registry_clear(int slot) {
+  if (slot < 0 || slot >= MJFX_CAPACITY) return;
+  atomic_store_explicit(&g_slots[slot].model, NULL, memory_order_release);  // first: no dispatcher matches it
+  int used = atomic_load(&g_used);
+  while (used > 0 && atomic_load(&g_slots[used - 1].model) == NULL) used--;
+  atomic_store(&g_used, used);
+}
+
+int mjfx_registry_used(void) {
+  return atomic_load(&g_used);
+}
+
+void mjfx_set_previous(void (*previous)(const mjModel*, mjData*)) {
+  atomic_store(&g_previous, previous);
+}
+
+static Slot* slot_of(const mjModel* m) {
+  int used = atomic_load(&g_used);
+  for (int s = 0; s < used; s++) {
+    if (atomic_load_explicit(&g_slots[s].model, memory_order_acquire) == m) return g_slots + s;
+  }
+  return NULL;
+}
+
+static uintptr_t mix(uintptr_t x) {
+  x ^= x >> 17;
+  x *= (uintptr_t)0xed5ad4bbU;
+  x ^= x >> 11;
+  return x;
+}
+
+// the watch of d in records (of n elements): found, claimed if free, or reclaimed from the least recently used
+static mjfxWatch* watch_in(unsigned char* records, int n, const mjData* d, int claim) {
+  size_t size = record_size(n);
+  uintptr_t key = (uintptr_t)d;
+  int start = (int)(mix(key) % MJFX_WATCHES);
+  uint64_t now = atomic_fetch_add_explicit(&g_clock, 1, memory_order_relaxed) + 1;
+  for (int k = 0; k < MJFX_WATCHES; k++) {
+    Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
+    if (atomic_load_explicit(&rec->owner, memory_order_acquire) == key) {
+      atomic_store_explicit(&rec->stamp, now, memory_order_relaxed);
+      return &rec->watch;
+    }
+  }
+  if (!claim) return NULL;
+  for (int attempt = 0; attempt < 4; attempt++) {
+    Record* oldest = NULL;
+    uint64_t oldest_stamp = UINT64_MAX;
+    for (int k = 0; k < MJFX_WATCHES; k++) {
+      Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
+      uintptr_t owner = atomic_load(&rec->owner);
+      uint64_t stamp = owner ? atomic_load_explicit(&rec->stamp, memory_order_relaxed) : 0;
+      if (stamp < oldest_stamp) oldest = rec, oldest_stamp = stamp;
+      if (!owner) break;
+    }
+    uintptr_t expected = atomic_load(&oldest->owner);
+    if (atomic_compare_exchange_strong(&oldest->owner, &expected, key)) {
+      mjfx_watch_clear(&oldest->watch, n);
+      atomic_store_explicit(&oldest->stamp, now, memory_order_relaxed);
+      return &oldest->watch;
+    }
+  }
+  return NULL;  // lost every race: no diagnostics for this evaluation
+}
+
+static const char* element_name(const Slot* s, int e) {
+  return e >= 0 && e < s->n && s->names && s->names[e] ? s->names[e] : "?";
+}
+
+// Evaluate the served elements of m on d; returns 0 if m is not served. With report, verdicts
+// are reported through MuJoCo here; else they are written to out[0..2) for the caller.
+int mjfx_dispatch(const mjModel* m, mjData* d, int report, mjfxVerdict out[2]) {
+  Slot* s = slot_of(m);
+  if (out) out[0].element = out[1].element = -1;
+  if (!s) return 0;
+  mjfxWatch* w = watch_in(s->records, s->n, d, 1);
+  mjfxVerdict v;
+  if (w) {
+    mjfx_watch_judge(w, m, d, 1, &v);
+    if (report) mjfx_report(m, &v, element_name(s, v.element));
+    else if (out) out[0] = v;
+  }
+  mjfxScan scan;
+  int bad = mjfx_evaluate(m, d, s->el, s->n, s->chain, s->exps, s->coefs, MJFX_APPLY, d->qfrc_passive, NULL, NULL,
+                          &scan);
+  if (bad >= 0) {
+    for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;  // so that MuJoCo's checks see it too
+  }
+  if (w) {
+    mjfx_watch_record(w, m, d, &scan, 1, &v);
+    if (report) mjfx_report(m, &v, element_name(s, v.element));
+    else if (out) out[1] = v;
+  }
+  return 1;
+}
+
+// The process's passive callback.
+void mjfx_passive(const mjModel* m, mjData* d) {
+  void (*previous)(const mjModel*, mjData*) = atomic_load(&g_previous);
+  if (previous) previous(m, d);
+  mjfx_dispatch(m, d, 1, NULL);
+}
+
+// The watch of d in a records buffer of n elements (NULL if none).
+const mjfxWatch* mjfx_records_watch(unsigned char* records, int n, const mjData* d) {
+  return records ? watch_in(records, n, d, 0) : NULL;
+}

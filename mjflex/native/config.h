@@ -1,0 +1,51 @@
+// The MJCF configuration of an mjflex.flexure plugin instance: parsed and validated once, in
+// the plugin's init (a failure is a model compile error naming the element and the fix).
+// The attributes and their rules are documented in mjflex/mj/schema.py (PLUGIN_ATTRIBUTES),
+// beside the text record they mirror; the rules are the record's.
+
+#ifndef MJFLEX_NATIVE_CONFIG_H_
+#define MJFLEX_NATIVE_CONFIG_H_
+
+#include <mujoco/mujoco.h>
+
+#include "elements.h"
+
+#define MJFX_PLUGIN_NAME "mjflex.flexure"
+#define MJFX_NATTRIBUTE 13
+extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
+
+// Validation constants (mjflex.mj.schema, mjflex.core.validation, mjflex.core.polynomial).
+#define MJFX_MAX_MATRIX_ENTRY 1e280
+#define MJFX_SYMMETRY_RTOL 1e-8
+#define MJFX_PSD_RTOL 1e-10
+#define MJFX_COINCIDENCE_RTOL 1e-5
+#define MJFX_COINCIDENCE_ANGLE 1e-5
+#define MJFX_REST_STRESS_RTOL 1e-12
+#define MJFX_MAX_TERMS 100000
+
+// A parsed element: its table row and its own terms (exps: MJFX_TERM_COLUMNS per row).
+typedef struct mjfxParsed_ {
+  mjfxElement el;
+  int* exps;
+  double* coefs;
+  int nterms;
+  int planar;
+} mjfxParsed;
+
+// Parse the configuration strings values[MJFX_NATTRIBUTE] (in MJFX_ATTRIBUTES order) of
+// element `name` into out (site, body and offset fields are not touched). Returns 0, or -1
+// with a message in err that names the element, the problem and the fix; out->exps and
+// out->coefs are allocated (malloc) only on success.
+int mjfx_parse_config(const char* name, const char* const* values, mjfxParsed* out, char* err, int errsz);
+
+// Check that a 6x6 matrix (or 3x3 when n == 3) is finite, within MJFX_MAX_MATRIX_ENTRY,
+// symmetric and positive semi-definite; returns 0 or -1 with the problem in err.
+int mjfx_check_matrix(const double* M, int n, const char* key, int stiffness, char* err, int errsz);
+
+// Smallest eigenvalue of a symmetric n x n matrix (n <= 6), by Jacobi rotations.
+double mjfx_min_eigenvalue(const double* M, int n);
+
+// Whether text is one complete JSON object (RFC 8259; no NaN or Infinity).
+int mjfx_json_object(const char* text);
+
+#endif  // MJFLEX_NATIVE_CONFIG_H_

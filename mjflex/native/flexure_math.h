@@ -1,0 +1,85 @@
+// The per-element math of mjflex in C: finite twist and dual quaternion, elastic + viscous,
+// polynomial terms. No MuJoCo here: poses and velocities come in as plain arrays.
+//
+// Conventions (as in the Python package): 6-vectors angular first, wrenches [moment; force],
+// rotation matrices row-major with R_WB x_B = x_W, quaternions w-first. The wrench returned is
+// the one the element exerts on body B, moment about the origin of frame b, world axes.
+//
+// This is the one implementation of the per-step math; mjflex.core (numpy/numba) is the
+// independent reference it is tested against (tests/test_native_math.py).
+
+#ifndef MJFLEX_NATIVE_FLEXURE_MATH_H_
+#define MJFLEX_NATIVE_FLEXURE_MATH_H_
+
+#define MJFX_TWIST 0
+#define MJFX_DUALQUAT 1
+
+// largest exponent of one coordinate in a polynomial term (mjflex.core.polynomial.MAX_EXPONENT)
+#define MJFX_MAX_EXPONENT 16
+// columns of a term's exponent row (6 twist coordinates, 8 dual-quaternion coordinates)
+#define MJFX_TERM_COLUMNS 8
+
+// structure of a 6x6 matrix, detected once (mjfx_matrix_structure) so that the per-step
+// products skip the zero blocks
+#define MJFX_FULL 0
+#define MJFX_DIAGONAL 1
+#define MJFX_ZERO 2
+
+// The polynomial terms of one element: rows of exponents (MJFX_TERM_COLUMNS ints each, the
+// twist using the first 6) and their coefficients; top is the largest exponent.
+typedef struct mjfxTerms_ {
+  const int* exps;
+  const double* coefs;
+  int n;
+  int top;
+} mjfxTerms;
+
+// Inputs of one element evaluation: poses of frames a and b (world), their velocities (world
+// angular velocity, linear velocity of the frame origin), K and B with their structure.
+typedef struct mjfxInput_ {
+  const double* Ra;  // 9, row-major
+  const double* pa;  // 3
+  const double* Rb;
+  const double* pb;
+  const double* q;   // relative pose, if known: unit quaternion of R_ab = R_WA^T R_WB with w >= 0 (4),
+  const double* p;   // and p_ab = R_WA^T (p_WB - p_WA) (3); NULL: computed from Ra, pa, Rb, pb
+  const double* K;  // 36, row-major
+  const double* B;  // 36, or NULL
+  int kstruct, bstruct;
+  int method;
+  int viscous;  // evaluate the damping (velocities and B must be given)
+  const double* wa;
+  const double* va;
+  const double* wb;
+  const double* vb;
+  const mjfxTerms* terms;  // NULL or n == 0: quadratic potential only
+} mjfxInput;
+
+// MJFX_DIAGONAL, MJFX_ZERO or MJFX_FULL for a 6x6 row-major matrix.
+int mjfx_matrix_structure(const double M[36]);
+
+// Wrench of the element on body B: moment about pb and force, world axes [N m; N];
+// *power: the dissipated power [W] (0 unless viscous).
+void mjfx_wrench(const mjfxInput* in, double m[3], double f[3], double* power);
+
+// Elastic energy [J] (K and the terms; B and velocities are not read).
+double mjfx_potential(const mjfxInput* in);
+
+// Finite twist [tau; t] of frame b relative to frame a (method and K not read).
+void mjfx_twist(const double Ra[9], const double pa[3], const double Rb[9], const double pb[3], double xi[6]);
+
+// The finite twist [tau; t] of an input's relative pose (its q and p if given).
+void mjfx_coordinates(const mjfxInput* in, double xi[6]);
+
+// Unit quaternion (w >= 0) of a rotation matrix (Shepperd), as mjflex.core.
+void mjfx_quat_from_rot(const double R[9], double q[4]);
+
+// Quaternion product a b, the conjugate product a^* b, and the rotation matrix (row-major) of a unit quaternion.
+void mjfx_quat_mul(const double a[4], const double b[4], double out[4]);
+void mjfx_quat_conj_mul(const double a[4], const double b[4], double out[4]);
+void mjfx_rot_from_quat(const double q[4], double R[9]);
+
+// Series coefficients used near zero angle (for a test against mjflex.core._series).
+int mjfx_series_coefficients(double* c, double* g, int n);
+
+#endif  // MJFLEX_NATIVE_FLEXURE_MATH_H_

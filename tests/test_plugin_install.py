@@ -1,0 +1,152 @@
+"""How the native library is built, found and registered: `import mujoco` alone, once, and never the wrong one."""
+
+import ctypes
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+
+import mujoco
+import pytest
+
+import mjflex_plugin
+from mjflex.mj import _native
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+NATIVE = os.path.join(ROOT, "mjflex", "native")
+
+
+def _run(code, **env):
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300,
+                            env={**os.environ, **env})  # fmt: skip
+    return result
+
+
+def test_the_native_library_is_in_use():
+    """The test environment builds it (pip install -e .); MJFLEX_NATIVE=0 runs the suite on the fallback."""
+    if os.environ.get("MJFLEX_NATIVE") == "0":
+        assert not _native.available()
+        return
+    assert _native.available(), "the native library did not build: pip install -v -e . shows why"
+    assert os.path.basename(mjflex_plugin.library_path()) == f"libmjflex-mj{mujoco.mj_version()}.so"
+
+
+def test_import_mujoco_alone_loads_the_plugin_and_stays_light(tmp_path):
+    from tests.models import B_DEMO, two_body_spec
+
+    path = tmp_path / "plugin.xml"
+    path.write_text(two_body_spec(B=B_DEMO, kind="plugin").to_xml())
+    code = f"""
+import sys
+import mujoco
+model = mujoco.MjModel.from_xml_path({str(path)!r})
+data = mujoco.MjData(model)
+data.qpos[7] += 0.01
+mujoco.mj_step(model, data)
+print("force", data.qfrc_passive[0] != 0, "numba" in sys.modules, "mjflex" in sys.modules, "mjflex.core" in sys.modules)
+"""
+    result = _run(code)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["force", "True", "False", "False", "False"]
+    assert "Warning" not in result.stderr
+
+
+def test_mjflex_uses_the_copy_that_mujoco_registered(tmp_path):
+    """One library in the process: mjflex's ctypes handle is the one `import mujoco` loaded (a second copy
+    from another path would collide with the registration)."""
+    code = """
+import mujoco, mjflex
+from mjflex.mj import _native
+from tests.models import two_body_spec
+assert _native.available()
+mjflex.Flexures(two_body_spec(kind="plugin").compile())
+with mjflex.Flexures(two_body_spec().compile()):
+    pass
+maps = {line.split()[-1] for line in open("/proc/self/maps") if "libmjflex" in line}
+print(len(maps))
+"""
+    result = _run(code)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split()[-1] == "1"
+
+
+def _compile_library(out, *defines):
+    folder = os.path.dirname(mujoco.__file__)
+    libs = [f for f in os.listdir(folder) if f.startswith("libmujoco.so.")]
+    cc = (sysconfig.get_config_var("CC") or "gcc").split()[0]
+    if shutil.which(cc) is None:
+        pytest.fail(f"no C compiler ({cc}) to build a test copy of the library")
+    sources = [os.path.join(NATIVE, f) for f in sorted(os.listdir(NATIVE)) if f.endswith(".c")]
+    cmd = [cc, "-O1", "-shared", "-fPIC", "-std=c11", "-fexceptions", *defines,
+           f"-I{os.path.join(folder, 'include')}", *sources, "-o", str(out), f"-L{folder}", f"-l:{libs[0]}",
+           f"-Wl,-rpath,{folder}", "-lm"]  # fmt: skip
+    subprocess.run(cmd, check=True, capture_output=True)
+
+
+def test_a_library_built_for_another_mujoco_refuses_to_register(tmp_path):
+    """The check of mjVERSION_HEADER against mj_version() inside the library (any host: simulate, C programs)."""
+    fake = tmp_path / "libmjflex-mj3999999.so"
+    _compile_library(fake, "-DMJFX_HEADER_VERSION=3999999")
+    code = f"""
+import ctypes, mujoco
+mujoco.mj_loadPluginLibrary({str(fake)!r})
+lib = ctypes.CDLL({str(fake)!r})
+print("status", lib.mjfx_status(), lib.mjfx_header_version())
+"""
+    result = _run(code)
+    assert result.returncode == 0, result.stderr
+    assert "status -1 3999999" in result.stdout
+    out = result.stdout + result.stderr
+    assert "compiled against the headers of MuJoCo 3999999 but is loaded by MuJoCo 4000000" in out
+    assert "it is not registered. Rebuild it against the installed mujoco: pip install --force-reinstall" in out
+
+
+def test_the_entry_point_refuses_a_library_built_for_another_mujoco(tmp_path, monkeypatch):
+    """Before loading anything: the file name carries the header version (setup.py names it)."""
+    (tmp_path / "libmjflex-mj3999999.so").write_bytes(b"not loaded")
+    monkeypatch.setattr(mjflex_plugin, "_folder", lambda: str(tmp_path))
+    with pytest.raises(
+        mjflex_plugin.NativeLibraryError,
+        match=r"built against the headers of MuJoCo 3999999, but "
+        r"MuJoCo 4000000 \(4.0.0\) is running; .* rebuild mjflex against the installed mujoco: pip",
+    ):
+        mjflex_plugin.library_path()
+    for key in ("error", "library"):  # forget this process's loaded library for the test (restored after)
+        monkeypatch.delitem(mjflex_plugin._STATE, key, raising=False)
+    with pytest.raises(mjflex_plugin.NativeLibraryError, match="3999999"):
+        mjflex_plugin.register()  # what `import mujoco` turns into a RuntimeWarning
+
+
+def test_register_is_quiet_without_any_library(tmp_path, monkeypatch):
+    """No compiler at install: `import mujoco` says nothing; mjflex warns once when used (its fallback)."""
+    monkeypatch.setattr(mjflex_plugin, "_folder", lambda: str(tmp_path))
+    assert not mjflex_plugin.built()
+    mjflex_plugin.register()
+    with pytest.raises(mjflex_plugin.NativeLibraryError, match=r"is not built .* Install gcc, then pip install"):
+        mjflex_plugin.library_path()
+
+
+def test_without_a_compiler_the_build_warns_and_installs_the_rest(tmp_path):
+    """setup.py's extension is optional: a failed compile prints how to get the library and exits 0."""
+    env = {**os.environ, "CC": "false", "LDSHARED": "false"}
+    result = subprocess.run(
+        [sys.executable, "setup.py", "build_ext", "--build-lib", str(tmp_path / "lib"), "--build-temp",
+         str(tmp_path / "tmp")],
+        cwd=ROOT, capture_output=True, text=True, env=env, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "mjflex: the native library (engine plugin mjflex.flexure and the fast per-step path) was NOT built" in (
+        result.stderr
+    )
+    assert "install a C compiler (e.g. apt-get install gcc) and reinstall mjflex" in result.stderr
+    built = [f for _, _, files in os.walk(tmp_path) for f in files if f.startswith("libmjflex")]
+    assert built == []
+
+
+def test_the_element_struct_is_mirrored_exactly():
+    native = _native.lib()
+    for name in _native.ELEMENT_DTYPE.names:
+        assert native.mjfx_element_field(name.encode()) == _native.ELEMENT_DTYPE.fields[name][1]
+    assert native.mjfx_element_field(b"no_such_field") == -1
+    assert ctypes.sizeof(_native.Scan) == 16
