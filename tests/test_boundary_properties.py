@@ -143,6 +143,15 @@ def _corruptions(value):
 CORRUPTIONS = list(_corruptions(np.eye(3)))
 
 
+@pytest.fixture(scope="module", autouse=True)
+def compiled_core():
+    """The core's numba kernels compiled before any call is timed: SLOW_CALL guards against hangs in a call, not
+    against numba's one-off compilation (seconds in a fresh clone, whose kernel cache is empty)."""
+    for method in ("twist", "dualquat"):
+        for function in (mjflex.potential, mjflex.wrench_on_b):
+            function(np.eye(3), np.zeros(3), np.eye(3), np.zeros(3), np.eye(6), method=method)
+
+
 @SETTINGS
 @given(rotvecs, rotvecs, st.tuples(unit, unit, unit), st.tuples(unit, unit, unit), stiffness(),
        st.sampled_from(["twist", "dualquat"]),
