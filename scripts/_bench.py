@@ -18,8 +18,9 @@ script's wall time and the machine (:func:`machine`: CPU model, logical cores, l
 before and after). Run a script with ``MJFLEX_RECORD=1`` in the environment to
 also record the JSON in ``docs/results/`` under the JSON's own file name (by default
 ``<script>.json``; runs of one script with other arguments are recorded side by side when their
-``--json`` names differ, e.g. ``long_run_arcade.json``), committed: README.md's measured figures
-are generated from those files by ``python scripts/readme_results.py``.
+``--json`` names differ, e.g. ``long_run_arcade.json``), committed: the measured figures of the
+README and the documentation pages are generated from those files by
+``python scripts/results_blocks.py``.
 """
 
 import copy

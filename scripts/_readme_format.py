@@ -1,4 +1,4 @@
-"""Number and table formatting of scripts/readme_results.py (README text from recorded JSON)."""
+"""Number and table formatting of scripts/results_blocks.py (page text from recorded JSON)."""
 
 import statistics
 

@@ -1,6 +1,6 @@
-"""README blocks of the speed-accuracy measurements: the study, reduce, native alternatives, long runs, sweeps.
+"""Generated blocks of the speed-accuracy measurements: the study, reduce, native alternatives, long runs, sweeps.
 
-Renderers of scripts/readme_results.py: each takes the recorded JSON (by name) and returns README text.
+Renderers of scripts/results_blocks.py: each takes the recorded JSON (by name) and returns Markdown text.
 """
 
 import re
@@ -19,7 +19,7 @@ from _readme_format import (
     times,
 )
 
-#: The recorded runs of scripts/long_run.py, in the README's order.
+#: The recorded runs of scripts/long_run.py, in the order of their block.
 LONG_RUNS = ["long_run", "long_run_arcade", "long_run_arcade_1e-5", "long_run_arcade_damped"]
 
 
@@ -30,7 +30,7 @@ def _study_limit(r, variant="full", method="twist"):
     return {lim["integrator"]: lim for lim in r["limits"] if lim["variant"] == variant and lim["method"] == method}
 
 
-#: What a study's linear limit means, said once in the README's study block (records that have one).
+#: What a study's linear limit means, said once in the study's block (records that have one).
 LINEAR_NOTE = (
     "The linear limit is that of the model linearized at its initial pose, for any motion: a step above it runs "
     "through only a scene that leaves the mode named unexcited, so the study recommends the smaller of the two "

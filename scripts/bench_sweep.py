@@ -125,7 +125,7 @@ def main(argv=None):
 
 
 def _named_for_readme(row):
-    """The row's wall-time median and same-repeat ratio also under the names the README's renderer reads."""
+    """The row's wall-time median and same-repeat ratio also under the names the sweep block's renderer reads."""
     row["wall_median_s"], row["ratio_to_serial_median"] = row["median_s"], row["ratio_median"]
     return row
 

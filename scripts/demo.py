@@ -3,7 +3,7 @@
 Usage::
 
     python scripts/demo.py [--repeat 3] [--frames 40] [--json out/demo.json]
-    MJFLEX_RECORD=1 python scripts/demo.py      # also docs/results/demo.json (README block results:demo)
+    MJFLEX_RECORD=1 python scripts/demo.py      # also docs/results/demo.json (docs/howto/render_headless.md)
 
 1. The command as a user runs it: ``python -m mjflex demo --quiet`` in fresh processes, with
    its defaults and with the look and size it had before (``--quality full --width 1280

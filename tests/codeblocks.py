@@ -1,4 +1,4 @@
-"""Fenced code blocks of Markdown pages, and how the docs tests run them.
+"""Fenced code blocks of Markdown pages (README.md and docs/), and how the docs tests run them.
 
 A block is ```` ```python ```` or ```` ```bash ```` (also ``sh``, ``shell``, ``console``); other
 languages (``xml``, ``text``, none) are data or output, not programs. Every program block runs

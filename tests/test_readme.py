@@ -1,4 +1,8 @@
-"""The README's Python example runs as written, from the repository root."""
+"""The README, the front door: its set-up commands are CI's, its versions table is pyproject's, its links lead
+somewhere; and the measured figures of every page (README and docs/) are what the recorded JSON gives.
+
+The README's code blocks run with the documentation's (tests/test_docs.py, tests/codeblocks.py).
+"""
 
 import copy
 import datetime
@@ -11,55 +15,32 @@ import numpy as np
 import pytest
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
+#: The README stays a front door: what it is, a picture, set-up, an example, links into the documentation.
+MAX_README_LINES = 150
 
 
-#: Sections whose python blocks a test of their own runs and checks.
-DEDICATED = ("### A compliant joint in your robot",)
+def _readme():
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        return f.read()
 
 
-def python_blocks(heading=None):
-    """The README's fenced python blocks: all of them, or those of the section under ``heading``."""
-    with open(os.path.join(ROOT, "README.md")) as f:
-        readme = f.read()
-    sections = re.split(r"^(?=#{2,4} )", readme, flags=re.M)  # level 2-4 headings (a code comment is "# ")
-    out = []
-    for section in sections:
-        title = section.splitlines()[0] if section else ""
-        if (title in DEDICATED) if heading is None else (title != heading):
-            continue
-        out += re.findall(r"```python\n(.*?)```", section, flags=re.S)
-    return out
-
-
-def test_readme_python_blocks_run(monkeypatch, capsys):
-    blocks = python_blocks()
-    assert blocks
-    monkeypatch.chdir(ROOT)
-    for code in blocks:
-        exec(compile(code, "README.md", "exec"), {})
-    out = capsys.readouterr().out
-    assert "flexure energy" in out and "dissipating" in out
-
-
-def test_readme_compliant_joint_example_runs(monkeypatch, capsys):
-    """The 'compliant joint in your robot' example, on gymnasium's pusher file: compliant, simulated, rigid again."""
-    (code,) = python_blocks("### A compliant joint in your robot")
-    monkeypatch.chdir(ROOT)
-    namespace = {}
-    exec(compile(code, "README.md", "exec"), namespace)
-    out = capsys.readouterr().out
-    assert "Compliance(body='r_forearm_link' on 'r_forearm_roll_link'" in out and "forearm modes [" in out
-    freq = namespace["freq"]
-    assert (freq > 1).sum() == 6  # the forearm's six modes; the arm's other joints are free
-    deflection = namespace["flex"].displacements(namespace["data"])[0]
-    assert np.isfinite(deflection).all() and 1e-5 < np.abs(deflection).max() < 0.1  # loaded, bounded
-    rigid = namespace["spec"].compile()
-    assert rigid.nq == namespace["model"].nq - 7 and rigid.ntext == 0  # make_rigid took it all back
+def test_readme_is_a_front_door_whose_links_lead_somewhere():
+    """At most MAX_README_LINES lines; every relative link and image names a file or folder of the repository, and
+    the documentation's sections are all linked."""
+    readme = _readme()
+    assert len(readme.splitlines()) <= MAX_README_LINES, "the README grew: move the detail to a page under docs/"
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", readme)
+    local = [t for t in targets if not re.match(r"[a-z]+://", t)]
+    assert len(local) >= 10, local
+    missing = [t for t in local if not os.path.exists(os.path.join(ROOT, t))]
+    assert not missing, f"README links to files that do not exist: {missing}"
+    for section in ("docs/tutorials/", "docs/howto/index.md", "docs/reference/index.md", "docs/background/index.md"):
+        assert section in local, section
+    assert "python -m mjflex docs" in readme, "the README says how to build the site"
 
 
 def test_readme_test_command_is_what_ci_runs():
-    with open(os.path.join(ROOT, "README.md")) as f:
-        readme = f.read()
+    readme = _readme()
     with open(os.path.join(ROOT, ".ci", "run")) as f:
         ci = f.read()
     command = 'python -m pip install -e ".[test]" && python -m pytest'
@@ -71,8 +52,7 @@ def test_tested_with_table_states_the_lower_bounds_of_pyproject():
     sys.path.insert(0, os.path.join(ROOT, "scripts"))
     from tested_versions import SHOWN, oldest_constraints
 
-    with open(os.path.join(ROOT, "README.md")) as f:
-        readme = f.read()
+    readme = _readme()
     head = f"| set | Python | {' | '.join(SHOWN)} |"
     assert head in readme, "the Tested-with table has the columns of scripts/tested_versions.py"
     oldest = next(x for x in readme.splitlines() if x.startswith("| oldest allowed |"))
@@ -89,23 +69,43 @@ def test_tested_with_table_states_the_lower_bounds_of_pyproject():
 
 
 def _generator():
-    spec = importlib.util.spec_from_file_location("readme_results", os.path.join(ROOT, "scripts", "readme_results.py"))
+    spec = importlib.util.spec_from_file_location("results_blocks", os.path.join(ROOT, "scripts", "results_blocks.py"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-def test_readme_figures_are_what_the_recorded_json_gives():
-    """The generated blocks of README.md equal what scripts/readme_results.py makes of docs/results/*.json."""
+def test_every_block_has_one_place_and_every_page_is_what_the_recorded_json_gives():
+    """The generated blocks of README.md and docs/**/*.md equal what scripts/results_blocks.py makes of the recorded
+    JSON; each renderer's block is placed on exactly one page, and every recorded JSON is shown."""
     generator = _generator()
-    with open(os.path.join(ROOT, "README.md")) as f:
-        readme = f.read()
-    names = {m["name"] for m in generator.BLOCK.finditer(readme)}
-    assert names == set(generator.BLOCKS), "every renderer has its block in README.md and every block a renderer"
+    pages = generator.pages()
+    assert os.path.abspath(generator.README) in map(os.path.abspath, pages) and len(pages) >= 20
+    placed = generator.placements()
+    assert set(placed) == set(generator.BLOCKS), "every renderer has its block on a page and every block a renderer"
+    twice = {name: where for name, where in placed.items() if len(where) != 1}
+    assert not twice, f"blocks placed more than once: {twice}"
     results = generator.load_results()
-    assert generator.generate(readme, results) == readme, "run: python scripts/readme_results.py"
+    for page in pages:
+        with open(page, encoding="utf-8") as f:
+            text = f.read()
+        assert generator.generate(text, results) == text, f"{page}: run python scripts/results_blocks.py"
     used = {name for needs, _ in generator.BLOCKS.values() for name in needs}
-    assert used == set(results), "every recorded JSON is shown in the README, and only those"
+    assert used == set(results), "every recorded JSON is shown on a page, and only those"
+
+
+def test_block_places_are_found_on_any_page(tmp_path):
+    """placements() sees blocks wherever they are, and counts a block placed twice twice (the test above then fails)."""
+    generator = _generator()
+    one, two = tmp_path / "a.md", tmp_path / "b.md"
+    one.write_text("<!-- results:demo -->\nx\n<!-- /results -->\n<!-- results:modes-x -->\n<!-- /results -->\n")
+    two.write_text("text\n<!-- results:demo -->\n<!-- /results -->\n")
+    assert generator.placements([str(one), str(two)]) == {
+        "demo": [os.path.relpath(one, generator.ROOT), os.path.relpath(two, generator.ROOT)],
+        "modes-x": [os.path.relpath(one, generator.ROOT)],
+    }
+    pages = [os.path.relpath(p, generator.ROOT) for p in generator.pages()]
+    assert "README.md" in pages and not any(p.startswith(os.path.join("docs", "auto_tutorials")) for p in pages)
 
 
 def test_recorded_json_says_how_and_when_it_was_made():
@@ -251,7 +251,7 @@ def test_rendered_timings_have_their_spread_and_machine():
 def test_a_recorded_accuracy_figure_is_what_the_code_computes_today(tmp_path):
     """scripts/modes.py, run again end to end on models/arcade.xml, gives the recorded ARCADE modes and README row.
 
-    The other README tests compare the README with the JSON that was recorded; this one recomputes a recorded
+    The other tests here compare the pages with the JSON that was recorded; this one recomputes a recorded
     figure (not a timing) with today's code and model, so a change to either that moves it (a stale record) fails.
     Tolerance 1e-6 relative on the elastic frequencies: the stiffness comes from central differences of the forces
     (~1e-9 relative, mjflex.mj.linearize), and numpy/scipy/LAPACK versions and CPUs move well-separated eigenvalues
@@ -282,17 +282,18 @@ def test_a_recorded_accuracy_figure_is_what_the_code_computes_today(tmp_path):
     assert generator.row_modes({"arcade.xml": now}) == generator.row_modes({"arcade.xml": recorded})
 
 
-def test_readme_says_what_has_no_command_and_what_a_pip_install_lacks():
-    """README: reduce and fitting are Python-only, and scripts/ and models/ come with a clone only. Both stay true:
-    the command line has no such command, and the package a pip install builds holds mjflex* alone."""
+def test_pages_say_what_has_no_command_and_what_a_pip_install_lacks():
+    """The command-line page: reduce and fitting are Python-only, and scripts/ and models/ come with a clone only (the
+    README says the first too). Both stay true: the command line has no such command, and the package a pip install
+    builds holds mjflex* alone."""
     import subprocess
-    import sys
     import tomllib
 
-    with open(os.path.join(ROOT, "README.md")) as f:
-        readme = f.read()
-    assert "Model reduction (`mjflex.reduce`), the\nMuJoCo-native variants and the fitting" in readme
-    assert "are Python-only" in readme and "come with a clone of this repository" in readme
+    with open(os.path.join(ROOT, "docs", "reference", "command_line.md"), encoding="utf-8") as f:
+        page = f.read()
+    assert "Model reduction (`mjflex.reduce`), the\nMuJoCo-native variants and the fitting" in page
+    assert "are Python-only" in page and "come with a clone of this repository" in page
+    assert "Python-only" in _readme()
     usage = subprocess.run([sys.executable, "-m", "mjflex", "--help"], cwd=ROOT, capture_output=True, text=True).stdout
     commands = set(re.search(r"\{([a-z,]+)\}", usage).group(1).split(","))
     assert commands and not commands & {"reduce", "fit", "fit_potential", "variants"}, commands

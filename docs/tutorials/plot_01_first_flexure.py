@@ -50,8 +50,12 @@ B[2] = 2 * 0.01 * np.sqrt(k_bend * inertia)
 # The pendulum is a free body whose frame sits at the hinge; the hinge joins it to the world. An element named
 # ``hinge`` is two sites, ``hinge/a`` on the world and ``hinge/b`` on the pendulum, at the same pose: the element
 # frame. Its ``x`` axis points down the pendulum and its ``z`` axis, the compliant one, along the world's ``y``
-# (``xyaxes`` gives the frame's x and y axes). The stiffness and damping go into a text record ``mjflex:hinge``
-# (the full format: :doc:`/reference/mjcf_schema`).
+# (``xyaxes`` gives the frame's x and y axes).
+#
+# .. note:: **The element's format.** This block is the one place of the tutorial that writes an element by hand:
+#    the two sites, and the stiffness and damping in a text record ``mjflex:hinge``. The same element can be an
+#    instance of mjflex's engine plugin ``mjflex.flexure`` instead; both formats, every key and the rules they
+#    are checked by: :doc:`/reference/mjcf_schema`. Everything below works the same on either.
 record = {"mjflex": 1, "method": "twist", "K": np.diag(K).tolist(), "B": B.tolist()}
 xml = f"""
 <mujoco model="pendulum">
@@ -80,8 +84,12 @@ print(flex)
 # The flexure's forces enter MuJoCo's integrators explicitly, so the step must resolve the model's fastest mode:
 # RK4 is stable below about ``2.8 / omega_max``. The hinge is soft in one rotation and very stiff in the others
 # and in translation; the normal modes of the linearized model show how stiff.
-freq, _ = mjflex.mj.linearize.normal_modes(model, flex)
+freq, _ = mjflex.normal_modes(model, flex)
 print(f"highest mode {freq[-1]:.0f} Hz: RK4 stable below {2.8 / (2 * np.pi * freq[-1]):.2g} s; the model uses 1e-5 s")
+
+# %%
+# :func:`mjflex.normal_modes` linearizes at ``qpos0`` (or a keyframe); the same rule with a margin, and the
+# integrators' other limits, are in :doc:`/howto/choose_method_integrator_step`.
 
 # %%
 # Simulate
@@ -162,6 +170,37 @@ time_py, angle_py = swing(model_py, mjflex.Flexures(model_py))
 print(f"largest difference between the two models: {np.max(np.abs(angle_py - angle)):.2e} rad")
 
 # %%
-# ``spec.to_xml()`` writes this model as a file like the one above, with every digit of ``K`` kept. Next:
-# :doc:`plot_02_arcade_guide` (a mechanism of 48 flexures), or the reference for
-# :class:`mjflex.Flexures` (energies, wrenches, switches) and :func:`mjflex.add_flexure`.
+# ``spec.to_xml()`` writes this model as a file like the one above, with every digit of ``K`` kept.
+#
+# Damping from a ratio
+# --------------------
+# The damping above came from a hand estimate of the pendulum's inertia. :func:`mjflex.damping_from_ratios` takes
+# the inertia from the model instead: the element's modes from a modal analysis (here with gravity's stiffness,
+# which a pendulum's swing has), each given the ratio asked for.
+B_ratio = mjflex.damping_from_ratios(model_py, "hinge", 0.01, gravity=True)  # gravity stiffens the swing
+print(f"B about the hinge axis: hand estimate {B[2]:.3g}, from the model {B_ratio[2, 2]:.3g} N m s/rad")
+
+# %%
+# The hand estimate ignored gravity's stiffness and the rod's inertia; the ratio from the model is what a log
+# decrement of the free swing measures.
+#
+# Your own flexure model
+# ----------------------
+# The steps of this page, for a part of your own:
+#
+# 1. **Stiffness**: :func:`mjflex.geometry.notch_hinge_stiffness` or :func:`mjflex.geometry.leaf_spring_stiffness`
+#    for those shapes (with their error bands, :doc:`/background/stiffness_from_geometry`); otherwise a measured or
+#    computed 6×6 ``K``, moved to the element frame with :func:`mjflex.stiffness_in_frame` (or ``stiffness_frame=``
+#    of :func:`mjflex.add_flexure`) if it was given at another point.
+# 2. **Frame**: where the part is, its ``z`` axis along the compliant rotation; a site of one of the two bodies is
+#    the easiest way to state it (``add_flexure(..., site=...)``).
+# 3. **Element**: :func:`mjflex.add_flexure` on an ``MjSpec``, or by hand in the file (:doc:`/reference/mjcf_schema`);
+#    in a robot whose body is welded to its parent, :func:`mjflex.make_compliant` does it all
+#    (:doc:`/howto/add_flexures_to_a_robot`). Bodies joined by an element must not collide: ``add_flexure`` excludes
+#    the pair.
+# 4. **Damping**: :func:`mjflex.damping_from_ratios`, or ``B`` measured.
+# 5. **Time step**: from :func:`mjflex.normal_modes`, below ``2.8 / omega_max`` for RK4; for the accuracy you need,
+#    ``mjflex study`` on your scene (:doc:`plot_03_speed_against_accuracy`).
+#
+# Next: :doc:`plot_02_arcade_guide` (a mechanism of 48 flexures), or the reference for :class:`mjflex.Flexures`
+# (energies, wrenches, switches) and :func:`mjflex.add_flexure`.

@@ -8,7 +8,7 @@ the finer model is a leaf spring bent far beyond its linear range, computed as a
 geometrically exact rod); one element is fitted to it, of orders 2, 4 and 6, and checked on loads it was not fitted to.
 
 The full study (three slenderness ratios, orders up to 6, both element methods, held-out equilibria) is
-``python scripts/fit_flexure.py``; its results are in the README.
+``python scripts/fit_flexure.py``; its results are in :doc:`/background/large_deflections`.
 """
 
 # %%

@@ -140,7 +140,8 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
     if not len(flex):
         raise SystemExit(
             f"error: {name} has no mjflex elements (sites E/a, E/b and a text record mjflex:E; see mjflex.mj.schema "
-            "or the README), so there is nothing to report; check the warnings above for misspelt records"
+            "or docs/reference/mjcf_schema.md), so there is nothing to report; check the warnings above for misspelt "
+            "records"
         )
     for element in flex.names:
         if method is not None:

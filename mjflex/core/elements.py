@@ -294,6 +294,24 @@ def dissipation_power(
     ``xi_dot^T B xi_dot`` (twist) or ``4 [xi_v; x']_dot^T B [xi_v; x']_dot`` (dual
     quaternion). Arguments as in :func:`wrench_on_b`.
 
+    Parameters
+    ----------
+    R_WA, R_WB : array_like, shape (..., 3, 3)
+        Orientations of frames a and b in world coordinates.
+    p_WA, p_WB : array_like, shape (..., 3)
+        Origins of frames a and b in world coordinates [m].
+    B : array_like, shape (..., 6, 6)
+        Damping in a (= b) coordinates about the common origin, rows ``[rotation; translation]``
+        (``N m s/rad``, ``N s/rad``, ``N s/m``).
+    method : {"twist", "dualquat"}
+        Displacement coordinates whose rate ``B`` damps.
+    w_WA, w_WB : array_like, shape (..., 3), optional
+        Angular velocities of frames a and b, world axes [rad/s]. Zero when omitted.
+    v_WA, v_WB : array_like, shape (..., 3), optional
+        Linear velocities of the origins of frames a and b, world axes [m/s]. Zero when omitted.
+    check : bool
+        Validate the arguments (skip only for arguments validated before).
+
     Returns
     -------
     power : ndarray, shape (...)
@@ -392,6 +410,28 @@ def planar_dissipation_power(
     theta_WA, p_WA, theta_WB, p_WB, B, *, method="twist", w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True
 ):
     """Power dissipated by a planar element [W]; arguments as in :func:`planar_wrench_on_b`.
+
+    Parameters
+    ----------
+    theta_WA, theta_WB : array_like, shape (...)
+        Orientations of frames a and b in the plane [rad].
+    p_WA, p_WB : array_like, shape (..., 2)
+        Origins of frames a and b in world coordinates [m].
+    B : array_like, shape (..., 3, 3)
+        Damping, rows ``[theta; x; y]`` (``N m s/rad``, ``N s/rad``, ``N s/m``).
+    method : {"twist", "dualquat"}
+        Displacement coordinates whose rate ``B`` damps.
+    w_WA, w_WB : array_like, shape (...), optional
+        Angular velocities of frames a and b [rad/s]. Zero when omitted.
+    v_WA, v_WB : array_like, shape (..., 2), optional
+        Linear velocities of the origins of frames a and b, world axes [m/s]. Zero when omitted.
+    check : bool
+        Validate the arguments (skip only for arguments validated before).
+
+    Returns
+    -------
+    power : ndarray, shape (...)
+        Dissipated power [W].
 
     Examples
     --------

@@ -107,6 +107,22 @@ class PotentialFit:
     coordinate_range : ndarray, shape (2, 6) or (2, 8)
         Smallest and largest value of each coordinate ``z`` over the samples: the range where
         the potential was fitted.
+
+    Examples
+    --------
+    :func:`mjflex.fit_potential` returns one. Samples of a quadratic element give its ``K`` back:
+
+    >>> import numpy as np
+    >>> import mjflex
+    >>> K = np.diag([2.0, 2.0, 1.0, 4e4, 4e4, 1e5])
+    >>> rng = np.random.default_rng(0)
+    >>> R_ab, p_ab = mjflex.transform_from_twist(rng.uniform(-0.3, 0.3, (50, 6)) * [1, 1, 1, 1e-3, 1e-3, 1e-3])
+    >>> W = mjflex.wrench_on_b(np.eye(3), np.zeros(3), R_ab, p_ab, K)  # wrench on B, a axes, about b
+    >>> fit = mjflex.fit_potential(R_ab, p_ab, W, order=2, wrench_frame="a")
+    >>> fit.method, fit.rank, len(fit.parameters), len(fit.terms)  # the 21 entries of K's upper triangle
+    ('twist', 21, 21, 0)
+    >>> bool(np.allclose(fit.K, K, rtol=1e-8, atol=1e-8 * K.max())), bool(fit.relative_residual < 1e-10)
+    (True, True)
     """
 
     method: str

@@ -71,6 +71,16 @@ def rectangle_torsion_constant(a, c):
     ``A = max(a, c)``, ``C = min(a, c)`` (Timoshenko & Goodier, Theory of Elasticity, sec. 109).
     Accepts arrays; the series is summed to round-off.
 
+    Parameters
+    ----------
+    a, c : float or array_like
+        The rectangle's sides [m], in either order (positive; arrays broadcast).
+
+    Returns
+    -------
+    J : float or ndarray
+        The torsion constant [m^4]; the torsional stiffness of a bar of length ``L`` is ``G J / L``.
+
     Examples
     --------
     >>> import mjflex
@@ -108,6 +118,20 @@ def _beam_compliance(h, half_length, b, E, nu, wide):
 
 def notch_hinge_thickness(x, R, t):
     """Thickness of a circular notch hinge at ``x`` from its centre: ``t + 2 (R - sqrt(R^2 - x^2))``.
+
+    Parameters
+    ----------
+    x : float or array_like
+        Position along the hinge from its centre [m], ``-R <= x <= R``.
+    R : float
+        Radius of the two circular cuts [m].
+    t : float
+        Minimum web thickness, at ``x = 0`` [m].
+
+    Returns
+    -------
+    h : float or ndarray
+        The thickness at ``x`` [m] (``x``'s shape).
 
     Examples
     --------
@@ -358,6 +382,29 @@ def bending_strain_per_radian(K, t, b, E, nu, *, wide=None):
 
     ``eps / theta = 6 K_rot_z / (E* b t^2)``: the moment ``K_rot_z theta`` over the section
     modulus ``b t^2 / 6`` of the thinnest section, divided by the bending modulus.
+
+    Parameters
+    ----------
+    K : array_like, shape (6, 6)
+        The flexure's stiffness (:func:`notch_hinge_stiffness`, :func:`leaf_spring_stiffness`);
+        its compliant-rotation entry ``K[2, 2]`` [N m/rad] is used.
+    t : float
+        Thickness of the thinnest section [m].
+    b : float
+        Width of the flexure [m].
+    E : float
+        Young's modulus [Pa].
+    nu : float
+        Poisson ratio.
+    wide : bool, optional
+        Use the plane-strain modulus ``E* = E / (1 - nu^2)``; default ``b >= WIDE_RATIO t``
+        (otherwise ``E* = E``).
+
+    Returns
+    -------
+    float
+        Peak bending strain per radian of rotation about the flexure's ``z`` axis [1/rad]: the
+        record's ``"strain_per_radian"``.
 
     Examples
     --------

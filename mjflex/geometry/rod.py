@@ -37,6 +37,27 @@ def rod_segment_stiffness(h, t, b, E, nu, *, wide=None):
 
     Rows ``[theta; x; y]`` (``N m/rad``, ``N/m``), about the segment's midpoint, x along it.
 
+    Parameters
+    ----------
+    h : float
+        Segment length [m].
+    t : float
+        Leaf thickness (in the plane of bending) [m].
+    b : float
+        Leaf width [m].
+    E : float
+        Young's modulus [Pa].
+    nu : float
+        Poisson ratio (the shear modulus and Cowper's shear coefficient ``kappa``).
+    wide : bool, optional
+        Use the plane-strain modulus ``E* = E / (1 - nu^2)`` in bending; default for wide
+        leaves (``b >= WIDE_RATIO t``, as :func:`mjflex.geometry.leaf_spring_stiffness`).
+
+    Returns
+    -------
+    K : ndarray, shape (3, 3)
+        Diagonal planar stiffness ``[theta; x; y]`` (N m/rad, N/m).
+
     Examples
     --------
     >>> import mjflex

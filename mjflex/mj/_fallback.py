@@ -169,7 +169,7 @@ def report_text(model, element, verdict) -> str:
             f"{accel:.3g} (m/s^2 or rad/s^2; MuJoCo's limit is 1e10)."
         )
     return text + (
-        " Reduce the time step (mjflex.mj.linearize.normal_modes gives the stiffest mode) or check the qpos/qvel "
+        " Reduce the time step (mjflex.normal_modes gives the stiffest mode) or check the qpos/qvel "
         "you set. Later divergences of this element in this run (until mj_resetData) are counted, not printed: "
         "Flexures.divergences(data)."
     )

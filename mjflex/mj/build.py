@@ -25,7 +25,32 @@ SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
 @dataclass
 class FlexureHandle:
-    """The spec elements that make up one flexure: its sites, and its text record or plugin instance."""
+    """The spec elements that make up one flexure: its sites, and its text record or plugin instance.
+
+    Returned by :func:`add_flexure`; edit the spec elements through it before compiling.
+
+    Attributes
+    ----------
+    name : str
+        The element's name.
+    site_a, site_b : mujoco.MjsSite
+        Its two sites, on body A and body B, at the element frame (``name/a``, ``name/b``).
+    text : mujoco.MjsText or None
+        Its text record ``mjflex:name`` (None for a plugin instance).
+    plugin : mujoco.MjsPlugin or None
+        Its instance of the engine plugin ``mjflex.flexure`` (None for a text record).
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
+    ... )
+    >>> handle = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
+    >>> handle.name, handle.site_a.name, handle.site_b.name
+    ('mount', 'mount/a', 'mount/b')
+    """
 
     name: str
     site_a: "mujoco.MjsSite"
@@ -91,7 +116,37 @@ def compile_spec(spec, why="place flexures in world coordinates") -> mujoco.MjMo
 
 def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """World positions ``(nbody, 3)``, rotation matrices ``(nbody, 3, 3)`` and names of the
-    bodies of ``spec`` in its reference configuration (``qpos0``)."""
+    bodies of ``spec`` in its reference configuration (``qpos0``).
+
+    Compiling a spec takes time: pass the result as ``poses=`` to :func:`add_flexure` when adding
+    many elements to one spec.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The model; it must compile.
+
+    Returns
+    -------
+    xpos : ndarray, shape (nbody, 3)
+        Origins of the body frames in world coordinates [m] (body 0 is the world).
+    xmat : ndarray, shape (nbody, 3, 3)
+        Orientations of the body frames, ``R_WB`` (columns: the body's axes in world coordinates).
+    names : list of str
+        The bodies' names (``""`` for unnamed bodies).
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B" pos="0 0 -0.1"><freejoint/><geom size="0.01"/></body></worldbody>'
+    ...     "</mujoco>"
+    ... )
+    >>> xpos, xmat, names = mjflex.reference_body_poses(spec)
+    >>> names, xpos[1].tolist(), xmat.shape
+    (['world', 'B'], [0.0, 0.0, -0.1], (2, 3, 3))
+    """
     model = compile_spec(spec)
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
@@ -192,6 +247,22 @@ def add_flexure(
     Returns
     -------
     FlexureHandle
+        The element's sites and its record or plugin instance in ``spec``.
+
+    Examples
+    --------
+    A block hanging 5 cm below a leaf spring that grounds it, then the model's provider:
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> K = [2, 2, 1, 1e4, 1e4, 1e4]  # diagonal: rotations [N m/rad], then translations [N/m]
+    >>> handle = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=K, B=[1e-3] * 6)
+    >>> mjflex.Flexures(spec.compile())
+    Flexures(1 elements: leaf)
     """
     _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact)
     validation.method_code(method)
@@ -274,6 +345,26 @@ def remove_flexure(spec, name) -> None:
 
     The ``<exclude>`` that ``add_flexure`` may have written is left alone (other elements may
     join the same pair). Raises ValueError when the spec holds no such element.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The model, edited in place.
+    name : str
+        The element's name: its sites ``name/a``, ``name/b`` and its text record ``mjflex:name``
+        or its ``mjflex.flexure`` plugin instance ``name`` are removed.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
+    >>> mjflex.remove_flexure(spec, "mount")
+    >>> spec.compile().nsite
+    0
     """
     sites = [spec.site(s) for s in schema.site_names(name)]
     parameters = spec.text(schema.PREFIX + name) or _plugin_instance(spec, name)
@@ -390,8 +481,40 @@ def exclude_contacts(spec, body_a, body_b) -> None:
 def add_flexure_in_body_frame(spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), poses=None, **kwargs):
     """:func:`add_flexure` with the element frame given relative to body A's frame.
 
-    ``pos`` [m] and ``quat`` (w-first) are the pose of the element frame in body A coordinates
-    at the reference configuration; other arguments as in :func:`add_flexure`.
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The model being built; it must compile.
+    name : str
+        Element name, as in :func:`add_flexure`.
+    body_a, body_b : str or mujoco.MjsBody
+        The two bodies; ``"world"`` grounds the other one.
+    pos : array_like, shape (3,)
+        Origin of the element frame in body A's frame at the reference configuration [m].
+    quat : array_like, shape (4,)
+        Orientation of the element frame in body A's frame, w-first (default: A's axes).
+    poses : tuple, optional
+        Output of :func:`reference_body_poses`, to reuse when adding many flexures.
+    **kwargs
+        ``K``, ``B``, ``method`` and the other arguments of :func:`add_flexure`.
+
+    Returns
+    -------
+    FlexureHandle
+
+    Examples
+    --------
+    The element frame 5 cm below the world's origin, as seen from body A (here the world):
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B" pos="0 0 -0.1"><freejoint/><geom size="0.01"/></body></worldbody>'
+    ...     "</mujoco>"
+    ... )
+    >>> handle = mjflex.add_flexure_in_body_frame(spec, "leaf", "world", "B", pos=[0, 0, -0.05], K=[1] * 6)
+    >>> handle.site_b.pos.tolist()  # in body B's frame: 5 cm above its origin
+    [0.0, 0.0, 0.05]
     """
     poses = poses if poses is not None else reference_body_poses(spec)
     xpos, xmat, names = poses

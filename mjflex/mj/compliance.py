@@ -72,6 +72,21 @@ class Compliance:
         Pairs the weld had filtered that were left colliding (``collide``).
     keyframes : tuple of KeyframeEdit
         The rest values inserted into each keyframe.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="link" pos="0 0 0.5"><joint name="shoulder" axis="0 1 0"/>'
+    ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+    ...     '<site name="flange" pos="0.3 0 0" quat="0.7071068 0 0.7071068 0"/>'
+    ...     '<body name="tool" pos="0.3 0 0"><geom type="box" pos="0.05 0 0" size="0.05 0.02 0.02"/></body>'
+    ...     "</body></worldbody></mujoco>"
+    ... )
+    >>> compliance = mjflex.make_compliant(spec, "tool", K=[50, 30], directions=("ry", "rz"), site="flange")
+    >>> compliance.element, compliance.joints, compliance.parent
+    ('tool_compliance', ('tool_compliance/ry', 'tool_compliance/rz'), 'link')
     """
 
     element: str
@@ -368,6 +383,31 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         The world or an unknown body, a body with joints or a mocap body, a site of another
         body, no direction, a ratio <= 0 or NaN, both ``B`` and ``damping_ratio``, a name taken.
         The spec is left as it was.
+
+    Examples
+    --------
+    A tool on an arm's flange: six degrees of freedom relative to the arm's link (three slides and a ball joint),
+    the element at the flange site, 2 % damping in each of its modes:
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="link" pos="0 0 0.5"><joint name="shoulder" axis="0 1 0"/>'
+    ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+    ...     '<site name="flange" pos="0.3 0 0" quat="0.7071068 0 0.7071068 0"/>'
+    ...     '<body name="tool" pos="0.3 0 0"><geom type="box" pos="0.05 0 0" size="0.05 0.02 0.02"/></body>'
+    ...     "</body></worldbody></mujoco>"
+    ... )
+    >>> compliance = mjflex.make_compliant(
+    ...     spec, "tool", K=[50, 50, 30, 1e5, 1e5, 1e5], site="flange", damping_ratio=0.02
+    ... )
+    >>> compliance.joints
+    ('tool_compliance/x', 'tool_compliance/y', 'tool_compliance/z', 'tool_compliance/ball')
+    >>> model = spec.compile()
+    >>> model.nq, model.nv  # the shoulder, three slides and a ball joint
+    (8, 7)
+    >>> mjflex.Flexures(model)
+    Flexures(1 elements: tool_compliance)
     """
     target = _find_body(spec, body)
     _check_body(spec, target)
@@ -461,6 +501,31 @@ def make_rigid(spec, compliance: Compliance) -> None:
     inserted into the keyframes (at the addresses the joints have now, so keyframes edited or
     added since keep their other values). The compiled model then has the rigid model's sizes,
     body poses and keyframes.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The spec :func:`make_compliant` edited, edited again in place.
+    compliance : Compliance
+        What :func:`make_compliant` returned.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="link" pos="0 0 0.5"><joint name="shoulder" axis="0 1 0"/>'
+    ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+    ...     '<site name="flange" pos="0.3 0 0" quat="0.7071068 0 0.7071068 0"/>'
+    ...     '<body name="tool" pos="0.3 0 0"><geom type="box" pos="0.05 0 0" size="0.05 0.02 0.02"/></body>'
+    ...     "</body></worldbody></mujoco>"
+    ... )
+    >>> compliance = mjflex.make_compliant(spec, "tool", K=[50, 50, 30, 1e5, 1e5, 1e5], site="flange")
+    >>> spec.compile().nq
+    8
+    >>> mjflex.make_rigid(spec, compliance)
+    >>> spec.compile().nq  # the shoulder alone, as before
+    1
     """
     if not isinstance(compliance, Compliance):
         raise TypeError(f"make_rigid expects the Compliance that make_compliant returned; got {type(compliance)}")

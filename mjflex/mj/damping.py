@@ -124,6 +124,8 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
         The model's provider (built here if not given).
     keyframe : str or int, optional
         Configuration (and the controls the actuators see) to linearize at; ``qpos`` overrides it.
+    qpos : array_like, shape (nq,), optional
+        Configuration to linearize at (overrides the keyframe's).
     others : {"locked", "free"}
         What the dofs not between the element's bodies do (see above).
     actuator_stiffness, gravity : bool
@@ -136,6 +138,28 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     B : ndarray, shape (6, 6) or (3, 3)
         Symmetric positive semi-definite damping in the element frame, rows
         ``[rotation; translation]`` (N m s/rad, N s/m), the layout of the element's ``K``.
+
+    Examples
+    --------
+    A tool on an arm's flange, made compliant; 1 % of critical damping in each of its six modes, the shoulder held:
+
+    >>> import mujoco
+    >>> import numpy as np
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="link" pos="0 0 0.5"><joint name="shoulder" axis="0 1 0"/>'
+    ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>'
+    ...     '<site name="flange" pos="0.3 0 0" quat="0.7071068 0 0.7071068 0"/>'
+    ...     '<body name="tool" pos="0.3 0 0"><geom type="box" pos="0.05 0 0" size="0.05 0.02 0.02"/></body>'
+    ...     "</body></worldbody></mujoco>"
+    ... )
+    >>> _ = mjflex.make_compliant(spec, "tool", K=[50, 50, 30, 1e5, 1e5, 1e5], site="flange")
+    >>> model = spec.compile()
+    >>> B = mjflex.damping_from_ratios(model, "tool_compliance", 0.01)
+    >>> B.shape, bool(np.allclose(B, B.T)), bool(np.all(np.linalg.eigvalsh(B) > -1e-12 * np.abs(B).max()))
+    ((6, 6), True, True)
+
+    :func:`mjflex.make_compliant` does this itself when given ``damping_ratio=``.
     """
     if others not in OTHERS:
         raise ValueError(f"others={others!r}: use one of {OTHERS}")

@@ -152,6 +152,27 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
         The model with mjflex elements (:func:`mjflex.mj.variant.source_spec`).
     match : {"compliant", "mean", "stiff", "rigid"}
         Which eigenvalue of each stiffness block the isotropic weld honours, or a stiff weld.
+    name : str, optional
+        Label of the variant (default ``"weld(<match>)"``).
+
+    Returns
+    -------
+    Variant
+        The model with one weld equality per element; ``report`` gives each weld's stiffness
+        against the element's.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e5, 1e5, 1e5])
+    >>> variant = mjflex.weld_variant(spec)
+    >>> variant.name, variant.model.neq, variant.model.nv
+    ('weld(compliant)', 1, 6)
     """
     if match not in WELD_MATCHES:
         raise ValueError(f"match={match!r}: use one of {WELD_MATCHES}")
@@ -259,7 +280,34 @@ class _TendonSprings:
 
 
 def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
-    """Every element of ``source`` replaced by one MuJoCo joint with a spring (module docstring)."""
+    """Every element of ``source`` replaced by one MuJoCo joint with a spring (module docstring).
+
+    Parameters
+    ----------
+    source : str, os.PathLike, mujoco.MjSpec or mujoco.MjModel
+        The model with mjflex elements (:func:`mjflex.mj.variant.source_spec`).
+    name : str, optional
+        Label of the variant (default ``"pseudo-rigid-body"``).
+
+    Returns
+    -------
+    Variant
+        The model with one hinge or slide per element, in its most compliant direction, with
+        that direction's stiffness and damping as MuJoCo joint ``stiffness`` and ``damping``.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e5, 1e5, 1e5])
+    >>> variant = mjflex.pseudo_rigid_body_variant(spec)
+    >>> print(variant.report.splitlines()[1])  # one hinge about the element's z axis, 1 N m/rad
+    leaf: hinge rz, stiffness 1
+    """
     spec, model, flex = _source(source)
     dirs = element_directions(model, flex)
     _check_free(model, dirs)
@@ -286,7 +334,34 @@ def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
 def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
     """Every element of ``source`` replaced by a 6-joint bushing (module docstring).
 
-    ``loop_welds`` is the ``match`` of the soft welds that close loops (see :func:`weld_variant`).
+    Parameters
+    ----------
+    source : str, os.PathLike, mujoco.MjSpec or mujoco.MjModel
+        The model with mjflex elements (:func:`mjflex.mj.variant.source_spec`).
+    loop_welds : {"compliant", "mean", "stiff", "rigid"}
+        The ``match`` of the soft welds that close loops (see :func:`weld_variant`).
+    name : str, optional
+        Label of the variant (default ``"bushing"``).
+
+    Returns
+    -------
+    Variant
+        The model with three slides and three hinges per element at its centre of stiffness,
+        along its principal axes, with the principal stiffnesses and damping; the couplings
+        dropped are in ``report``.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e5, 1e5, 1e5])
+    >>> variant = mjflex.bushing_variant(spec)
+    >>> variant.name, variant.model.njnt, variant.model.nv
+    ('bushing', 6, 6)
     """
     spec, model, flex = _source(source)
     dirs = element_directions(model, flex)

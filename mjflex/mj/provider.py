@@ -113,7 +113,7 @@ class Flexures:
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
     the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
-    discrete) and ``h < 2.8 / omega_max`` (RK4); see ``mjflex.mj.linearize.normal_modes``.
+    discrete) and ``h < 2.8 / omega_max`` (RK4); see :func:`mjflex.normal_modes`.
     Convergence is first order for the single-step integrators and fourth order for RK4
     (tested). Under ``discrete`` the velocity-stepping solve treats them like any applied force:
     first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
@@ -129,6 +129,32 @@ class Flexures:
     with auto-reset disabled ``mujoco.FatalError`` from ``mj_step`` (``mujoco.batch.SimulationError``
     from a ``Batch``). Each element is printed once per run of an ``MjData`` (until
     ``mj_resetData``); repeats are counted: :meth:`divergences`.
+
+    Examples
+    --------
+    Two blocks joined by one element (the model file ``models/two_body.xml`` of the repository, built here), simulated
+    for a millisecond with the provider installed, then read:
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="2e-5" gravity="0 0 0"/><worldbody>'
+    ...     '<body name="A"><freejoint/><geom type="box" size="0.045 0.01 0.01" density="2700"/></body>'
+    ...     '<body name="B" pos="0.1 0 0"><freejoint/><geom type="box" size="0.045 0.01 0.01" density="2700"/></body>'
+    ...     "</worldbody></mujoco>"
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "hinge", "A", "B", pos=[0.05, 0, 0], K=[0.3, 40, 0.25, 5e6, 3e5, 1.5e6])
+    >>> model = spec.compile()
+    >>> flex = mjflex.Flexures(model)
+    >>> data = mujoco.MjData(model)
+    >>> data.qvel[9:12] = [0, 0, 20]  # B spins about the hinge axis z at 20 rad/s
+    >>> with flex:  # the passive-force callback (a no-op for engine-plugin elements)
+    ...     mujoco.mj_step(model, data, nstep=50)
+    >>> mujoco.mj_forward(model, data)
+    >>> flex.names, flex.wrenches(data).shape
+    (('hinge',), (1, 6))
+    >>> print(f"rotation about z {flex.displacements(data)[0, 2]:.3f} rad, energy {flex.potential_energy(data):.1e} J")
+    rotation about z 0.020 rad, energy 3.8e-03 J
     """
 
     def __init__(self, model: mujoco.MjModel):
@@ -399,7 +425,7 @@ class Flexures:
                 f"mjflex: flexure '{self.names[status]}' of model '{_model_name(self.model)}': its wrench is not "
                 f"finite at t = {data.time:.9g} s (step index {step_index(data.time, h)}, counting from 0): the state "
                 "is NaN or infinite, or the forces overflow float64. Check the qpos/qvel you set, or reduce the time "
-                "step (mjflex.mj.linearize.normal_modes gives the stiffest mode)."
+                "step (mjflex.normal_modes gives the stiffest mode)."
             )
 
     def _apply_in_python(self, model, data):

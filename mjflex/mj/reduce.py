@@ -44,7 +44,7 @@ depends on the whole mechanism. The variant's own modes are computed and compare
 (``details["modes"]``), so the claim is checked, not assumed.
 
 Linear modes cannot see what large motions need: a closed-loop mechanism at a large stroke may
-stretch directions that no low mode uses (ARCADE's paper run does, see the README). With
+stretch directions that no low mode uses (ARCADE's paper run does: :doc:`/howto/reduce_a_model`). With
 ``scene=(initial state, duration)`` the full model is simulated and directions that store a
 noticeable part of that scene's strain energy stay compliant (:func:`scene_shares`).
 
@@ -551,6 +551,24 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.0
     -------
     Variant
         With ``report`` (one line per element and per loop, numbers included) and ``details``.
+
+    Examples
+    --------
+    A block on a leaf spring: below 15 Hz only its three rotations matter, which become three hinges; the stiff
+    translations are held rigid.
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e5, 1e5, 1e5])
+    >>> reduced = mjflex.reduce(spec, keep_below_hz=15)
+    >>> reduced.name, reduced.model.nv
+    ('reduced(15 Hz)', 3)
+    >>> print(reduced.report.splitlines()[1])
+    leaf: 3 joints (rx 19 Hz, ry 19 Hz, rz 14 Hz local) ; rigid: x 0.65 %, y 0.65 %, z 0 %
     """
     _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify, name)
     plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, plane)

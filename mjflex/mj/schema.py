@@ -169,7 +169,44 @@ class FlexureRecord:
     """The parameters of one element as stored in the model file.
 
     ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar); ``B`` is None without damping; ``terms``
-    (in the coordinates of ``method``) is None for the quadratic potential.
+    (in the coordinates of ``method``) is None for the quadratic potential. A
+    :class:`mjflex.Flexures` holds one per element, in ``flex.records``.
+
+    Attributes
+    ----------
+    name : str
+        The element's name.
+    method : {"twist", "dualquat"}
+        How the relative displacement is measured.
+    K : ndarray, shape (6, 6) or (3, 3)
+        Stiffness in the element frame, rows ``[rotation; translation]`` (``[theta_z; x; y]``
+        planar): N m/rad, N/rad, N/m.
+    B : ndarray, shape (6, 6) or (3, 3), or None
+        Damping, the layout of ``K`` (N m s/rad, N s/m); None without damping.
+    enabled, viscous : bool
+        The run-time switches as stored in the model.
+    strain_per_radian : float or None
+        Peak bending strain per radian about the frame's z axis, for reports.
+    source : dict or None
+        Where ``K`` came from, verbatim.
+    terms : PolynomialTerms or None
+        Higher-order terms of the potential (None: quadratic).
+    order : int
+        Order of the potential (2: quadratic).
+    site : str or None
+        The site that gives the element frame, if the element was placed at one.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4], B=[1e-3] * 6)
+    >>> record = mjflex.Flexures(spec.compile()).records[0]
+    >>> print(record.name, record.method, record.K.shape, f"{record.K[3, 3]:g} N/m", record.planar)
+    mount twist (6, 6) 10000 N/m False
     """
 
     name: str

@@ -52,6 +52,28 @@ class Variant:
         Machine-readable counterpart of ``report`` (JSON-serializable).
     spec : mujoco.MjSpec or None
         The spec the variant was compiled from (``spec.to_xml()`` saves it as a model file).
+
+    Examples
+    --------
+    :func:`mjflex.reduce`, :func:`mjflex.weld_variant`, :func:`mjflex.pseudo_rigid_body_variant` and
+    :func:`mjflex.bushing_variant` return one; here a block on a leaf spring, its element replaced by one joint:
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e5, 1e5, 1e5])
+    >>> variant = mjflex.pseudo_rigid_body_variant(spec)
+    >>> variant.name, variant.model.nv, variant.body_map["block"][0]
+    ('pseudo-rigid-body', 1, 'block')
+    >>> source = spec.compile()
+    >>> data = mujoco.MjData(source)
+    >>> mujoco.mj_forward(source, data)
+    >>> qpos, qvel = variant.state_from(source, data)  # the variant's state at the source's body poses
+    >>> qpos.shape, qvel.shape
+    ((1,), (1,))
     """
 
     name: str

@@ -40,7 +40,9 @@ Parameters
 model : str, os.PathLike, mujoco.MjSpec or mujoco.MjModel
     MJCF path, spec or compiled model, with mjflex elements.
 keyframe : str or int, optional
-    Initial state (default: the first keyframe). ``qpos`` (nq,), ``qvel`` (nv,) override it.
+    Initial state (default: the first keyframe).
+qpos, qvel : array_like, shape (nq,) and (nv,), optional
+    Initial positions and velocities; they override the keyframe's.
 duration : float, optional
     Simulated time [s]; default one period of the lowest elastic mode (within 200 and 20000 of
     the model's steps), rounded to whole sample intervals.
@@ -52,9 +54,12 @@ methods, integrators : sequence of str
     Candidate element methods and MuJoCo integrators.
 steps : sequence of float, optional
     Candidate time steps [s]; by default ``step_count`` log-spaced steps from ``max_step``
-    (default twice RK4's limit for the highest natural frequency) down by factors of 2
-    (``min_step`` sets the lower end; both only without ``steps``). Steps are rounded to
-    divisors of the sample interval.
+    down by factors of 2. Steps are rounded to divisors of the sample interval.
+step_count : int
+    Number of default steps (without ``steps``).
+max_step, min_step : float, optional
+    Largest and smallest default step [s] (without ``steps``); ``max_step`` defaults to twice
+    RK4's limit for the highest natural frequency of the linearized model, damping included.
 variants : list, optional
     Variants or builders ``source -> Variant`` to compare, a builder being called with ``model``
     as given (default :data:`~mjflex.app.study.variants.DEFAULT_VARIANTS`).
@@ -64,11 +69,15 @@ bisect : int
     Most bisection runs per stability limit: first over divisors of the sample interval (full
     candidates, with errors), then over any step (divergence only) until the bracket is within
     ``limit_rtol`` (relative). 0: no bisection, the limits are bracketed by the grid steps.
+limit_rtol : float
+    Relative width of the bracket at which the bisection of a stability limit stops.
 reference_tol : float
     Agreement (relative pose error) of two successive reference refinements that stops them,
     in (0, 1).
 max_refinements : int
-    Most halvings of the reference step. ``reference_step`` sets the first step [s].
+    Most halvings of the reference step.
+reference_step : float, optional
+    First step of the reference [s] (default: the model's own step).
 frequencies : int
     How many elastic natural frequencies enter the frequency error.
 samples : int
@@ -97,6 +106,32 @@ StudyError
     what was measured and, with ``out``, it has been written as ``study_<model>.partial.*``.
 TypeError
     An option of the wrong type (e.g. ``repeat=2.5``, ``track="body"`` instead of a list).
+
+Examples
+--------
+A block on a leaf spring, pushed into a rocking motion: two integrators at two steps, one element method, no
+model variants, one timing round and no bisection (seconds; the defaults take longer). Costs are measured, so
+they vary from run to run; the errors do not:
+
+>>> import mujoco
+>>> import mjflex
+>>> spec = mujoco.MjSpec.from_string(
+...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+... )
+>>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+>>> result = mjflex.study(
+...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
+...     repeat=1, bisect=0, progress=False,
+... )
+>>> result.reference.converged, [(row.integrator, row.timestep) for row in result.rows]
+(True, [('rk4', 0.0002), ('rk4', 0.0001), ('euler', 0.0002), ('euler', 0.0001)])
+>>> print(", ".join(f"{row.integrator} {row.timestep:g} s: {row.pose_error:.0e}" for row in result.rows))
+rk4 0.0002 s: 2e-05, rk4 0.0001 s: 2e-06, euler 0.0002 s: 1e-02, euler 0.0001 s: 4e-03
+
+``result.recommendation()`` names the cheapest candidate for each error target, ``result.write("out")`` writes
+the report.
 """
 
 from ._result import Limit, Reference, Row, StudyResult

@@ -202,7 +202,7 @@ def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=1e-6)
     direction (``mj_integratePos``) give ``A = -d qacc / d q = M^-1 K``, whose eigenvalues are
     ``omega^2``; the same along ``qvel`` gives ``D = M^-1 B``. This works for any model, with or
     without mjflex elements (for those alone it agrees with
-    :func:`mjflex.mj.linearize.normal_modes` to ~1e-10, tested).
+    :func:`mjflex.normal_modes` to ~1e-10, tested).
 
     Returns
     -------

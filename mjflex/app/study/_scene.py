@@ -65,8 +65,8 @@ def flexures_of(model, name):
     if not len(flex):
         raise StudyError(
             f'{name} has no mjflex elements (no <text name="mjflex:..."> records with their sites), so there is '
-            "nothing to study: the study compares ways of simulating flexures. Add elements as described in the "
-            "README ('In a model file') or with mjflex.add_flexure, then run it again."
+            "nothing to study: the study compares ways of simulating flexures. Add elements as described in "
+            "docs/reference/mjcf_schema.md or with mjflex.add_flexure, then run it again."
         )
     return flex
 

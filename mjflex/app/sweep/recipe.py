@@ -45,6 +45,29 @@ class Recipe:
     The build is ``MjSpec.from_file`` / ``from_string`` -> ``edit`` -> ``compile``, on the
     worker, for every variant; it must be deterministic (same parameters, same model), which
     is what makes a sweep reproducible across executors.
+
+    Examples
+    --------
+    A block on a leaf spring, as MJCF text, and an ``edit`` that scales the spring's stiffness:
+
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> from mjflex.app.sweep import edit_flexure, flexure_matrices
+    >>> def stiffer(spec, scale):  # at the top level of a module when variants run in other processes
+    ...     K, _ = flexure_matrices(spec, "leaf")
+    ...     edit_flexure(spec, "leaf", K=scale * K)
+    >>> recipe = mjflex.Recipe(spec.to_xml(), stiffer, keyframe="push")
+    >>> model = recipe.build(scale=4.0)  # one variant, as a sweep builds it on its worker
+    >>> print(mjflex.Flexures(model).records[0].K[3, 3])
+    40000.0
+
+    :func:`mjflex.sweep` runs a recipe over a grid of parameters.
     """
 
     source: str
@@ -155,6 +178,23 @@ def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
         New 6x6 (or 3x3 planar) matrices, or their diagonals, in the element frame, rows
         ``[rotation; translation]``, SI units; validated when the model's
         :class:`mjflex.Flexures` is built. ``B`` may be 0-size (``[]``) to remove damping.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> from mjflex.app.sweep import edit_flexure, flexure_matrices
+    >>> K, _ = flexure_matrices(spec, "leaf")
+    >>> edit_flexure(spec, "leaf", K=2 * K, B=1e-4 * K)  # twice as stiff, Rayleigh damping
+    >>> K2, B2 = flexure_matrices(spec, "leaf")
+    >>> print(K2[2, 2], B2[2, 2])
+    2.0 0.0001
     """
     from ...mj import schema
 
@@ -174,7 +214,37 @@ def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
 
 
 def flexure_matrices(spec: mujoco.MjSpec, element: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """``(K, B)`` of element ``element`` as written in ``spec`` (6x6 or 3x3; ``B`` None without damping)."""
+    """``(K, B)`` of element ``element`` as written in ``spec`` (6x6 or 3x3; ``B`` None without damping).
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        A spec whose text record ``mjflex:<element>`` holds the element.
+    element : str
+        The element's name.
+
+    Returns
+    -------
+    K : ndarray, shape (6, 6) or (3, 3)
+        Stiffness in the element frame, rows ``[rotation; translation]`` (N m/rad, N/m).
+    B : ndarray, shape (6, 6) or (3, 3), or None
+        Damping, the layout of ``K``; None without damping.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> from mjflex.app.sweep import flexure_matrices
+    >>> K, B = flexure_matrices(spec, "leaf")
+    >>> print(K.diagonal(), B)
+    [2.e+00 2.e+00 1.e+00 1.e+04 1.e+04 1.e+04] None
+    """
     from ...mj import schema
 
     text = spec.text(schema.PREFIX + element)

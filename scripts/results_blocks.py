@@ -1,13 +1,16 @@
-"""Write the measured figures of README.md from the recorded JSON.
+"""Write the measured figures of the README and the documentation pages from the recorded JSON.
 
 Usage::
 
-    python scripts/readme_results.py            # rewrite README.md's generated blocks
-    python scripts/readme_results.py --check    # exit 1 if README.md is not what the JSON gives
+    python scripts/results_blocks.py            # rewrite every page's generated blocks
+    python scripts/results_blocks.py --check    # exit 1 if a page is not what the JSON gives
 
-README.md holds blocks ``<!-- results:NAME -->`` ... ``<!-- /results -->`` whose text
-``BLOCKS[NAME]`` renders from recorded JSON (a test checks that README.md is what this script
-makes of them, so the two cannot drift apart). The sources:
+README.md and the Markdown pages under ``docs/`` hold blocks ``<!-- results:NAME -->`` ...
+``<!-- /results -->`` whose text ``BLOCKS[NAME]`` renders from recorded JSON. Each block is
+placed exactly once, on the page where its subject is explained (:func:`placements` finds
+them; ``tests/test_readme.py`` checks that every page is what this script makes of it, and
+that every renderer has its one place, so the pages and the JSON cannot drift apart). The
+sources:
 
 * ``docs/results/*.json``, written by the measurement scripts themselves: run one with
   ``MJFLEX_RECORD=1`` in the environment (``scripts/_bench.py``'s ``write_json`` then also
@@ -18,7 +21,8 @@ makes of them, so the two cannot drift apart). The sources:
 
 Then run this script. Adding a measurement: make the script write its JSON with
 ``_bench.write_json``, write a renderer below (JSON -> text), list it in ``BLOCKS`` (and a row
-in ``MEASURED``), record, regenerate, commit the JSON and README.md.
+in ``MEASURED``), put an empty block ``<!-- results:NAME -->`` / ``<!-- /results -->`` on the
+page it belongs to, record, regenerate, commit the JSON and the page.
 """
 
 import argparse
@@ -62,6 +66,9 @@ from _readme_speed import (
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 RESULTS = os.path.join(ROOT, "docs", "results")
 README = os.path.join(ROOT, "README.md")
+DOCS = os.path.join(ROOT, "docs")
+#: Folders under docs/ written by a build or by a command (no hand-written pages with blocks).
+GENERATED = ("_build", "_generated", "auto_tutorials", os.path.join("reference", "api"))
 BLOCK = re.compile(r"(<!-- results:(?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- /results -->)", re.S)
 #: Recorded JSON outside docs/results: name -> path relative to the repository root.
 SOURCES = {
@@ -468,37 +475,71 @@ def load_results(folder=RESULTS, sources=None):
     return results
 
 
-def generate(readme, results):
-    """``readme`` with every generated block rewritten from ``results``; KeyError names a missing block or JSON."""
+def pages():
+    """README.md and every hand-written Markdown page under docs/ (absolute paths, sorted)."""
+    found = [README]
+    for path in sorted(glob.glob(os.path.join(DOCS, "**", "*.md"), recursive=True)):
+        if not os.path.relpath(path, DOCS).startswith(GENERATED):
+            found.append(path)
+    return found
+
+
+def placements(paths=None):
+    """Block name -> the pages (paths relative to the repository root) that hold a block of that name, in order."""
+    out = {}
+    for path in pages() if paths is None else paths:
+        with open(path, encoding="utf-8") as f:
+            for m in BLOCK.finditer(f.read()):
+                out.setdefault(m["name"], []).append(os.path.relpath(path, ROOT))
+    return out
+
+
+def generate(text, results):
+    """``text`` with every generated block rewritten from ``results``; KeyError names a missing block or JSON."""
 
     def render(match):
         name = match["name"]
         if name not in BLOCKS:
-            raise KeyError(f"README block 'results:{name}' has no renderer in scripts/readme_results.py BLOCKS")
+            raise KeyError(f"block 'results:{name}' has no renderer in scripts/results_blocks.py BLOCKS")
         needs, renderer = BLOCKS[name]
         missing = [n for n in needs if n not in results]
         if missing:
             raise KeyError(f"block 'results:{name}' needs recorded JSON {missing[0]!r}: record it (MJFLEX_RECORD=1)")
         return match.group(1) + renderer(results) + match.group(4)
 
-    return BLOCK.sub(render, readme)
+    return BLOCK.sub(render, text)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--check", action="store_true", help="only check; exit 1 if README.md would change")
+    ap.add_argument("--check", action="store_true", help="only check; exit 1 if a page would change")
     args = ap.parse_args()
-    with open(README) as f:
-        readme = f.read()
-    new = generate(readme, load_results())
+    results, stale, written = load_results(), [], 0
+    for path in pages():
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        new = generate(text, results)
+        written += len(BLOCK.findall(new))
+        if new == text:
+            continue
+        stale.append(os.path.relpath(path, ROOT))
+        if not args.check:
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(new)
+    misplaced = {name: where for name, where in placements().items() if len(where) != 1}
+    unplaced = sorted(set(BLOCKS) - set(placements()))
+    for name, where in misplaced.items():
+        print(f"block 'results:{name}' is placed {len(where)} times ({', '.join(where)}): place it once")
+    for name in unplaced:
+        print(f"block 'results:{name}' is on no page: put an empty one where it belongs, then run this again")
     if args.check:
-        if new != readme:
-            sys.exit("README.md differs from what the recorded JSON gives: run python scripts/readme_results.py")
-        print("README.md is what the recorded JSON gives")
-        return
-    with open(README, "w") as f:
-        f.write(new)
-    print(f"wrote {os.path.normpath(README)} ({len(BLOCK.findall(new))} generated blocks)")
+        if stale:
+            sys.exit(f"not what the recorded JSON gives: {', '.join(stale)}: run python scripts/results_blocks.py")
+        print(f"every page is what the recorded JSON gives ({written} generated blocks)")
+    else:
+        print(f"{len(stale)} page(s) rewritten: {', '.join(stale) or 'none'} ({written} generated blocks)")
+    if misplaced or unplaced:
+        sys.exit(1)
 
 
 if __name__ == "__main__":
