@@ -1,4 +1,4 @@
-"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml`` and ``sweep``."""
+"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml``, ``sweep`` and ``convert``."""
 
 import argparse
 import datetime
@@ -394,6 +394,33 @@ def _study_parser(sub):
     return p
 
 
+def _convert_parser(sub):
+    p = sub.add_parser("convert", help="write a model's elements as engine-plugin instances or as text records",
+                       description="Turn the text-record elements of an MJCF file into instances of the engine "
+                       "plugin mjflex.flexure (--to plugin: the file then runs in any MuJoCo program, e.g. python -m "
+                       "mujoco.viewer), or back (--to record), losslessly: every parameter keeps every digit, the rest "
+                       "of the file keeps its text (trees joined by plugin elements get sleep=\"never\"). The result "
+                       "is compiled and compared with the input before OUTPUT is written.",
+                       formatter_class=HelpFormatter)  # fmt: skip
+    p.add_argument("input", help="MJCF file with mjflex elements")
+    p.add_argument("output", help="MJCF file to write (may be INPUT: converted in place)")
+    p.add_argument("--to", choices=["plugin", "record"], default="plugin", help="the form to write")
+    return p
+
+
+def _convert_command(args):
+    from ..mj import convert_file
+    from ..mj.convert_file import ConversionError
+
+    try:
+        names = convert_file(args.input, args.output, to=args.to)
+    except ConversionError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    form = "mjflex.flexure plugin instances" if args.to == "plugin" else "text records"
+    shown = ", ".join(names[:4]) + (f", ... ({len(names)} in all)" if len(names) > 4 else "")
+    print(f"wrote {args.output}: {len(names)} element(s) as {form}: {shown}")
+
+
 def build_parser():
     """The ``python -m mjflex`` argument parser (also read by the documentation's command-line reference)."""
     ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
@@ -432,6 +459,7 @@ def build_parser():
         p.add_argument("--slowdown", type=positive_float, default=100.0, help="slow-motion factor of the video")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
     _sweep_parser(sub)
+    _convert_parser(sub)
     _docs_parser(sub)
     return ap
 
@@ -447,6 +475,9 @@ def main(argv=None):
         raise SystemExit(build_docs(args.out, strict=not args.no_strict, tutorials=not args.no_tutorials))
     if args.command == "study":
         _study_command(args)
+        return
+    if args.command == "convert":
+        _convert_command(args)
         return
     if args.command == "sweep":
         if args.threads is not None and args.threads < 0:

@@ -5,6 +5,8 @@ MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
 
 from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, reference_body_poses, remove_flexure
 from .compliance import Compliance, make_compliant, make_rigid
+from .convert import convert_model, edit_elements
+from .convert_file import ConversionError, convert_file
 from .damping import damping_from_ratios
 from .linearize import normal_modes
 from .native import bushing_variant, pseudo_rigid_body_variant, weld_variant
@@ -15,6 +17,7 @@ from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
     "Compliance",
+    "ConversionError",
     "FlexureHandle",
     "FlexureRecord",
     "Flexures",
@@ -24,7 +27,10 @@ __all__ = [
     "add_flexure",
     "add_flexure_in_body_frame",
     "bushing_variant",
+    "convert_file",
+    "convert_model",
     "damping_from_ratios",
+    "edit_elements",
     "make_compliant",
     "make_rigid",
     "normal_modes",
