@@ -1,4 +1,4 @@
-"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml``, ``sweep`` and ``convert``."""
+"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study``, ``sweep`` and ``convert``."""
 
 import argparse
 import datetime
@@ -13,7 +13,7 @@ from contextlib import contextmanager
 import mujoco
 import numpy as np
 
-from ..mj import Flexures, ModelError
+from ..mj import Flexures, ModelError, edit_elements
 from . import render
 from ._output import file_problem, folder_problem
 from .simulate import INTEGRATORS, DivergenceError, configure, simulate, step_count, summarize
@@ -76,11 +76,24 @@ def check_video_size(width, height):
         raise SystemExit(f"error: {problem}")
 
 
-def _load(path):
+def _load(path, method=None, damping=True):
+    """The model of ``path``; ``method`` / ``damping=False`` are written into every element before it compiles
+    (the only way for plugin elements, whose parameters are the model's; text records get the same)."""
     if not os.path.exists(path):
         raise SystemExit(f"error: model file {path!r} not found")
     try:
-        return mujoco.MjModel.from_xml_path(path)
+        if method is None and damping:
+            return mujoco.MjModel.from_xml_path(path)
+        spec = mujoco.MjSpec.from_file(path)
+    except ValueError as exc:
+        raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
+    try:
+        edit_elements(spec, method=method, viscous=None if damping else False)
+    except ValueError as exc:
+        option = "--method" if method is not None else "--no-damping"
+        raise SystemExit(f"error: {os.path.basename(path)}: {option}: {exc}") from None
+    try:
+        return spec.compile()
     except ValueError as exc:
         raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
 
@@ -139,14 +152,11 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         check_video_size(width, height)
     if not len(flex):
         raise SystemExit(
-            f"error: {name} has no mjflex elements (sites E/a, E/b and a text record mjflex:E; see mjflex.mj.schema "
-            "or the README), so there is nothing to report; check the warnings above for misspelt records"
+            f"error: {name} has no mjflex elements (mjflex.flexure plugin instances, or sites E/a, E/b and a text "
+            "record mjflex:E; see mjflex.mj.schema or the README), so there is nothing to report; check the warnings "
+            "above for misspelt records"
         )
-    for element in flex.names:
-        if method is not None:
-            flex.set_method(element, method)
-        if not damping:
-            flex.set_viscous(element, False)
+    _switch(flex, name, method, damping)
     data, key = _initial_state(model, keyframe)
     clock.add("model", time.perf_counter() - started, time.process_time() - cpu)
     with clock.phase("kernels"):
@@ -170,6 +180,22 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         if progress:
             print(f"wrote {video} ({render.video_text(written, renderer, slowdown)})", file=sys.stderr)
     return summary, run, flex
+
+
+def _switch(flex, name, method, damping):
+    """Every element's method and damping: text records switch here; plugin elements must hold them already."""
+    for i, element in enumerate(flex.names):
+        if flex.kinds[i] == "record":
+            if method is not None:
+                flex.set_method(element, method)
+            if not damping:
+                flex.set_viscous(element, False)
+        elif (method is not None and flex.methods[i] != method) or (not damping and flex.viscous[i]):
+            raise SystemExit(
+                f"error: {name}: flexure {element!r} is an mjflex.flexure plugin instance, whose method and damping "
+                "are part of the model: compile it with them (mjflex.edit_elements on its MjSpec; the command line's "
+                "--method and --no-damping do this)"
+            )
 
 
 @contextmanager
@@ -197,7 +223,7 @@ def _simulate_command(args):
     started = time.perf_counter()
     check_output(args.json, "--json")
     check_output(args.video, "--video", VIDEO_SUFFIXES)
-    model = _load(args.model)
+    model = _load(args.model, args.method, not args.no_damping)
     with _stop_on_divergence(os.path.basename(args.model)):
         summary, _, _ = run_model(
             model, os.path.basename(args.model), duration=args.duration, method=args.method,
@@ -212,14 +238,28 @@ def _simulate_command(args):
             json.dump(summary.to_dict(), f, indent=2)
 
 
-def arcade_model():
-    """``models/arcade.xml`` of the source tree, or the same model built in memory."""
-    path = os.path.join(REPO_MODELS, "arcade.xml")
-    if os.path.exists(path):
-        return mujoco.MjModel.from_xml_path(path), path
+def arcade_source():
+    """``(source, label)``: the path of ``models/arcade.xml`` in the source tree, or an ``MjSpec`` of the same model.
+
+    Its elements are plugin instances; without mjflex's native library (the Python fallback)
+    MuJoCo cannot load them, and the same model is built with text records instead.
+    """
+    from ..mj import _native
     from .arcade import build_arcade_spec
 
-    return build_arcade_spec().compile(), "arcade (built in memory)"
+    if _native.loaded() is None:
+        return build_arcade_spec(kind="record"), "arcade (text records, built in memory: no native library)"
+    path = os.path.join(REPO_MODELS, "arcade.xml")
+    if os.path.exists(path):
+        return path, path
+    return build_arcade_spec(), "arcade (built in memory)"
+
+
+def arcade_model():
+    """``(MjModel, label)`` of :func:`arcade_source`."""
+    source, label = arcade_source()
+    model = mujoco.MjModel.from_xml_path(source) if isinstance(source, str) else source.compile()
+    return model, label
 
 
 def _demo_command(args):
@@ -318,7 +358,7 @@ def _study_command(args):
         check_options(options, args.out, spell=_cli_spelling)
     except StudyError as exc:
         raise SystemExit(f"error: {exc}") from None
-    model = arcade_model()[0] if args.model == "arcade" else args.model
+    model = arcade_source()[0] if args.model == "arcade" else args.model
     try:
         result = study(model, **options, progress=not args.quiet)
     except StudyError as exc:
@@ -410,7 +450,7 @@ def _convert_parser(sub):
 
 def _convert_command(args):
     from ..mj import convert_file
-    from ..mj.convert_file import ConversionError
+    from ..mj.file_convert import ConversionError
 
     try:
         names = convert_file(args.input, args.output, to=args.to)

@@ -15,10 +15,11 @@ from . import _native, schema
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
 #: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
-#: on one site in ``SHAPE_SITE_GROUP`` and hide the other in ``HIDDEN_SITE_GROUP`` (ARCADE does);
-#: mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
+#: on one site in ``SHAPE_SITE_GROUP``, which they show by default (so does the engine plugin's
+#: strain colouring, which follows site a's group), and hide the other in ``HIDDEN_SITE_GROUP``
+#: (ARCADE does); mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
 SITE_GROUP = 4
-SHAPE_SITE_GROUP = 3
+SHAPE_SITE_GROUP = 2
 HIDDEN_SITE_GROUP = 5
 SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
@@ -127,7 +128,7 @@ def _site(spec, site):
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True, kind="plugin",
+    exclude_contact=True, kind="plugin", strain_scale=None,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -171,7 +172,10 @@ def add_flexure(
     enabled, viscous : bool
         Initial run-time switches stored in the model.
     strain_per_radian : float, optional
-        Peak bending strain per radian about the frame's z axis, stored for reports.
+        Peak bending strain per radian about the frame's z axis, stored for reports and colours.
+    strain_scale : float, optional
+        Full scale of the element's strain colour in MuJoCo's viewer: the strain (the rotation
+        about z [rad] without ``strain_per_radian``) drawn red; default 1 % strain (0.1 rad).
     source : dict, optional
         JSON-serializable description of where K and B come from, stored in the model file.
     poses : tuple, optional
@@ -200,6 +204,8 @@ def add_flexure(
     FlexureHandle
     """
     _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact)
+    if strain_scale is not None:
+        validation.check_number(strain_scale, "strain_scale", above=0.0)
     validation.method_code(method)
     if kind not in ("plugin", "record"):
         raise ValueError(f'kind must be "plugin" or "record"; got {validation.shorten(kind)}')
@@ -235,7 +241,8 @@ def add_flexure(
         else:
             K = stiffness_in_frame(K, R_FE, p_FE)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
-                                  *_checked_terms(terms, method, K, name), site=frame_site)  # fmt: skip
+                                  *_checked_terms(terms, method, K, name), site=frame_site,
+                                  strain_scale=strain_scale)  # fmt: skip
     text_data = _record_text(record)
     xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
     sites = []
@@ -291,7 +298,7 @@ def remove_flexure(spec, name) -> None:
     try:
         element = find_element(spec, name)
     except KeyError as exc:
-        raise ValueError(str(exc).strip('"')) from None
+        raise ValueError(exc.args[0]) from None
     sites = [spec.site(s) for s in (element.site_a, element.site_b)]
     if any(s is None for s in sites):
         raise ValueError(f"flexure {name!r} has no sites {element.site_a!r} and {element.site_b!r} in the spec; "
@@ -351,7 +358,7 @@ def activate_plugin(spec, element=None) -> None:
             who = f"flexure {element!r}: " if element else ""
             raise RuntimeError(
                 f"{who}plugin elements (kind=\"plugin\", add_flexure's default) need mjflex's native library, the "
-                f"engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind=\"record\": a text record, whose forces "
+                f'engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind="record": a text record, whose forces '
                 "mjflex.Flexures adds through mjcb_passive (no native library needed)"
             ) from None
     spec.activate_plugin(schema.PLUGIN_NAME)  # idempotent
@@ -369,7 +376,7 @@ def add_plugin_element(spec, record, site_a: str, site_b: str):
 
 
 def records_to_plugins(spec, names=None) -> list[str]:
-    """Turn text-record elements of ``spec`` into ``mjflex.flexure`` instances (:func:`mjflex.mj.convert.records_to_plugins`)."""
+    """Text-record elements of ``spec`` as plugin instances (:func:`mjflex.mj.convert.records_to_plugins`)."""
     from .convert import records_to_plugins as convert
 
     return convert(spec, names)

@@ -195,6 +195,72 @@ def _chosen(spec, names):
     return out
 
 
+# ----------------------------------------------------------------------------- copies and composition
+
+
+def _instances(spec):
+    return [p for p in spec.plugins if p.plugin_name == schema.PLUGIN_NAME and p.name]
+
+
+def _restore_instances(target, instances, prefix="", suffix=""):
+    """Add to ``target`` the instances (name, config) it lacks, named ``prefix + name + suffix``."""
+    present = {p.name for p in target.plugins}
+    added = []
+    for name, config in instances:
+        new = prefix + name + suffix
+        if new not in present:
+            target.activate_plugin(schema.PLUGIN_NAME)
+            plugin = target.add_plugin(name=new, plugin_name=schema.PLUGIN_NAME, active=True)
+            plugin.config = config
+            added.append(new)
+    return added
+
+
+def copy_spec(spec) -> "mujoco.MjSpec":
+    """``spec.copy()`` that keeps the ``mjflex.flexure`` instances.
+
+    MuJoCo 4.0's ``MjSpec.copy`` (and ``MjSpec.attach``) copies only the plugin instances that a
+    body, geom, mesh, actuator or sensor references; an element's instance is referenced by none
+    (a body holds one plugin, and a body may join many elements), so the copy would silently lose
+    every element. This copies and adds them back, configuration strings unchanged.
+    """
+    _check_spec(spec)
+    kept = [(p.name, dict(p.config)) for p in _instances(spec)]
+    copy = spec.copy()
+    _restore_instances(copy, kept)
+    return copy
+
+
+def attach(parent, child, *, prefix="", suffix="", **where):
+    """``parent.attach(child, prefix=..., suffix=..., frame=... or site=...)`` that keeps the child's elements.
+
+    ``MjSpec.attach`` prefixes and suffixes every name of the child, its text records and plugin
+    instances too, but (MuJoCo 4.0) drops the plugin instances no body references, i.e. the
+    child's ``mjflex.flexure`` elements (:func:`copy_spec` says why). This attaches, then adds
+    them back as ``prefix + name + suffix`` with their configurations unchanged: the plugin and
+    :class:`mjflex.Flexures` find their sites ``prefix + site + suffix`` by the instance's name.
+    Returns what ``MjSpec.attach`` returns. For several copies of one child, attach a copy each
+    time (:func:`copy_spec`; MuJoCo attaches a spec once by reference) with different prefixes.
+
+    Examples
+    --------
+    >>> import mujoco, mjflex
+    >>> child = mujoco.MjSpec.from_string(mjflex.mj.convert.EXAMPLE_MODEL)
+    >>> _ = mjflex.convert_model(child, to="plugin")
+    >>> parent = mujoco.MjSpec()
+    >>> for prefix in ("left-", "right-"):
+    ...     _ = mjflex.attach(parent, mjflex.copy_spec(child), prefix=prefix, frame=parent.worldbody.add_frame())
+    >>> mjflex.Flexures(parent.compile()).names
+    ('left-hinge', 'right-hinge')
+    """
+    _check_spec(parent)
+    _check_spec(child)
+    kept = [(p.name, dict(p.config)) for p in _instances(child)]
+    out = parent.attach(child, prefix=prefix, suffix=suffix, **where)
+    _restore_instances(parent, kept, prefix, suffix)
+    return out
+
+
 # ----------------------------------------------------------------------------- conversion
 
 
@@ -232,7 +298,7 @@ def plugins_to_records(spec, names=None) -> list[str]:
     """
     chosen = [e for e in _chosen(spec, names) if e.kind == PLUGIN]
     plan = [(e, e.record(), record_text_name(e.name, e.site_a, e.site_b)) for e in chosen]
-    for element, record, text_name in plan:
+    for element, _, text_name in plan:
         if spec.text(text_name) is not None:
             raise ValueError(f"flexure {element.name!r}: the spec already has a text {text_name!r}; remove it first")
     for element, record, text_name in plan:
@@ -369,11 +435,14 @@ def _check_spec(spec):
 
 
 __all__ = [
+    "EXAMPLE_MODEL",
     "KINDS",
     "PLUGIN",
     "RECORD",
     "SpecElement",
+    "attach",
     "convert_model",
+    "copy_spec",
     "edit_elements",
     "element_record",
     "find_element",

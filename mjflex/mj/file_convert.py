@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core.validation import shorten
 from . import _native, _tables, schema
-from .convert import KINDS, PLUGIN, RECORD, record_text_name
+from .convert import KINDS, PLUGIN, record_text_name
 
 _ROOT = re.compile(r"<mujoco[\s>/]")
 _CDATA = "mjflex-cdata-{}-placeholder"
@@ -215,8 +215,8 @@ def _to_records(source, root, instances):
     expected = {}
     for plugin, node, name, record, text_name in planned:
         _remove(plugin, node)
-        refs = [(parent, ref) for parent in root.iter() for ref in parent.findall("plugin") if ref.get("instance") == name]
-        for parent, ref in refs:
+        refs = [(parent, ref) for parent in root.iter() for ref in parent.findall("plugin")]
+        for parent, ref in [(p, r) for p, r in refs if r.get("instance") == name]:
             _remove(parent, ref)
         text = ET.Element("text", {"name": text_name})
         text.text = record.to_text()
@@ -362,7 +362,7 @@ def same_record(a, b) -> bool:
     """Whether two records hold the same parameters, every number bit for bit (NaN never occurs in a record)."""
     if a is None or b is None:
         return False
-    scalars = ("name", "method", "enabled", "viscous", "strain_per_radian", "source", "order", "site")
+    scalars = ("name", "method", "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "order", "site")
     if any(getattr(a, k) != getattr(b, k) for k in scalars):
         return False
     if not _same(a.K, b.K) or (a.B is None) != (b.B is None) or (a.B is not None and not _same(a.B, b.B)):
