@@ -220,7 +220,7 @@ def add_flexure(
             "name"
         )
     if kind == "plugin":
-        activate_plugin(spec, name)
+        require_native_library(name)  # before anything is added: a refusal leaves the spec as it was
     K = schema.element_matrix(K, f"K of flexure {name!r}")
     B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
@@ -344,8 +344,8 @@ def _record_text(record):
     return text
 
 
-def activate_plugin(spec, element=None) -> None:
-    """Let ``spec`` use the engine plugin ``mjflex.flexure``; RuntimeError saying how to build its native library.
+def require_native_library(element=None) -> None:
+    """RuntimeError saying how to build it, unless mjflex's native library (the engine plugin) loads.
 
     ``element``: the name of the element being added, for the message.
     """
@@ -358,9 +358,14 @@ def activate_plugin(spec, element=None) -> None:
             who = f"flexure {element!r}: " if element else ""
             raise RuntimeError(
                 f"{who}plugin elements (kind=\"plugin\", add_flexure's default) need mjflex's native library, the "
-                f'engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind="record": a text record, whose forces '
+                f"engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind=\"record\": a text record, whose forces "
                 "mjflex.Flexures adds through mjcb_passive (no native library needed)"
             ) from None
+
+
+def activate_plugin(spec, element=None) -> None:
+    """Let ``spec`` use the engine plugin ``mjflex.flexure`` (:func:`require_native_library` first)."""
+    require_native_library(element)
     spec.activate_plugin(schema.PLUGIN_NAME)  # idempotent
 
 

@@ -154,6 +154,17 @@ def edit_elements(spec, names=None, *, method=None, enabled=None, viscous=None) 
         Refused for an element whose polynomial terms are in the other method's coordinates.
     enabled, viscous : bool, optional
         ``viscous=True`` is refused for an element without damping ``B``.
+
+    Examples
+    --------
+    >>> import mujoco, mjflex
+    >>> spec = mujoco.MjSpec.from_string(mjflex.mj.convert.EXAMPLE_MODEL)
+    >>> _ = mjflex.convert_model(spec, to="plugin")
+    >>> mjflex.edit_elements(spec, method="dualquat", enabled=False)
+    ['hinge']
+    >>> flex = mjflex.Flexures(spec.compile())
+    >>> flex.methods, flex.enabled.tolist()
+    (('dualquat',), [False])
     """
     if method is not None:
         validation.method_code(method)
@@ -223,6 +234,14 @@ def copy_spec(spec) -> "mujoco.MjSpec":
     body, geom, mesh, actuator or sensor references; an element's instance is referenced by none
     (a body holds one plugin, and a body may join many elements), so the copy would silently lose
     every element. This copies and adds them back, configuration strings unchanged.
+
+    Examples
+    --------
+    >>> import mujoco, mjflex
+    >>> spec = mujoco.MjSpec.from_string(mjflex.mj.convert.EXAMPLE_MODEL)
+    >>> _ = mjflex.convert_model(spec, to="plugin")
+    >>> len(spec.copy().plugins), len(mjflex.copy_spec(spec).plugins)
+    (0, 1)
     """
     _check_spec(spec)
     kept = [(p.name, dict(p.config)) for p in _instances(spec)]
@@ -232,7 +251,9 @@ def copy_spec(spec) -> "mujoco.MjSpec":
 
 
 def attach(parent, child, *, prefix="", suffix="", **where):
-    """``parent.attach(child, prefix=..., suffix=..., frame=... or site=...)`` that keeps the child's elements.
+    """Attach ``child`` to ``parent`` as ``MjSpec.attach`` does, keeping the child's plugin elements.
+
+    ``where``: ``frame=`` or ``site=`` of the parent, as for ``MjSpec.attach``.
 
     ``MjSpec.attach`` prefixes and suffixes every name of the child, its text records and plugin
     instances too, but (MuJoCo 4.0) drops the plugin instances no body references, i.e. the

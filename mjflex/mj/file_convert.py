@@ -294,9 +294,10 @@ def _insert(parent, at, child, depth, unit):
     inner, close = "\n" + unit * depth, "\n" + unit * (depth - 1)
     if not len(parent):
         parent.text, child.tail = inner, close
-    elif at >= len(parent):
-        last = list(parent)[-1]
-        child.tail, last.tail = close, inner
+    elif at >= len(parent):  # the separation the document uses between siblings (MuJoCo's writer: a blank line)
+        children = list(parent)
+        between = children[-2].tail if len(children) > 1 and (children[-2].tail or "").strip() == "" else inner
+        child.tail, children[-1].tail = close, between
     else:  # the separation the document uses before the next sibling (MuJoCo's writer: a blank line)
         child.tail = (list(parent)[at - 1].tail if at > 0 else parent.text) or inner
     parent.insert(at, child)

@@ -52,7 +52,7 @@ def first_frequency(model, flex, data):
 
 
 def arcade_recipe() -> Recipe:
-    """The recipe on ``models/arcade.xml`` (or the model built in memory, as text: :func:`..cli.arcade_source`)."""
+    """The recipe on ``models/arcade.xml`` (or the model built in memory, as text: ``cli.arcade_source``)."""
     from ..cli import arcade_source
 
     source, _ = arcade_source()
