@@ -7,7 +7,6 @@ import re
 import pytest
 
 import mjflex
-
 from tests.model_text import ATOL_SCALE, RTOL, assert_xml_equivalent, compare_text, compare_xml, split_numbers
 
 MODELS = os.path.join(os.path.dirname(__file__), "..", "models")

@@ -360,6 +360,8 @@ def test_attach_with_prefix_and_suffix_and_two_copies_of_one_child():
     child = two_body_spec(B=B_DEMO, kind="plugin")
     alone = child.compile()
     lost = mujoco.MjSpec()
+    lost.option.gravity = [0, 0, 0]
+    lost.option.timestep, lost.option.integrator = alone.opt.timestep, alone.opt.integrator
     lost.attach(mjflex.copy_spec(child), prefix="r-", frame=lost.worldbody.add_frame())
     assert lost.compile().nplugin == 0 and len(child.copy().plugins) == 0  # MuJoCo 4.0's behaviour
     with pytest.warns(UserWarning, match=r"sites of an element 'r-link'.*mjflex.attach / mjflex.copy_spec"):

@@ -358,7 +358,7 @@ def require_native_library(element=None) -> None:
             who = f"flexure {element!r}: " if element else ""
             raise RuntimeError(
                 f"{who}plugin elements (kind=\"plugin\", add_flexure's default) need mjflex's native library, the "
-                f"engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind=\"record\": a text record, whose forces "
+                f'engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind="record": a text record, whose forces '
                 "mjflex.Flexures adds through mjcb_passive (no native library needed)"
             ) from None
 
