@@ -90,20 +90,22 @@ def test_the_site_group_turns_the_drawing_off_and_the_scene_never_overflows(defl
 def test_without_strain_per_radian_the_rotation_is_shown_and_strain_scale_sets_the_full_scale():
     spec = two_body_spec(kind="plugin")
     mjflex.add_flexure(spec, "scaled", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO, strain_per_radian=0.2,
-                       strain_scale=0.004)  # fmt: skip
+                       strain_scale=0.006)  # fmt: skip
     spec.site("link/a").group = spec.site("scaled/a").group = 0
     model = spec.compile()
     data = mujoco.MjData(model)
-    data.qpos[7:11] = Rotation.from_rotvec([0.0, 0.0, 0.03]).as_quat(scalar_first=True)  # B turned about world z
+    turn = Rotation.from_rotvec([0.0, 0.0, 0.025]) * Rotation.from_quat(model.qpos0[10:14], scalar_first=True)
+    data.qpos[10:14] = turn.as_quat(scalar_first=True)  # B turned by 0.025 rad about world z
     mujoco.mj_forward(model, data)
     flex = mjflex.Flexures(model)
     bending = _bending(model, data, flex.site_ids)
-    assert bending.min() > 1e-3
+    assert 1e-3 < bending.min() and bending.max() < 0.03
     with mujoco.Renderer(model, 60, 80) as renderer:
         renderer.update_scene(data)
         rgba = {g.objid: g.rgba.copy() for g in _plugin_geoms(renderer)}
-    scales = (schema.DEFAULT_ROTATION_SCALE, 0.004 / 0.2)  # rotation over 0.1 rad; strain over the element's own
+    scales = (schema.DEFAULT_ROTATION_SCALE, 0.006 / 0.2)  # rotation over 0.1 rad; strain over the element's own
     for e, scale in enumerate(scales):
+        assert 0.05 < bending[e] / scale < 0.95  # within the colour range: the scale shows
         np.testing.assert_allclose(rgba[e], render.strain_colors(bending[e] / scale, 1.0), atol=2e-6)
     with pytest.raises(ValueError, match="strain_scale must be"):
         mjflex.add_flexure(spec, "bad", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO, strain_scale=0.0)
