@@ -19,7 +19,7 @@ import mjflex_plugin
 from mjflex.app import cli
 from mjflex.mj import _native, convert, schema
 from mjflex.mj.file_convert import same_record
-from tests.models import B_DEMO, K_DEMO, two_body_spec
+from tests.models import B_DEMO, K_DEMO, push_after_rest, two_body_spec
 from tests.plugin_models import MODELS, as_plugins, as_records, polynomial_terms
 
 pytestmark = pytest.mark.usefixtures("clean_callback")
@@ -293,33 +293,21 @@ def test_committed_arcade_runs_in_rollout_and_batch_without_mjflex(name):
 # ------------------------------------------------------------------ 7. sleeping
 
 
-def _push_after_rest(model, rest=40, steps=300):
-    data = mujoco.MjData(model)
-    out = []
-    for _ in range(rest):
-        mujoco.mj_step(model, data)
-    data.qvel[0:3] = [0.3, 0.0, 0.0]
-    for _ in range(steps):
-        mujoco.mj_step(model, data)
-        out.append(data.qvel.copy())
-    return np.array(out)
-
-
 def test_plugin_trees_stay_awake_and_move_exactly_as_without_sleep():
     """The plugin cannot change the model: add_flexure wrote sleep="never" on the joined trees, so with sleeping
     enabled a push of A drags B exactly as with sleeping disabled, momentum shared."""
-    awake = _push_after_rest(two_body_spec(B=B_DEMO, integrator="Euler", kind="plugin").compile())
+    awake = push_after_rest(two_body_spec(B=B_DEMO, integrator="Euler", kind="plugin").compile(), provider=False)
     spec = two_body_spec(B=B_DEMO, integrator="Euler", kind="plugin")
     assert spec.body("A").sleep == spec.body("B").sleep == mujoco.mjtSleepPolicy.mjSLEEP_NEVER
     spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
-    got = _push_after_rest(spec.compile())
+    got = push_after_rest(spec.compile(), provider=False)  # no mjflex in the loop: the file alone keeps them awake
     assert np.array_equal(got, awake) and np.abs(got[-1, 6:9]).max() > 0.1
     linear = got[:, 0:3] * 1.3 + got[:, 6:9] * 0.8
     assert np.allclose(linear, linear[0], rtol=0, atol=1e-12 * np.abs(linear[0]).max())
     # without sleep="never" the trees fall asleep and B never learns of the push
     for body in ("A", "B"):
         spec.body(body).sleep = mujoco.mjtSleepPolicy.mjSLEEP_AUTO
-    asleep = _push_after_rest(spec.compile())
+    asleep = push_after_rest(spec.compile(), provider=False)
     assert not np.array_equal(asleep, awake)
 
 
