@@ -235,6 +235,11 @@ def copy_spec(spec) -> "mujoco.MjSpec":
     (a body holds one plugin, and a body may join many elements), so the copy would silently lose
     every element. This copies and adds them back, configuration strings unchanged.
 
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The spec to copy (not modified).
+
     Examples
     --------
     >>> import mujoco, mjflex
@@ -253,8 +258,6 @@ def copy_spec(spec) -> "mujoco.MjSpec":
 def attach(parent, child, *, prefix="", suffix="", **where):
     """Attach ``child`` to ``parent`` as ``MjSpec.attach`` does, keeping the child's plugin elements.
 
-    ``where``: ``frame=`` or ``site=`` of the parent, as for ``MjSpec.attach``.
-
     ``MjSpec.attach`` prefixes and suffixes every name of the child, its text records and plugin
     instances too, but (MuJoCo 4.0) drops the plugin instances no body references, i.e. the
     child's ``mjflex.flexure`` elements (:func:`copy_spec` says why). This attaches, then adds
@@ -262,6 +265,15 @@ def attach(parent, child, *, prefix="", suffix="", **where):
     :class:`mjflex.Flexures` find their sites ``prefix + site + suffix`` by the instance's name.
     Returns what ``MjSpec.attach`` returns. For several copies of one child, attach a copy each
     time (:func:`copy_spec`; MuJoCo attaches a spec once by reference) with different prefixes.
+
+    Parameters
+    ----------
+    parent, child : mujoco.MjSpec
+        The spec attached to (modified) and the one attached.
+    prefix, suffix : str
+        Added to every name of the child (MuJoCo's rule).
+    **where
+        ``frame=`` (an ``MjsFrame`` of the parent) or ``site=`` (an ``MjsSite``), as for ``MjSpec.attach``.
 
     Examples
     --------
