@@ -48,6 +48,7 @@ from _bench import (
 )
 
 import mjflex
+from mjflex.mj.convert import copy_spec, plugins_to_records
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -80,13 +81,13 @@ def random_spec(seed=0, n_bodies=35, n_elements=48):
         R = Rotation.random(random_state=rng).as_matrix()
         K = rng.uniform(0.5, 2.0) * mjflex.stiffness_in_frame(K_notch, R, np.zeros(3))
         mjflex.add_flexure(spec, f"e{e}", f"b{i}", f"b{j}", pos=0.5 * (poses[0][i + 1] + poses[0][j + 1]), K=K,
-                           B=2e-6 * K, poses=poses)  # fmt: skip
+                           B=2e-6 * K, poses=poses, kind="record")  # fmt: skip
     return spec
 
 
 def welded(spec, model):
     """A copy of the spec with each flexure replaced by a weld between its two sites."""
-    weld = spec.copy()
+    weld = copy_spec(spec)
     for name in mjflex.Flexures(model).names:
         weld.add_equality(type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_SITE, name1=f"{name}/a",
                           name2=f"{name}/b")  # fmt: skip
@@ -97,7 +98,7 @@ def plugin_spec(spec, method):
     """A copy of the spec with every text record turned into an mjflex.flexure instance using ``method``."""
     from mjflex.mj.build import records_to_plugins
 
-    copy = spec.copy()
+    copy = copy_spec(spec)
     records_to_plugins(copy)
     for plugin in copy.plugins:
         config = dict(plugin.config)
@@ -164,6 +165,7 @@ PLUGIN = ("plugin, twist method", "plugin, dual-quaternion method")
 def measure(args):
     """Time the cases interleaved in this process: the payload's ``rows`` (per ``mj_step``)."""
     spec = random_spec() if args.random else mujoco.MjSpec.from_file(args.model)
+    plugins_to_records(spec)  # both forms are built from text records (models/arcade.xml holds plugin instances)
     spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{args.integrator.upper()}")
     models = {k: spec.compile() for k in ("twist", "dualquat", "bare")}
     models["weld"] = welded(spec, models["bare"]).compile()
@@ -235,6 +237,7 @@ def main():
     payload["startup"] = {}
     if args.startup_runs and not os.environ.get(CHILD):  # once, in the process that pools the runs
         spec = random_spec() if args.random else mujoco.MjSpec.from_file(args.model)
+        plugins_to_records(spec)  # both forms are built from text records (models/arcade.xml: plugin instances)
         plugin_xml, record_xml = plugin_spec(spec, "twist").to_xml(), spec.to_xml()
         with tempfile.TemporaryDirectory() as tmp:
             paths = {"plugin": os.path.join(tmp, "plugin.xml"), "mjcb_passive": os.path.join(tmp, "record.xml")}

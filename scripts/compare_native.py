@@ -77,9 +77,9 @@ def bushing_scene(repeat):
     spec = bushing_spec()
     model = spec.compile()
     src = source_case("mjflex twist", model)
-    dq_model = spec.compile()
-    dq = source_case("mjflex dualquat", dq_model)
-    dq.flex.set_method("bushing", "dualquat")
+    dq_spec = mjflex.copy_spec(spec)
+    mjflex.edit_elements(dq_spec, method="dualquat")  # a plugin element's method is part of the model
+    dq = source_case("mjflex dualquat", dq_spec.compile())
     cases = [src, dq] + [variant_case(v, model, src.state) for v in (
         mjflex.bushing_variant(spec), mjflex.weld_variant(spec), mjflex.weld_variant(spec, match="mean"),
         mjflex.pseudo_rigid_body_variant(spec))]  # fmt: skip

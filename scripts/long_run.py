@@ -43,11 +43,13 @@ def energy(model, data, flex):
     return float(data.energy[0] + data.energy[1] + flex.potential_energy(data))
 
 
-def long_run(model, flex, integrator, method, steps, every):
-    """Energy error samples ``(k, E_k - E_0)`` of one run; returns a dict of the measures."""
+def long_run(models, integrator, method, steps, every):
+    """Energy error samples ``(k, E_k - E_0)`` of one run; returns a dict of the measures.
+
+    ``models``: method -> ``(model, flex)``, each compiled with that method (plugin elements hold it).
+    """
+    model, flex = models[method]
     model.opt.integrator = getattr(mujoco.mjtIntegrator, INTEGRATOR_ENUMS[integrator])
-    for name in flex.names:
-        flex.set_method(name, method)
     data = mujoco.MjData(model)
     if model.nkey:
         mujoco.mj_resetDataKeyframe(model, data, 0)
@@ -90,14 +92,16 @@ def main():
     ap.add_argument("--keep-damping", action="store_true", help="keep the elements' damping (energy then decays)")
     ap.add_argument("--json", default="out/long_run.json")
     args = ap.parse_args()
-    model = mujoco.MjModel.from_xml_path(args.model)
-    model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must not restart silently
-    if args.timestep:
-        model.opt.timestep = args.timestep
-    flex = mjflex.Flexures(model)
-    for name in flex.names:
-        flex.set_viscous(name, args.keep_damping and flex.records[flex.index(name)].B is not None)
+    models = {}
+    for method in args.methods:  # the method and damping written into the elements (plugin or text record)
+        spec = mujoco.MjSpec.from_file(args.model)
+        mjflex.edit_elements(spec, method=method, viscous=None if args.keep_damping else False)
+        model = spec.compile()
+        model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must not restart silently
+        if args.timestep:
+            model.opt.timestep = args.timestep
+        models[method] = model, mjflex.Flexures(model)
     h = model.opt.timestep
     print(f"{os.path.basename(args.model)}: {args.steps} steps of {h:g} s ({args.steps * h:g} s simulated), "
           f"damping {'on' if args.keep_damping else 'off'}; energy sampled every {args.every} steps")  # fmt: skip
@@ -106,7 +110,7 @@ def main():
     with quiet_mujoco_warnings():
         for integrator in args.integrators:
             for method in args.methods:
-                r = long_run(model, flex, integrator, method, args.steps, args.every)
+                r = long_run(models, integrator, method, args.steps, args.every)
                 rows.append(r)
                 tail = f"  DIVERGED at step {r['steps'] + args.every}: {r['diverged']}" if r["diverged"] else ""
                 print(f"{integrator:<13}{method:<10}{r['max_rel_error']:>13.2e}{r['drift_per_1e6_steps']:>12.2e}"

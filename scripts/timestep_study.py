@@ -55,10 +55,10 @@ def main():
     ap.add_argument("--duration", type=float, default=0.02)
     ap.add_argument("--json", default="out/timestep_study.json")
     args = ap.parse_args()
-    model = mujoco.MjModel.from_xml_path(args.model)
+    spec = mujoco.MjSpec.from_file(args.model)
+    mjflex.edit_elements(spec, viscous=False)  # plugin elements or text records alike
+    model = spec.compile()
     flex = mjflex.Flexures(model)
-    for name in flex.names:
-        flex.set_viscous(name, False)
     w_max = 2 * np.pi * normal_modes(model, flex)[0][-1]
     print(f"highest normal mode {w_max / 2 / np.pi:.0f} Hz: explicit limits 2/w = {2 / w_max:.2e} s, "
           f"2.8/w = {2.8 / w_max:.2e} s")  # fmt: skip

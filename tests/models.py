@@ -1,5 +1,7 @@
 """Small MuJoCo models built with MjSpec for the tests of the MuJoCo layer."""
 
+import contextlib
+
 import mujoco
 import numpy as np
 
@@ -42,6 +44,24 @@ def two_body_spec(*, method="twist", K=K_DEMO, B=None, integrator="RK4", timeste
     mjflex.add_flexure(spec, "link", "A", "B", pos=[0.1, 0.02, 0.5], quat=[0.8, 0.0, 0.6, 0.0], K=K, B=B, method=method,
                        terms=terms, kind=kind)  # fmt: skip
     return spec
+
+
+def push_after_rest(model, rest=40, steps=300, provider=True):
+    """qvel history after ``rest`` steps at rest (long enough to fall asleep) and a push of body A (two_body_spec).
+
+    ``provider``: install a :class:`mjflex.Flexures` (text records need it; it also keeps joined trees awake in the
+    compiled model); False: the model alone, as in a program without mjflex (plugin elements).
+    """
+    data = mujoco.MjData(model)
+    out = []
+    with mjflex.Flexures(model) if provider else contextlib.nullcontext():
+        for _ in range(rest):
+            mujoco.mj_step(model, data)
+        data.qvel[0:3] = [0.3, 0.0, 0.0]
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+            out.append(data.qvel.copy())
+    return np.array(out)
 
 
 def hinge_chain_spec(*, n=3, K=K_DEMO, B=None, method="twist", integrator="RK4", timestep=1e-3, terms=None,

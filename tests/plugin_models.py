@@ -1,4 +1,4 @@
-"""Plugin-element versions of the test models (mjflex.mj.build.records_to_plugins on their specs)."""
+"""Plugin-element and text-record versions of the test models (mjflex.mj.convert on copies of their specs)."""
 
 import os
 
@@ -6,15 +6,22 @@ import mujoco
 import numpy as np
 
 import mjflex
-from mjflex.mj.build import records_to_plugins
+from mjflex.mj.convert import copy_spec, plugins_to_records, records_to_plugins
 from tests.models import B_DEMO, K_DEMO
 
 MODELS = os.path.join(os.path.dirname(__file__), "..", "models")
 
 
+def as_records(spec):
+    """A copy of ``spec`` with its mjflex.flexure instances as text records."""
+    copy = copy_spec(spec)
+    plugins_to_records(copy)
+    return copy
+
+
 def as_plugins(spec, method=None):
     """A copy of ``spec`` with its text records as mjflex.flexure instances (method changed if given)."""
-    copy = spec.copy()
+    copy = copy_spec(spec)
     records_to_plugins(copy)
     if method is not None:
         for plugin in copy.plugins:
@@ -50,4 +57,4 @@ def polynomial_terms(method, scale=20.0, seed=4):
     return mjflex.PolynomialTerms(method, basis, scale * np.random.default_rng(seed).normal(size=len(basis)))
 
 
-__all__ = ["B_DEMO", "K_DEMO", "MODELS", "as_plugins", "planar_spec", "polynomial_terms"]
+__all__ = ["B_DEMO", "K_DEMO", "MODELS", "as_plugins", "as_records", "planar_spec", "polynomial_terms"]

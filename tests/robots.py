@@ -80,18 +80,20 @@ def body_id(model, name) -> int:
 def solve_statics(model, flex, data, dofs, tol=1e-8, iterations=30):
     """Equilibrium of the dofs ``dofs`` (others held as in ``data``), at zero velocity, in place.
 
-    Newton's method on the residual ``qfrc_smooth + flexure forces`` (MuJoCo's applied, actuator,
-    passive and bias forces of ``mj_forward`` plus the provider's, contacts disabled), its
-    Jacobian by central differences; converged when the residual is ``tol`` times its scale (the
-    round-off of stiff elements: 3e8 N/m times 1e-16 of the positions is ~1e-8 N).
+    Newton's method on the residual ``qfrc_smooth`` of ``mj_forward`` with the elements' forces in
+    it (MuJoCo's applied, actuator, passive and bias forces; plugin elements add theirs, text
+    records while ``flex`` is installed; contacts disabled), its Jacobian by central
+    differences; converged when the residual is ``tol`` times its scale (the round-off of stiff
+    elements: 3e8 N/m times 1e-16 of the positions is ~1e-8 N).
     """
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     dofs = np.asarray(dofs)
 
     def residual(q):
         data.qpos[:], data.qvel[:] = q, 0.0
-        mujoco.mj_forward(model, data)
-        return (data.qfrc_smooth + flex.generalized_forces(data))[dofs]
+        with flex:
+            mujoco.mj_forward(model, data)
+        return data.qfrc_smooth[dofs].copy()
 
     q = data.qpos.copy()
     scale = np.abs(residual(q)).max() + 1e-300

@@ -373,12 +373,12 @@ def test_add_flexure_at_a_site_and_the_record_checks_it():
     hand.add_joint(type=mujoco.mjtJoint.mjJNT_BALL, limited=mujoco.mjtLimited.mjLIMITED_FALSE, range=[0, 0])
     for key in spec.keys:
         key.qpos = [*key.qpos, 1, 0, 0, 0]
-    mjflex.add_flexure(spec, "wrist", "link3", "hand", site="wrist", K=K_HAND)
+    mjflex.add_flexure(spec, "wrist", "link3", "hand", site="wrist", K=K_HAND, kind="record")
     spec.add_exclude(bodyname1="hand", bodyname2="link2")
     model = spec.compile()
     flex = _quiet(model)
     assert flex.records[0].site == "wrist"
-    # the same record under an attach prefix still finds its site
+    # the same record under an attach prefix still finds its site (plugin elements: tests/test_plugin_models.py)
     scene = _scene()
     scene.worldbody.add_frame().attach_body(spec.copy().body("link1"), "r-", "-1")
     assert _quiet(scene.compile()).names == ("r-wrist-1",)

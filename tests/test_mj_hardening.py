@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 import mjflex
 from tests.helpers import c_output
-from tests.models import B_DEMO, K_DEMO, two_body_spec
+from tests.models import B_DEMO, K_DEMO, push_after_rest, two_body_spec
 from tests.test_mj_model_errors import K6, _model
 
 pytestmark = pytest.mark.usefixtures("clean_callback")
@@ -19,28 +19,14 @@ pytestmark = pytest.mark.usefixtures("clean_callback")
 # ------------------------------------------------------------------ 3. sleeping
 
 
-def _push_after_rest(model, rest=40, steps=300):
-    """qvel history after ``rest`` steps at rest (long enough to fall asleep) and a push of body A."""
-    data = mujoco.MjData(model)
-    out = []
-    with mjflex.Flexures(model):
-        for _ in range(rest):
-            mujoco.mj_step(model, data)
-        data.qvel[0:3] = [0.3, 0.0, 0.0]
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-            out.append(data.qvel.copy())
-    return np.array(out)
-
-
 def test_sleeping_trees_joined_by_an_element_move_exactly_as_without_sleep():
     """MuJoCo ignores forces on sleeping trees; joined trees must therefore stay awake, like
     trees coupled by stiff tendons. Pushing A must drag B exactly as with sleeping disabled."""
-    awake = _push_after_rest(two_body_spec(B=B_DEMO, integrator="Euler").compile())
+    awake = push_after_rest(two_body_spec(B=B_DEMO, integrator="Euler").compile())
     spec = two_body_spec(B=B_DEMO, integrator="Euler")
     spec.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
     model = spec.compile()
-    got = _push_after_rest(model)
+    got = push_after_rest(model)
     assert np.array_equal(got, awake)
     assert np.abs(got[-1, 6:9]).max() > 0.1  # B moves
     linear = got[:, 0:3] * 1.3 + got[:, 6:9] * 0.8  # masses of A and B: the push's momentum is shared

@@ -6,6 +6,7 @@ import re
 
 import pytest
 
+import mjflex
 from tests.model_text import ATOL_SCALE, RTOL, assert_xml_equivalent, compare_text, compare_xml, split_numbers
 
 MODELS = os.path.join(os.path.dirname(__file__), "..", "models")
@@ -13,8 +14,11 @@ FLOAT = re.compile(r"(?<![\w.])-?\d+\.\d{6,}(?:e[-+]?\d+)?(?![\w.])")  # full-pr
 
 
 @pytest.fixture(scope="module")
-def arcade_xml():
-    with open(os.path.join(MODELS, "arcade.xml")) as f:
+def arcade_xml(tmp_path_factory):
+    """The committed ARCADE model with its elements as text records (JSON lists in CDATA), every digit kept."""
+    path = str(tmp_path_factory.mktemp("arcade") / "arcade_records.xml")
+    mjflex.convert_file(os.path.join(MODELS, "arcade.xml"), path, to="record")
+    with open(path) as f:
         return f.read()
 
 

@@ -22,7 +22,7 @@ from mujoco import rollout
 import mjflex
 from mjflex.mj import _native
 from tests.models import B_DEMO, K_DEMO, hinge_chain_spec, two_body_spec
-from tests.plugin_models import MODELS, as_plugins, planar_spec, polynomial_terms
+from tests.plugin_models import MODELS, as_plugins, as_records, planar_spec, polynomial_terms
 
 pytestmark = pytest.mark.usefixtures("clean_callback")
 STEPS = 1000
@@ -44,7 +44,7 @@ def _trajectory(model, qvel, steps=STEPS, key=None, qpos=None):
 
 def _both(spec, method=None):
     """(text-record model, plugin model) of one spec; the record model's provider uses ``method`` too."""
-    record = spec.compile()
+    record = as_records(spec).compile()
     flex = mjflex.Flexures(record)
     if method is not None:
         for name in flex.names:
@@ -141,7 +141,7 @@ def test_install_on_a_plugin_model_adds_nothing_twice():
     with flex.serve([copy.copy(model)]):  # copies carry the forces already: nothing to serve either
         assert mujoco.get_mjcb_passive() is None
     with pytest.raises(
-        ValueError, match=r"flexure 'link' is an mjflex.flexure plugin instance: .*edit them in the spec"
+        ValueError, match=r"flexure 'link' is an mjflex.flexure plugin instance: .*mjflex.edit_elements\(spec"
     ):
         flex.set_enabled("link", False)
     with pytest.raises(ValueError, match=r"plugin instance"):

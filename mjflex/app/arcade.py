@@ -234,7 +234,7 @@ def _weld_end_groups(spec, p):
     return renames
 
 
-def build_arcade_spec(params: ArcadeParams | None = None, *, method="twist", rigid_end_groups=False):
+def build_arcade_spec(params: ArcadeParams | None = None, *, method="twist", rigid_end_groups=False, kind="plugin"):
     """MjSpec of the ARCADE-like guide with its 48 flexures (module docstring).
 
     Parameters
@@ -245,6 +245,9 @@ def build_arcade_spec(params: ArcadeParams | None = None, *, method="twist", rig
         Method stored for every element.
     rigid_end_groups : bool
         The paper's variant: the three bodies near each end plate rigidly joined (31 bodies).
+    kind : {"plugin", "record"}
+        How the elements are written (:func:`mjflex.add_flexure`): engine-plugin instances
+        (default; the model runs in any MuJoCo program) or text records.
     """
     p = params or ArcadeParams()
     spec = mujoco.MjSpec()
@@ -269,7 +272,8 @@ def build_arcade_spec(params: ArcadeParams | None = None, *, method="twist", rig
         K, strain, source = kinds[e.kind]
         h = add_flexure(spec, e.name, renames.get(e.body_a, e.body_a), renames.get(e.body_b, e.body_b),
                         pos=at(e.r, e.z), quat=quat, K=K, B=p.damping_beta * K, method=method, poses=poses,
-                        strain_per_radian=strain, source=source)  # fmt: skip
+                        strain_per_radian=strain, source=source, kind=kind,
+                        strain_scale=STRAIN_SCALE)  # fmt: skip
         _style_sites(h, p, e.kind)
     _paper_keyframe(spec)
     return spec
@@ -288,6 +292,11 @@ def _flexure_kinds(p):
         "leaf": (K_l, bending_strain_per_radian(K_l, p.leaf_thickness, p.plate_thickness, p.E, p.nu), leaf),
     }
 
+
+#: Full scale of the flexures' strain colours in MuJoCo's viewer (the engine plugin's drawing): 2 %, about the
+#: paper run's peak bending strain (2.1 %), so that the viewer's colours read like the demo's panels; the
+#: hinges' material (5 % of aluminium's modulus, 3.5 GPa, a polymer) stays elastic to a few percent.
+STRAIN_SCALE = 0.02
 
 PAPER_SPIN = 105.0  # rad/s, about the long axis (1000 rpm)
 PAPER_AXIAL_SPEED = 5.0  # m/s, of the cylinder along its axis

@@ -1,4 +1,4 @@
-"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study MODEL.xml`` and ``sweep``."""
+"""Command line: ``python -m mjflex simulate MODEL.xml ...``, ``demo``, ``study``, ``sweep`` and ``convert``."""
 
 import argparse
 import datetime
@@ -13,7 +13,7 @@ from contextlib import contextmanager
 import mujoco
 import numpy as np
 
-from ..mj import Flexures, ModelError
+from ..mj import Flexures, ModelError, edit_elements
 from . import render
 from ._output import file_problem, folder_problem
 from .simulate import INTEGRATORS, DivergenceError, configure, simulate, step_count, summarize
@@ -76,11 +76,24 @@ def check_video_size(width, height):
         raise SystemExit(f"error: {problem}")
 
 
-def _load(path):
+def _load(path, method=None, damping=True):
+    """The model of ``path``; ``method`` / ``damping=False`` are written into every element before it compiles
+    (the only way for plugin elements, whose parameters are the model's; text records get the same)."""
     if not os.path.exists(path):
         raise SystemExit(f"error: model file {path!r} not found")
     try:
-        return mujoco.MjModel.from_xml_path(path)
+        if method is None and damping:
+            return mujoco.MjModel.from_xml_path(path)
+        spec = mujoco.MjSpec.from_file(path)
+    except ValueError as exc:
+        raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
+    try:
+        edit_elements(spec, method=method, viscous=None if damping else False)
+    except ValueError as exc:
+        option = "--method" if method is not None else "--no-damping"
+        raise SystemExit(f"error: {os.path.basename(path)}: {option}: {exc}") from None
+    try:
+        return spec.compile()
     except ValueError as exc:
         raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
 
@@ -139,15 +152,11 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         check_video_size(width, height)
     if not len(flex):
         raise SystemExit(
-            f"error: {name} has no mjflex elements (sites E/a, E/b and a text record mjflex:E; see mjflex.mj.schema "
-            "or docs/reference/mjcf_schema.md), so there is nothing to report; check the warnings above for misspelt "
-            "records"
+            f"error: {name} has no mjflex elements (mjflex.flexure plugin instances, or sites E/a, E/b and a text "
+            "record mjflex:E; see mjflex.mj.schema or docs/reference/mjcf_schema.md), so there is nothing to report; "
+            "check the warnings above for misspelt records"
         )
-    for element in flex.names:
-        if method is not None:
-            flex.set_method(element, method)
-        if not damping:
-            flex.set_viscous(element, False)
+    _switch(flex, name, method, damping)
     data, key = _initial_state(model, keyframe)
     clock.add("model", time.perf_counter() - started, time.process_time() - cpu)
     with clock.phase("kernels"):
@@ -171,6 +180,22 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         if progress:
             print(f"wrote {video} ({render.video_text(written, renderer, slowdown)})", file=sys.stderr)
     return summary, run, flex
+
+
+def _switch(flex, name, method, damping):
+    """Every element's method and damping: text records switch here; plugin elements must hold them already."""
+    for i, element in enumerate(flex.names):
+        if flex.kinds[i] == "record":
+            if method is not None:
+                flex.set_method(element, method)
+            if not damping:
+                flex.set_viscous(element, False)
+        elif (method is not None and flex.methods[i] != method) or (not damping and flex.viscous[i]):
+            raise SystemExit(
+                f"error: {name}: flexure {element!r} is an mjflex.flexure plugin instance, whose method and damping "
+                "are part of the model: compile it with them (mjflex.edit_elements on its MjSpec; the command line's "
+                "--method and --no-damping do this)"
+            )
 
 
 @contextmanager
@@ -198,7 +223,7 @@ def _simulate_command(args):
     started = time.perf_counter()
     check_output(args.json, "--json")
     check_output(args.video, "--video", VIDEO_SUFFIXES)
-    model = _load(args.model)
+    model = _load(args.model, args.method, not args.no_damping)
     with _stop_on_divergence(os.path.basename(args.model)):
         summary, _, _ = run_model(
             model, os.path.basename(args.model), duration=args.duration, method=args.method,
@@ -213,14 +238,28 @@ def _simulate_command(args):
             json.dump(summary.to_dict(), f, indent=2)
 
 
-def arcade_model():
-    """``models/arcade.xml`` of the source tree, or the same model built in memory."""
-    path = os.path.join(REPO_MODELS, "arcade.xml")
-    if os.path.exists(path):
-        return mujoco.MjModel.from_xml_path(path), path
+def arcade_source():
+    """``(source, label)``: the path of ``models/arcade.xml`` in the source tree, or an ``MjSpec`` of the same model.
+
+    Its elements are plugin instances; without mjflex's native library (the Python fallback)
+    MuJoCo cannot load them, and the same model is built with text records instead.
+    """
+    from ..mj import _native
     from .arcade import build_arcade_spec
 
-    return build_arcade_spec().compile(), "arcade (built in memory)"
+    if _native.loaded() is None:
+        return build_arcade_spec(kind="record"), "arcade (text records, built in memory: no native library)"
+    path = os.path.join(REPO_MODELS, "arcade.xml")
+    if os.path.exists(path):
+        return path, path
+    return build_arcade_spec(), "arcade (built in memory)"
+
+
+def arcade_model():
+    """``(MjModel, label)`` of :func:`arcade_source`."""
+    source, label = arcade_source()
+    model = mujoco.MjModel.from_xml_path(source) if isinstance(source, str) else source.compile()
+    return model, label
 
 
 def _demo_command(args):
@@ -319,7 +358,7 @@ def _study_command(args):
         check_options(options, args.out, spell=_cli_spelling)
     except StudyError as exc:
         raise SystemExit(f"error: {exc}") from None
-    model = arcade_model()[0] if args.model == "arcade" else args.model
+    model = arcade_source()[0] if args.model == "arcade" else args.model
     try:
         result = study(model, **options, progress=not args.quiet)
     except StudyError as exc:
@@ -395,6 +434,33 @@ def _study_parser(sub):
     return p
 
 
+def _convert_parser(sub):
+    p = sub.add_parser("convert", help="write a model's elements as engine-plugin instances or as text records",
+                       description="Turn the text-record elements of an MJCF file into instances of the engine "
+                       "plugin mjflex.flexure (--to plugin: the file then runs in any MuJoCo program, e.g. python -m "
+                       "mujoco.viewer), or back (--to record), losslessly: every parameter keeps every digit, the rest "
+                       "of the file keeps its text (trees joined by plugin elements get sleep=\"never\"). The result "
+                       "is compiled and compared with the input before OUTPUT is written.",
+                       formatter_class=HelpFormatter)  # fmt: skip
+    p.add_argument("input", help="MJCF file with mjflex elements")
+    p.add_argument("output", help="MJCF file to write (may be INPUT: converted in place)")
+    p.add_argument("--to", choices=["plugin", "record"], default="plugin", help="the form to write")
+    return p
+
+
+def _convert_command(args):
+    from ..mj import convert_file
+    from ..mj.file_convert import ConversionError
+
+    try:
+        names = convert_file(args.input, args.output, to=args.to)
+    except ConversionError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    form = "mjflex.flexure plugin instances" if args.to == "plugin" else "text records"
+    shown = ", ".join(names[:4]) + (f", ... ({len(names)} in all)" if len(names) > 4 else "")
+    print(f"wrote {args.output}: {len(names)} element(s) as {form}: {shown}")
+
+
 def build_parser():
     """The ``python -m mjflex`` argument parser (also read by the documentation's command-line reference)."""
     ap = argparse.ArgumentParser(prog="python -m mjflex", description="Visco-elastic flexures for MuJoCo.")
@@ -433,6 +499,7 @@ def build_parser():
         p.add_argument("--slowdown", type=positive_float, default=100.0, help="slow-motion factor of the video")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
     _sweep_parser(sub)
+    _convert_parser(sub)
     _docs_parser(sub)
     return ap
 
@@ -448,6 +515,9 @@ def main(argv=None):
         raise SystemExit(build_docs(args.out, strict=not args.no_strict, tutorials=not args.no_tutorials))
     if args.command == "study":
         _study_command(args)
+        return
+    if args.command == "convert":
+        _convert_command(args)
         return
     if args.command == "sweep":
         if args.threads is not None and args.threads < 0:

@@ -422,6 +422,18 @@ def read_video(path):
     return np.stack(frames) if frames else np.zeros((0, height, width, 3), np.uint8)
 
 
+def hide_plugin_drawing(scene) -> int:
+    """Blank the geoms the engine plugin ``mjflex.flexure`` drew in ``scene`` (its viewer colours, on a fixed
+    scale); returns how many. A :class:`RunRenderer` colours the sites on the run's own scale instead."""
+    hidden = 0
+    for i in range(scene.ngeom):
+        geom = scene.geoms[i]
+        if geom.objtype == mujoco.mjtObj.mjOBJ_PLUGIN and geom.category == mujoco.mjtCatBit.mjCAT_DECOR:
+            geom.type = mujoco.mjtGeom.mjGEOM_NONE
+            hidden += 1
+    return hidden
+
+
 class RunRenderer:
     """Renders stored states of a run with each flexure's site coloured by its bending (:func:`colour_scale`).
 
@@ -458,6 +470,7 @@ class RunRenderer:
         mujoco.mj_forward(self.model, self.data)
         self.model.site_rgba[self.sites] = strain_colors(self.scale.values[k], self.scale.vmax)
         self.renderer.update_scene(self.data, camera=self.camera, scene_option=self.option)
+        hide_plugin_drawing(self.renderer.scene)
         (look or self.look).apply(self.renderer.scene)
         image = self.renderer.render()
         return self.overlay.draw(image, f"t = {self.run.time[k] * 1e3:.3f} ms") if label else image

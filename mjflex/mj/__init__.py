@@ -5,7 +5,9 @@ MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
 
 from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, reference_body_poses, remove_flexure
 from .compliance import Compliance, make_compliant, make_rigid
+from .convert import attach, convert_model, copy_spec, edit_elements
 from .damping import damping_from_ratios
+from .file_convert import ConversionError, convert_file
 from .linearize import normal_modes
 from .native import bushing_variant, pseudo_rigid_body_variant, weld_variant
 from .provider import Flexures, ModelError
@@ -15,6 +17,7 @@ from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
     "Compliance",
+    "ConversionError",
     "FlexureHandle",
     "FlexureRecord",
     "Flexures",
@@ -23,8 +26,13 @@ __all__ = [
     "VariantNotApplicableError",
     "add_flexure",
     "add_flexure_in_body_frame",
+    "attach",
     "bushing_variant",
+    "convert_file",
+    "convert_model",
+    "copy_spec",
     "damping_from_ratios",
+    "edit_elements",
     "make_compliant",
     "make_rigid",
     "normal_modes",

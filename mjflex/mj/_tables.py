@@ -99,8 +99,10 @@ def _records(model, site_ids, claimed_sites=()):
     claimed = {r[2] for r in out} | set(claimed_sites)
     for element in schema.orphan_site_pairs(site_ids, claimed):
         warnings.warn(
-            f"mjflex: sites of an element '{element}' have no text record '{schema.PREFIX}{element}': the element "
-            "is not simulated; add its record (mjflex.add_flexure writes both) or rename the sites",
+            f"mjflex: sites of an element '{element}' have no text record '{schema.PREFIX}{element}' and no "
+            f"{schema.PLUGIN_NAME} instance: the element is not simulated. Add it (mjflex.add_flexure writes both), "
+            "or rename the sites. A model composed with MjSpec.attach or copied with MjSpec.copy loses the plugin "
+            "instances no body references (MuJoCo 4.0): use mjflex.attach / mjflex.copy_spec",
             UserWarning,
             stacklevel=4,
         )

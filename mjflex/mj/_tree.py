@@ -209,6 +209,8 @@ class TreeXml:
             self.parent_of[el] = self.bodies[parent]
         for key in ("pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"):
             el.attrib.pop(key, None)
+        if parent != WORLD:
+            el.attrib.pop("sleep", None)  # MuJoCo allows a sleep policy on tree roots only
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, np.ascontiguousarray(R_WP.T @ R_WC).ravel())
         el.set("pos", _fmt(R_WP.T @ (p_WC - p_WP)))

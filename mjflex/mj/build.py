@@ -15,10 +15,11 @@ from . import _native, schema
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
 #: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
-#: on one site in ``SHAPE_SITE_GROUP`` and hide the other in ``HIDDEN_SITE_GROUP`` (ARCADE does);
-#: mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
+#: on one site in ``SHAPE_SITE_GROUP``, which they show by default (so does the engine plugin's
+#: strain colouring, which follows site a's group), and hide the other in ``HIDDEN_SITE_GROUP``
+#: (ARCADE does); mjflex's renderer shows ``SHOWN_SITE_GROUPS``.
 SITE_GROUP = 4
-SHAPE_SITE_GROUP = 3
+SHAPE_SITE_GROUP = 2
 HIDDEN_SITE_GROUP = 5
 SHOWN_SITE_GROUPS = (SHAPE_SITE_GROUP, SITE_GROUP)
 
@@ -182,7 +183,7 @@ def _site(spec, site):
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, K, B=None, method="twist", terms=None,
     stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True, kind="record",
+    exclude_contact=True, kind="plugin", strain_scale=None,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -226,7 +227,10 @@ def add_flexure(
     enabled, viscous : bool
         Initial run-time switches stored in the model.
     strain_per_radian : float, optional
-        Peak bending strain per radian about the frame's z axis, stored for reports.
+        Peak bending strain per radian about the frame's z axis, stored for reports and colours.
+    strain_scale : float, optional
+        Full scale of the element's strain colour in MuJoCo's viewer: the strain (the rotation
+        about z [rad] without ``strain_per_radian``) drawn red; default 1 % strain (0.1 rad).
     source : dict, optional
         JSON-serializable description of where K and B come from, stored in the model file.
     poses : tuple, optional
@@ -238,11 +242,17 @@ def add_flexure(
         MuJoCo would push them apart. ``False`` keeps their contacts. A pair with the world is
         never excluded here (the world holds floors and obstacles; MuJoCo's parent-child filter
         exempts it likewise): :class:`mjflex.Flexures` warns if such geoms touch at rest.
-    kind : {"record", "plugin"}
-        How the element is written (:mod:`mjflex.mj.schema`): a text record, whose forces
-        :class:`mjflex.Flexures` adds through MuJoCo's ``mjcb_passive``, or an instance of the
-        engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to the model (any
-        MuJoCo program with mjflex installed runs it). Both carry the same parameters.
+    kind : {"plugin", "record"}
+        How the element is written (:mod:`mjflex.mj.schema`). ``"plugin"`` (default): an
+        instance of the engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to
+        the model: any program that imports mujoco with mjflex installed runs it (the viewer,
+        ``mujoco.rollout``, ``Batch``, a pickled copy), with no provider to install; the trees it
+        joins get ``sleep="never"`` (a plugin cannot wake a sleeping tree). It needs mjflex's
+        native library (built by ``pip install``; RuntimeError saying how otherwise).
+        ``"record"``: a text record, whose forces :class:`mjflex.Flexures` adds through
+        MuJoCo's process-wide ``mjcb_passive`` while installed (``with flex:``); it has run-time
+        switches (``set_method`` & co.) and needs no native library. Both carry the same
+        parameters, and ``python -m mjflex convert`` turns one into the other losslessly.
 
     Returns
     -------
@@ -265,9 +275,11 @@ def add_flexure(
     Flexures(1 elements: leaf)
     """
     _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact)
+    if strain_scale is not None:
+        validation.check_number(strain_scale, "strain_scale", above=0.0)
     validation.method_code(method)
-    if kind not in ("record", "plugin"):
-        raise ValueError(f'kind must be "record" or "plugin"; got {kind!r}')
+    if kind not in ("plugin", "record"):
+        raise ValueError(f'kind must be "plugin" or "record"; got {validation.shorten(kind)}')
     site_names = schema.site_names(name)
     if (
         spec.text(schema.PREFIX + name) is not None
@@ -279,7 +291,7 @@ def add_flexure(
             "name"
         )
     if kind == "plugin":
-        activate_plugin(spec)
+        require_native_library(name)  # before anything is added: a refusal leaves the spec as it was
     K = schema.element_matrix(K, f"K of flexure {name!r}")
     B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
     if B is not None and B.shape != K.shape:
@@ -300,7 +312,8 @@ def add_flexure(
         else:
             K = stiffness_in_frame(K, R_FE, p_FE)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
-                                  *_checked_terms(terms, method, K, name), site=frame_site)  # fmt: skip
+                                  *_checked_terms(terms, method, K, name), site=frame_site,
+                                  strain_scale=strain_scale)  # fmt: skip
     text_data = _record_text(record)
     xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
     sites = []
@@ -314,7 +327,11 @@ def add_flexure(
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
     if kind == "plugin":
-        return FlexureHandle(name, sites[0], sites[1], None, add_plugin_element(spec, record, *site_names))
+        from .convert import keep_joined_trees_awake
+
+        plugin = add_plugin_element(spec, record, *site_names)
+        keep_joined_trees_awake(spec, [(name, *site_names)])
+        return FlexureHandle(name, sites[0], sites[1], None, plugin)
     text = spec.add_text(name=schema.PREFIX + name, data=text_data)
     return FlexureHandle(name, sites[0], sites[1], text)
 
@@ -341,10 +358,11 @@ def _element_frame(spec, name, bodies, pos, quat, site):
 
 
 def remove_flexure(spec, name) -> None:
-    """Remove element ``name`` (its sites and record, as :func:`add_flexure` wrote them) from ``spec``.
+    """Remove element ``name`` (its sites and its text record or plugin instance) from ``spec``.
 
-    The ``<exclude>`` that ``add_flexure`` may have written is left alone (other elements may
-    join the same pair). Raises ValueError when the spec holds no such element.
+    The ``<exclude>`` that ``add_flexure`` may have written, and the ``sleep`` policies it set,
+    are left alone (other elements may join the same pair or trees). Raises ValueError when the
+    spec holds no such element.
 
     Parameters
     ----------
@@ -366,21 +384,27 @@ def remove_flexure(spec, name) -> None:
     >>> spec.compile().nsite
     0
     """
-    sites = [spec.site(s) for s in schema.site_names(name)]
-    parameters = spec.text(schema.PREFIX + name) or _plugin_instance(spec, name)
-    if parameters is None or any(p is None for p in sites):
-        raise ValueError(f"flexure {name!r} is not in the spec (sites {schema.site_names(name)}, record "
-                         f"{schema.PREFIX + name!r} or {schema.PLUGIN_NAME} instance {name!r})")  # fmt: skip
-    for part in [*sites, parameters]:
+    from .convert import PLUGIN, find_element
+
+    try:
+        element = find_element(spec, name)
+    except KeyError as exc:
+        raise ValueError(exc.args[0]) from None
+    sites = [spec.site(s) for s in (element.site_a, element.site_b)]
+    if any(s is None for s in sites):
+        raise ValueError(f"flexure {name!r} has no sites {element.site_a!r} and {element.site_b!r} in the spec; "
+                         "remove its record or instance yourself")  # fmt: skip
+    if element.kind == PLUGIN:
+        detach_instance(spec, element.name)
+    for part in [*sites, element.holder]:
         spec.delete(part)
 
 
-def _plugin_instance(spec, name):
-    """The ``mjflex.flexure`` instance named ``name`` in ``spec``, or None."""
-    for plugin in spec.plugins:
-        if plugin.name == name and plugin.plugin_name == schema.PLUGIN_NAME:
-            return plugin
-    return None
+def detach_instance(spec, name) -> None:
+    """Drop the references of bodies to the ``mjflex.flexure`` instance ``name`` (before it is deleted)."""
+    for body in spec.bodies:
+        if body.plugin.name == name and body.plugin.plugin_name == schema.PLUGIN_NAME:
+            body.plugin.active, body.plugin.name, body.plugin.plugin_name = False, "", ""
 
 
 def _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact):
@@ -411,15 +435,28 @@ def _record_text(record):
     return text
 
 
-def activate_plugin(spec) -> None:
-    """Let ``spec`` use the engine plugin ``mjflex.flexure`` (its native library must be built)."""
+def require_native_library(element=None) -> None:
+    """RuntimeError saying how to build it, unless mjflex's native library (the engine plugin) loads.
+
+    ``element``: the name of the element being added, for the message.
+    """
     if _native.loaded() is None:
         import mjflex_plugin
 
         try:
             mjflex_plugin.library()
         except mjflex_plugin.NativeLibraryError as exc:
-            raise RuntimeError(f"plugin elements need mjflex's native library: {exc}") from None
+            who = f"flexure {element!r}: " if element else ""
+            raise RuntimeError(
+                f"{who}plugin elements (kind=\"plugin\", add_flexure's default) need mjflex's native library, the "
+                f'engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind="record": a text record, whose forces '
+                "mjflex.Flexures adds through mjcb_passive (no native library needed)"
+            ) from None
+
+
+def activate_plugin(spec, element=None) -> None:
+    """Let ``spec`` use the engine plugin ``mjflex.flexure`` (:func:`require_native_library` first)."""
+    require_native_library(element)
     spec.activate_plugin(schema.PLUGIN_NAME)  # idempotent
 
 
@@ -428,30 +465,17 @@ def add_plugin_element(spec, record, site_a: str, site_b: str):
 
     The instance is named after the element and attached to no body (MuJoCo computes it anyway).
     """
-    activate_plugin(spec)
+    activate_plugin(spec, record.name)
     plugin = spec.add_plugin(name=record.name, plugin_name=schema.PLUGIN_NAME, active=True)
     plugin.config = schema.config_from_record(record, site_a, site_b)
     return plugin
 
 
-def records_to_plugins(spec) -> list[str]:
-    """Turn every text-record element of ``spec`` into an ``mjflex.flexure`` plugin instance (same sites).
+def records_to_plugins(spec, names=None) -> list[str]:
+    """Text-record elements of ``spec`` as plugin instances (:func:`mjflex.mj.convert.records_to_plugins`)."""
+    from .convert import records_to_plugins as convert
 
-    Returns the element names. Their parameters carry over exactly (see
-    :func:`mjflex.mj.schema.config_from_record`); the sites stay where they are.
-    """
-    sites = {s.name for s in spec.sites}
-    converted = []
-    for text in list(spec.texts):
-        match = schema.match_record(text.name, sites)
-        if match is None or not match[3]:
-            continue
-        element, site_a, site_b, _ = match
-        record = schema.parse_text(element, text.data)
-        spec.delete(text)
-        add_plugin_element(spec, record, site_a, site_b)
-        converted.append(element)
-    return converted
+    return convert(spec, names)
 
 
 def _checked_terms(terms, method, K, name):

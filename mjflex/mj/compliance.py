@@ -21,8 +21,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from . import _contacts, schema
+from . import _contacts
 from .build import _quaternion, _rotation, _unit_quat, add_flexure, compile_spec, remove_flexure
+from .convert import spec_elements
 from .damping import DIRECTIONS, checked_ratios, damping_from_ratios
 from .provider import Flexures
 
@@ -318,7 +319,7 @@ def _kept(pair, wanted):
 
 def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, directions="all",
                    name=None, method="twist", collide=(), joint_attributes=None, keyframe=None, others="locked",
-                   actuator_stiffness=False) -> Compliance:  # fmt: skip
+                   actuator_stiffness=False, kind="plugin") -> Compliance:  # fmt: skip
     """Make a welded body of ``spec`` compliant relative to its parent, in place; returns what was done.
 
     The body (a robot's hand, a sensor, a tool; any body of any model, attached or not) gets the
@@ -326,7 +327,7 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     joint for all six), with MuJoCo's built-in joint settings whatever the body's ``childclass``
     or the model's defaults say (no armature, range, damping, friction loss or spring unless
     ``joint_attributes`` asks), and a flexure element between it and its parent, written by
-    :func:`mjflex.add_flexure` (so it is whatever element kind ``add_flexure`` writes). The body
+    :func:`mjflex.add_flexure` (of the form ``kind``: a plugin instance by default). The body
     pairs that MuJoCo filtered in the rigid model and would collide now (the body with its
     grandparent's weld group, and so on; :mod:`mjflex.mj._contacts`) get ``<exclude>``
     elements, except those in ``collide``; every keyframe gets the new joints' rest values (zero
@@ -371,6 +372,9 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         Attributes set on every added joint (e.g. ``{"armature": 1e-4}``).
     keyframe, others, actuator_stiffness
         The linearization used for ``damping_ratio`` (:func:`mjflex.damping_from_ratios`).
+    kind : {"plugin", "record"}
+        How the element is written (:func:`mjflex.add_flexure`): an ``mjflex.flexure`` plugin
+        instance (default; the model runs in any MuJoCo program) or a text record.
 
     Returns
     -------
@@ -439,7 +443,8 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         joints = _add_joints(target, name, dirs, R_WB.T @ R_WE, R_WB.T @ (p_WE - p_WB), joint_attributes)
         place = {"site": frame} if isinstance(frame, str) else {"pos": p_WE, "quat": _quaternion(R_WE)}
         parent_name = "world" if parent.name in ("", "world") else parent.name
-        add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False, **place)
+        add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False, kind=kind,
+                    **place)  # fmt: skip
         element = name
         compliant = compile_spec(spec, "make a body compliant")
         exposed = [
@@ -459,13 +464,13 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
             B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness)
             remove_flexure(spec, name)
             add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
-                        **place)  # fmt: skip
+                        kind=kind, **place)  # fmt: skip
         _warn_kept(spec, name)
     except BaseException:
         _stash_keys(spec)  # MjSpec checks the keyframes' sizes when joints go
         for obj in (*excludes, *joints):
             spec.delete(obj)
-        if element is not None and spec.text(schema.PREFIX + element) is not None:
+        if element is not None and any(e.name == element for e in spec_elements(spec)):
             remove_flexure(spec, element)
         _restore_keys(spec, saved)
         raise

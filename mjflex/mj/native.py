@@ -46,6 +46,7 @@ from .variant import (
     body_names,
     compile_spec,
     identity_body_map,
+    keeps_element_kinds,
     polynomial_terms_lines,
     source_spec,
 )
@@ -143,6 +144,7 @@ def matched_welds(spec, flex, elements, match):
     return lines
 
 
+@keeps_element_kinds
 def weld_variant(source, *, match="compliant", name=None) -> Variant:
     """Every element of ``source`` replaced by a MuJoCo weld between its sites (module docstring).
 
@@ -279,6 +281,7 @@ class _TendonSprings:
         return lines
 
 
+@keeps_element_kinds
 def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
     """Every element of ``source`` replaced by one MuJoCo joint with a spring (module docstring).
 
@@ -331,6 +334,7 @@ def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
     )
 
 
+@keeps_element_kinds
 def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
     """Every element of ``source`` replaced by a 6-joint bushing (module docstring).
 

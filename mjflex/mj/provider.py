@@ -537,8 +537,9 @@ class Flexures:
         if self.kinds[i] == _tables.PLUGIN:
             raise ValueError(
                 f"flexure {name!r} is an mjflex.flexure plugin instance: its switches and method are configuration "
-                'attributes of the model (<config key="enabled" value="false"/>, "viscous", "method"); edit them in '
-                "the spec (spec.plugins[...].config) or the file, and compile again"
+                'attributes of the model (<config key="enabled" value="false"/>, "viscous", "method"); set them in '
+                f"the spec before compiling, e.g. mjflex.edit_elements(spec, [{name!r}], viscous=False), or in the "
+                "file"
             )
         return i
 

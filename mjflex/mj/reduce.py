@@ -71,7 +71,15 @@ from ._planar import in_plane_modes, out_of_plane, planar_record, plane_frame, p
 from ._tree import WORLD, Joint, Link, free_world_bodies
 from .linearize import normal_modes
 from .provider import Flexures
-from .variant import Variant, body_names, compile_spec, equality_rows, polynomial_terms_lines, source_spec
+from .variant import (
+    Variant,
+    body_names,
+    compile_spec,
+    equality_rows,
+    keeps_element_kinds,
+    polynomial_terms_lines,
+    source_spec,
+)
 
 COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directions that become joint springs
 #: Largest :func:`closure_singularity` (at 1e-3 amplitude) for which loops="auto" closes loops by
@@ -508,6 +516,7 @@ def _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duratio
             )
 
 
+@keeps_element_kinds
 def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.01, viscous_tol=1e-3, duration=None,
            loops="auto", max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
     """A cheaper model of ``source`` that keeps its normal modes below ``keep_below_hz``.

@@ -24,7 +24,11 @@ An element named ``E`` (any text) is
     ``fit.terms.to_dict()`` (less its ``"method"``);
   - ``"enabled"``, ``"viscous"``: run-time switches, ``true`` (default) or ``false``;
   - ``"strain_per_radian"``: peak bending strain per radian about the frame's z axis, used in
-    reports (optional);
+    reports and strain colours (optional);
+  - ``"strain_scale"``: the full scale of the element's strain colour in MuJoCo's viewer (the
+    engine plugin's drawing): the bending strain shown red, or, without ``"strain_per_radian"``,
+    the rotation about z [rad] shown red (optional; default ``DEFAULT_STRAIN_SCALE`` = 1 % strain,
+    or ``DEFAULT_ROTATION_SCALE`` = 0.1 rad);
   - ``"source"``: any JSON object recording where ``K`` came from (geometry, material,
     formula); kept verbatim (optional);
   - ``"site"``: the name of a site that gives the element frame, e.g. a robot's
@@ -54,6 +58,7 @@ Validation rules (:func:`parse_text`; one place, mirrored by any other reader of
    (degrees from 2 to ``"order"``, distinct rows, even and unstressed at rest for ``"dualquat"``),
    and ``K`` plus the terms' stiffness at rest is positive semi-definite;
 7. ``"strain_per_radian"`` is ``null`` or a finite number >= 0 (not a boolean);
+   ``"strain_scale"`` is ``null`` or a finite number > 0;
 8. ``"source"`` is ``null`` or an object (any content within rule 1);
 9. ``"site"`` is ``null`` or a non-empty string naming a site of the model (checked by
    :class:`mjflex.Flexures`: the element frame must coincide with it at ``qpos0``).
@@ -102,7 +107,7 @@ the record's content, each value a string:
   of 6 (twist) or 8 (dual quaternion) integers one after the other, ``coefficients`` one number
   per row, ``order`` as in the record;
 - ``enabled``, ``viscous``: ``true`` (default) or ``false``;
-- ``strain_per_radian``: a number (optional);
+- ``strain_per_radian``, ``strain_scale``: a number each (optional);
 - ``source``: the record's ``"source"`` object as JSON text, verbatim (optional).
 
 Numbers are separated by white space and written as the shortest text that reads back to the same double by
@@ -140,12 +145,18 @@ SITE_B_SUFFIX = "/b"
 #: Separators between an element's name and the ``a`` / ``b`` of its sites, in order of preference.
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
-KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "source", "site")
+KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "strain_scale",
+        "source", "site")  # fmt: skip
 #: Name of mjflex's engine plugin, and its configuration attributes in the order MuJoCo stores
 #: their values (the native library's ``MJFX_ATTRIBUTES``; checked by the tests).
 PLUGIN_NAME = "mjflex.flexure"
 PLUGIN_ATTRIBUTES = ("site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients", "enabled",
-                     "viscous", "strain_per_radian", "source", "site")  # fmt: skip
+                     "viscous", "strain_per_radian", "strain_scale", "source", "site")  # fmt: skip
+#: Full scale of an element's strain colour in the viewer when ``"strain_scale"`` is not given: 1 %
+#: bending strain (where the elastic range of flexure metals ends: spring steel, titanium and
+#: aluminium alloys yield at 0.5-1 %), or 0.1 rad of rotation for an element without ``"strain_per_radian"``.
+DEFAULT_STRAIN_SCALE = 0.01
+DEFAULT_ROTATION_SCALE = 0.1
 TERMS_KEYS = ("exponents", "coefficients")
 #: The two sites count as coincident when they are closer than this times the element's own
 #: length scale: the summed lengths of the site and body positions that place both sites,
@@ -220,6 +231,7 @@ class FlexureRecord:
     terms: PolynomialTerms | None = None
     order: int = 2
     site: str | None = None
+    strain_scale: float | None = None
 
     @property
     def planar(self) -> bool:
@@ -239,6 +251,8 @@ class FlexureRecord:
             payload["viscous"] = False
         if self.strain_per_radian is not None:
             payload["strain_per_radian"] = float(self.strain_per_radian)
+        if self.strain_scale is not None:
+            payload["strain_scale"] = float(self.strain_scale)
         if self.source is not None:
             payload["source"] = self.source
         if self.site is not None:
@@ -389,13 +403,15 @@ def _flag(payload, key):
     return value
 
 
-def _strain(payload):
-    strain = payload.get("strain_per_radian")
+def _strain(payload, key="strain_per_radian"):
+    strain = payload.get(key)
     if strain is None:
         return None
     ok = isinstance(strain, int | float) and not isinstance(strain, bool)
-    if not (ok and abs(strain) <= MAX_MATRIX_ENTRY and strain >= 0):  # huge integers: no float overflow
-        raise ValueError(f'"strain_per_radian" must be a finite number >= 0 (or null); got {shorten(strain)}')
+    positive = key == "strain_scale"
+    if not (ok and abs(strain) <= MAX_MATRIX_ENTRY and (strain > 0 if positive else strain >= 0)):
+        what = "> 0" if positive else ">= 0"  # huge integers are refused, not overflowed
+        raise ValueError(f'"{key}" must be a finite number {what} (or null); got {shorten(strain)}')
     return float(strain)
 
 
@@ -441,7 +457,8 @@ def parse_payload(element: str, payload: dict) -> FlexureRecord:
     if site is not None and not (isinstance(site, str) and site):
         raise ValueError(f'"site" must be the name of a site of the model; got {shorten(site)}')
     order, terms = order_and_terms(payload, method, K)
-    return FlexureRecord(element, method, K, B, enabled, viscous, strain, source, terms, order, site)
+    return FlexureRecord(element, method, K, B, enabled, viscous, strain, source, terms, order, site,
+                         _strain(payload, "strain_scale"))  # fmt: skip
 
 
 def order_and_terms(payload, method, K):
@@ -539,11 +556,12 @@ def record_from_config(element: str, config: dict) -> FlexureRecord:
             if get[key] not in ("true", "false"):
                 raise ValueError(f"{key} must be true or false; got {get[key][:40]!r}")
             payload[key] = get[key] == "true"
-    if get["strain_per_radian"]:
-        values = _numbers(get["strain_per_radian"], "strain_per_radian")
-        if len(values) != 1:
-            raise ValueError("strain_per_radian must be one number")
-        payload["strain_per_radian"] = values[0]
+    for key in ("strain_per_radian", "strain_scale"):
+        if get[key]:
+            values = _numbers(get[key], key)
+            if len(values) != 1:
+                raise ValueError(f"{key} must be one number")
+            payload[key] = values[0]
     if get["source"]:
         try:
             payload["source"] = json.loads(get["source"])
@@ -593,6 +611,8 @@ def config_from_record(record: FlexureRecord, site_a: str, site_b: str) -> dict[
         config["viscous"] = "false"
     if record.strain_per_radian is not None:
         config["strain_per_radian"] = repr(float(record.strain_per_radian))
+    if record.strain_scale is not None:
+        config["strain_scale"] = repr(float(record.strain_scale))
     if record.source is not None:
         config["source"] = json.dumps(record.source)
     if record.site is not None:

@@ -12,6 +12,7 @@ put its bodies where the source's bodies are, by Gauss-Newton on the body poses.
 """
 
 import ctypes
+import functools
 import os
 import tempfile
 from collections.abc import Callable
@@ -20,6 +21,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 import scipy.linalg
+
+from . import _native, convert
 
 
 class VariantNotApplicableError(Exception):
@@ -88,7 +91,7 @@ class Variant:
     def has_flexures(self) -> bool:
         """Whether the variant still holds mjflex elements (then it needs a :class:`mjflex.Flexures`)."""
         names = (mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_TEXT, i) or "" for i in range(self.model.ntext))
-        return any(n.startswith("mjflex:") for n in names)
+        return any("mjflex:" in n for n in names) or bool(_native.plugin_instances(self.model))
 
 
 # ---------------------------------------------------------------------------------------- sources
@@ -121,7 +124,7 @@ def source_spec(source) -> mujoco.MjSpec:
         last from XML (MuJoCo keeps that XML; ``mj_saveLastXML`` refuses any other model).
     """
     if isinstance(source, mujoco.MjSpec):
-        return source.copy()
+        return convert.copy_spec(source)
     if isinstance(source, str | os.PathLike):
         path = os.fspath(source)
         if not os.path.isfile(path):
@@ -139,6 +142,41 @@ def source_spec(source) -> mujoco.MjSpec:
                 ) from None
             return mujoco.MjSpec.from_file(path)
     raise TypeError(f"source must be a model file path, an MjSpec or an MjModel; got {type(source).__name__}")
+
+
+def keeps_element_kinds(builder):
+    """Let a variant builder written for text records take plugin elements too, and keep their form.
+
+    The source's ``mjflex.flexure`` instances become text records of a copy
+    (:func:`mjflex.mj.convert.plugins_to_records`, lossless), the builder runs on it, and the
+    elements the variant keeps are written back as plugin instances (its model compiled again,
+    its ``state_from`` rebuilt), so a variant of a plugin model is a plugin model. Sources
+    without plugin elements go to the builder unchanged.
+    """
+
+    @functools.wraps(builder)
+    def build(source, *args, **kwargs):
+        spec = source_spec(source)
+        if not any(e.kind == convert.PLUGIN for e in convert.spec_elements(spec)):
+            return builder(source, *args, **kwargs)
+        plugins = convert.plugins_to_records(spec)
+        return restore_kinds(builder(spec, *args, **kwargs), plugins)
+
+    return build
+
+
+def restore_kinds(variant, plugins) -> "Variant":
+    """``variant`` with those of the elements ``plugins`` it still holds written as plugin instances again."""
+    if variant.spec is None:
+        return variant
+    kept = [e.name for e in convert.spec_elements(variant.spec) if e.kind == convert.RECORD and e.name in set(plugins)]
+    if not kept:
+        return variant
+    convert.records_to_plugins(variant.spec, kept)
+    variant.model = compile_spec(variant.spec)
+    if isinstance(variant.state_from, PoseFit):
+        variant.state_from = PoseFit(variant.model, variant.body_map, constraints=variant.state_from.constraints)
+    return variant
 
 
 def body_names(model) -> list[str]:

@@ -12,11 +12,11 @@
 
 const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE] = {
     "site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients",
-    "enabled", "viscous", "strain_per_radian", "source", "site",
+    "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "site",
 };
 
 enum { A_SITE_A, A_SITE_B, A_METHOD, A_K, A_B, A_ORDER, A_EXPONENTS, A_COEFFICIENTS, A_ENABLED, A_VISCOUS, A_STRAIN,
-       A_SOURCE, A_SITE };
+       A_STRAIN_SCALE, A_SOURCE, A_SITE };
 
 // planar coordinates [theta_z; x; y] within [rx, ry, rz, x, y, z] (mjflex.mj.schema.PLANAR_INDEX)
 static const int PLANAR_INDEX[3] = {2, 3, 4};
@@ -522,6 +522,7 @@ int mjfx_json_object(const char* text) {
 int mjfx_parse_config(const char* name, const char* const* values, mjfxParsed* out, char* err, int errsz) {
   mjfxElement* e = &out->el;
   out->exps = NULL, out->coefs = NULL, out->nterms = 0;
+  out->strain_per_radian = out->strain_scale = 0;
   const char* method = skip_space(values[A_METHOD]);
   if (!*method || !strcmp(method, "twist")) {
     e->method = MJFX_TWIST;
@@ -557,6 +558,17 @@ int mjfx_parse_config(const char* name, const char* const* values, mjfxParsed* o
       return fail(err, errsz, name, "strain_per_radian must be one finite non-negative number; got '%.40s'",
                   skip_space(values[A_STRAIN]));
     }
+    out->strain_per_radian = v;
+  }
+  if (!is_blank(values[A_STRAIN_SCALE])) {
+    double v;
+    char bad[48];
+    int k = parse_numbers(values[A_STRAIN_SCALE], &v, 1, bad, sizeof(bad));
+    if (k != 1 || !isfinite(v) || v <= 0 || v > MJFX_MAX_MATRIX_ENTRY) {
+      return fail(err, errsz, name, "strain_scale must be one finite positive number (the strain, or rotation in "
+                  "rad without strain_per_radian, shown red); got '%.40s'", skip_space(values[A_STRAIN_SCALE]));
+    }
+    out->strain_scale = v;
   }
   if (!is_blank(values[A_SOURCE]) && !mjfx_json_object(values[A_SOURCE])) {
     return fail(err, errsz, name, "source must be a JSON object such as {\"formula\": \"...\"} (standard JSON: "

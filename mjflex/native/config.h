@@ -11,7 +11,7 @@
 #include "elements.h"
 
 #define MJFX_PLUGIN_NAME "mjflex.flexure"
-#define MJFX_NATTRIBUTE 13
+#define MJFX_NATTRIBUTE 14
 extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 
 // Validation constants (mjflex.mj.schema, mjflex.core.validation, mjflex.core.polynomial).
@@ -23,14 +23,22 @@ extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 #define MJFX_REST_STRESS_RTOL 1e-12
 #define MJFX_MAX_TERMS 100000
 
-// A parsed element: its table row and its own terms (exps: MJFX_TERM_COLUMNS per row).
+// A parsed element: its table row and its own terms (exps: MJFX_TERM_COLUMNS per row), and what the
+// plugin's visualize callback needs: strain per radian and the colour scale's full scale (0: not given).
 typedef struct mjfxParsed_ {
   mjfxElement el;
   int* exps;
   double* coefs;
   int nterms;
   int planar;
+  double strain_per_radian;
+  double strain_scale;
 } mjfxParsed;
+
+// Full scale of the strain colours when an element gives none (mjflex.mj.schema.DEFAULT_STRAIN_SCALE):
+// 1 % strain with strain_per_radian, else 0.1 rad of rotation about the element's z axis.
+#define MJFX_DEFAULT_STRAIN_SCALE 0.01
+#define MJFX_DEFAULT_ROTATION_SCALE 0.1
 
 // Parse the configuration strings values[MJFX_NATTRIBUTE] (in MJFX_ATTRIBUTES order) of
 // element `name` into out (site, body and offset fields are not touched). Returns 0, or -1

@@ -14,6 +14,11 @@
 // Divergence (see elements.h, mjfx_watch_*): the leader owns the mjData's watch. Its compute
 // first looks at MuJoCo's bad-state counters; its advance, which MuJoCo calls at the end of every
 // step, looks again, so that a step MuJoCo judged bad is reported from within that step.
+//
+// Visualization: the leader's visualize (called by mjv_updateScene) draws every element as a copy
+// of its site a's shape coloured by its bending strain, where the site's group is shown.
+// Sleeping: the last instance's init warns when sleeping is enabled and an element joins a tree
+// that may sleep (MuJoCo ignores forces on sleeping trees; the plugin cannot change the model).
 
 #include <math.h>
 #include <stdatomic.h>
@@ -47,6 +52,9 @@ typedef struct Instance_ {
   int leader;     // instance id of the model's first mjflex.flexure instance
   mjfxWatch* watch;  // the mjData's watch, tallies by element of the table (leader only)
   Table* table;      // every element (leader only, from the last instance's init on)
+  double strain_per_radian;  // 0: not given (the colour shows the rotation about z)
+  double strain_scale;       // full scale of the colour (0: the default, MJFX_DEFAULT_*_SCALE)
+  double* twists;            // 6 per element of the table, for visualize (leader only, allocated on first use)
 } Instance;
 
 static const char* instance_name(const mjModel* m, int instance) {
@@ -77,6 +85,7 @@ static void free_instance(Instance* in) {
   free(in->exps);
   free(in->coefs);
   free(in->watch);
+  free(in->twists);
   free_table(in->table);
   free(in);
 }
@@ -212,6 +221,37 @@ static int check_frame_site(const mjModel* m, const mjData* d, const char* name,
   return 0;
 }
 
+// Whether tree `t` may sleep: its policy lets MuJoCo put it to sleep.
+static int may_sleep(const mjModel* m, int t) {
+  int policy = m->tree_sleep_policy[t];
+  return policy != mjSLEEP_NEVER && policy != mjSLEEP_AUTO_NEVER;
+}
+
+// With sleeping enabled, warn (once per mjData) about an element that joins a tree which may sleep to
+// another tree or a mocap body: MuJoCo ignores forces on sleeping trees, and only the compiled model's
+// policies count (mjflex.add_flexure and python -m mjflex convert write sleep="never" on such trees).
+static void warn_sleepy(const mjModel* m, const Table* t) {
+  if (!mjENABLED(mjENBL_SLEEP)) return;
+  int first = -1, tree = -1, count = 0;
+  for (int k = 0; k < t->n; k++) {
+    int ba = t->el[k].body_a, bb = t->el[k].body_b;
+    int ta = m->body_treeid[ba], tb = m->body_treeid[bb];
+    int mocap = m->body_mocapid[ba] >= 0 || m->body_mocapid[bb] >= 0;
+    if (ta == tb || ((ta < 0 || tb < 0) && !mocap)) continue;
+    int sleepy = ta >= 0 && may_sleep(m, ta) ? ta : (tb >= 0 && may_sleep(m, tb) ? tb : -1);
+    if (sleepy < 0) continue;
+    if (first < 0) first = k, tree = sleepy;
+    count++;
+  }
+  if (first < 0) return;
+  const char* root = m->names + m->name_bodyadr[m->tree_bodyadr[tree]];
+  mju_warning(
+      "mjflex: flexure '%.200s' (and %d more) joins the tree of body '%.200s', which may sleep: sleeping is enabled, "
+      "and MuJoCo ignores forces on sleeping trees, so the element's force would be lost while it sleeps. Set "
+      "sleep=\"never\" on that body (mjflex.add_flexure and python -m mjflex convert write it), or disable sleeping",
+      instance_name(m, t->instance[first]), count - 1, root[0] ? root : "(unnamed)");
+}
+
 static int flexure_init(const mjModel* m, mjData* d, int instance) {
   char err[1000];
   const char* name = instance_name(m, instance);
@@ -235,6 +275,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   if (mjfx_parse_config(name, values, &parsed, err, sizeof(err))) return init_fail(m, d, instance, in, err);
   in->el = parsed.el;
   in->exps = parsed.exps, in->coefs = parsed.coefs, in->nterms = parsed.nterms;
+  in->strain_per_radian = parsed.strain_per_radian, in->strain_scale = parsed.strain_scale;
   mjfxElement* e = &in->el;
 
   const char* record = record_of(m, name);
@@ -339,6 +380,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
       return init_fail(m, d, instance, in, "mjflex: out of memory");
     }
     mjfx_watch_clear(leader->watch, leader->table->n);
+    warn_sleepy(m, leader->table);
   }
   return 0;
 }
@@ -393,6 +435,52 @@ static void flexure_advance(const mjModel* m, mjData* d, int instance) {
 
 static int flexure_nstate(const mjModel* m, int instance) {
   return 0;
+}
+
+// The strain colour of mjflex.app.render.strain_colors: green (0) through yellow (half) to red (full scale).
+static void strain_color(double x, float rgba[4]) {
+  x = x > 0 ? (x < 1 ? x : 1) : 0;  // NaN: green
+  double r = 2 * x, g = 2 * (1 - x);
+  rgba[0] = (float)(r < 1 ? r : 1);
+  rgba[1] = (float)(0.85 * (g < 1 ? g : 1));
+  rgba[2] = 0.1f;
+  rgba[3] = 1.0f;
+}
+
+// Draw every element (leader only) as its site a's shape, 10 % larger so that it covers the site, at the
+// site's pose, coloured by |rotation about z| x strain_per_radian over the full scale (the rotation itself
+// without strain_per_radian); where site a's group is shown, while the scene has room.
+static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
+  Instance* in = (Instance*)d->plugin_data[instance];
+  if (!in || !in->table || !in->table->n) return;
+  Table* t = in->table;
+  if (!in->twists && !(in->twists = malloc(sizeof(double) * 6 * t->n))) return;
+  mjfxScan scan;
+  mjfx_evaluate(m, d, t->el, t->n, t->chain, t->exps, t->coefs, MJFX_COORDS, NULL, in->twists, NULL, &scan);
+  for (int k = 0; k < t->n && scn->ngeom < scn->maxgeom; k++) {
+    int site = t->el[k].site_a;
+    int group = m->site_group[site];
+    if (!opt->sitegroup[group < 0 ? 0 : (group >= mjNGROUP ? mjNGROUP - 1 : group)]) continue;
+    const Instance* own = (const Instance*)d->plugin_data[t->instance[k]];
+    double bending = fabs(in->twists[6 * k + 2]);
+    double value = own->strain_per_radian > 0 ? bending * own->strain_per_radian : bending;
+    double full = own->strain_scale > 0 ? own->strain_scale
+                                        : (own->strain_per_radian > 0 ? MJFX_DEFAULT_STRAIN_SCALE
+                                                                      : MJFX_DEFAULT_ROTATION_SCALE);
+    float rgba[4];
+    strain_color(value / full, rgba);
+    mjtNum size[3];
+    for (int i = 0; i < 3; i++) size[i] = 1.1 * m->site_size[3 * site + i];
+    mjvGeom* g = scn->geoms + scn->ngeom;
+    memset(g, 0, sizeof(mjvGeom));
+    mjv_initGeom(g, m->site_type[site], size, d->site_xpos + 3 * site, d->site_xmat + 9 * site, rgba);
+    g->objtype = mjOBJ_PLUGIN;
+    g->objid = t->instance[k];
+    g->category = mjCAT_DECOR;
+    g->segid = scn->ngeom;
+    if (opt->label == mjLABEL_SITE) snprintf(g->label, sizeof(g->label), "%s", instance_name(m, t->instance[k]));
+    scn->ngeom++;
+  }
 }
 
 //------------------------------------------------------------------------------ for Python (ctypes)
@@ -460,6 +548,7 @@ mjPLUGIN_LIB_INIT(mjflex_flexure) {
   plugin.reset = flexure_reset;
   plugin.compute = flexure_compute;
   plugin.advance = flexure_advance;
+  plugin.visualize = flexure_visualize;
   mjp_registerPlugin(&plugin);
   g_status = 1;
 }

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ...mj import Flexures
+from ...mj import Flexures, edit_elements
+from ...mj.convert import copy_spec
 from ...mj.divergence import step_phrase
-from ...mj.schema import site_names
 from ._metrics import PoseReader, Trajectory
 
 INTEGRATOR_ENUMS = {"euler": "mjINT_EULER", "rk4": "mjINT_RK4", "implicit": "mjINT_IMPLICIT",
@@ -104,20 +104,46 @@ class Sim:
         What to sample (see :class:`PoseReader`).
     """
 
-    def __init__(self, name, model, body_map, state, items, frame, *, report=""):
+    def __init__(self, name, model, body_map, state, items, frame, *, report="", spec=None):
         self.name, self.report = name, report
-        self.model = copy.copy(model)
-        self.model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-        self.flex = Flexures(self.model)
-        self.file_methods = tuple(r.method for r in self.flex.records)
-        self.reader = PoseReader(self.model, body_map, items, frame)
+        self.body_map, self.items, self.frame_body = body_map, items, frame
+        self.spec = spec  # what the model compiles from: plugin elements change method there (None: unknown)
         self.state = {k: np.asarray(v, dtype=float).copy() for k, v in state.items() if v is not None}
-        self.data = mujoco.MjData(self.model)
-        self._element_bodies = [
-            {int(self.model.site_bodyid[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, s)])
-             for s in site_names(name_)} for name_ in self.flex.names
-        ]  # fmt: skip
+        self._models = {}  # method of the plugin elements (None: as in the file) -> (model, flex, reader, data)
+        self._key = None
+        self._use(None, model)
+        self.file_methods = tuple(r.method for r in self.flex.records)
+        self.kinds = self.flex.kinds
+        self._element_bodies = [{int(b) for b in bodies} for bodies in self.flex.body_ids]
+
+    def _use(self, key, model=None):
+        """Make the model whose plugin elements use method ``key`` (None: the file's) the current one."""
+        if key not in self._models:
+            model = copy.copy(model if model is not None else self._compiled(key))
+            model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+            model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+            flex = Flexures(model)
+            self._models[key] = (model, flex, PoseReader(model, self.body_map, self.items, self.frame_body),
+                                 mujoco.MjData(model))  # fmt: skip
+        self.model, self.flex, self.reader, self.data = self._models[key]
+        self._key = key
+
+    def _compiled(self, method):
+        spec = copy_spec(self.spec)
+        edit_elements(spec, [n for n, k in zip(self.flex.names, self.kinds, strict=True) if k == "plugin"],
+                      method=method)  # fmt: skip
+        return spec.compile()
+
+    def method_switch_problem(self, methods) -> str | None:
+        """Why this model cannot run ``methods`` (its plugin elements change method only in a spec), or None."""
+        plugin = [m for m, k in zip(self.file_methods, self.kinds, strict=True) if k == "plugin"]
+        if self.spec is None and any(m != f for m in methods for f in plugin):
+            return (
+                f"{self.name}: its elements are mjflex.flexure plugin instances, whose method is part of the model: "
+                "the study compiles a copy per method from the MJCF file or MjSpec, which it was not given (an "
+                "MjModel); pass the file's path or the MjSpec, or --methods/methods= the file's own method"
+            )
+        return None
 
     @property
     def has_flexures(self) -> bool:
@@ -131,11 +157,18 @@ class Sim:
         return "/".join(sorted(set(self.file_methods)))
 
     def configure(self, integrator, method, h):
-        """Set the integrator, every element's method (None: as in the file) and the time step."""
+        """Set the integrator, every element's method (None: as in the file) and the time step.
+
+        Text records switch at run time; plugin elements switch with a copy of the model compiled
+        from the spec with that method (built once per method).
+        """
+        plugin = [f for f, k in zip(self.file_methods, self.kinds, strict=True) if k == "plugin"]
+        self._use(method if method is not None and any(f != method for f in plugin) else None)
         self.model.opt.integrator = getattr(mujoco.mjtIntegrator, INTEGRATOR_ENUMS[integrator])
         self.model.opt.timestep = h
-        for name, file_method in zip(self.flex.names, self.file_methods, strict=True):
-            self.flex.set_method(name, method or file_method)
+        for name, file_method, kind in zip(self.flex.names, self.file_methods, self.kinds, strict=True):
+            if kind == "record":
+                self.flex.set_method(name, method or file_method)
 
     def reset(self):
         d = self.data

@@ -10,8 +10,8 @@ import mujoco
 import numpy as np
 
 from ...core import validation
-from ...mj import Flexures, ModelError
-from ...mj.schema import site_names
+from ...mj import Flexures, ModelError, variant
+from ...mj.convert import copy_spec
 from ...mj.variant import Variant
 from ._metrics import TrackedItem, pose_matrix
 
@@ -43,9 +43,9 @@ def load(model):
         name = model.names[: model.names.index(b"\x00")].decode() or "model"
         return model, name, model
     if isinstance(model, mujoco.MjSpec):
-        source = model.copy()
+        source = copy_spec(model)
         try:
-            return model.copy().compile(), model.modelname or "model", source
+            return copy_spec(model).compile(), model.modelname or "model", source
         except ValueError as exc:
             raise StudyError(f"the spec does not compile: {exc}") from None
     path = os.fspath(model)
@@ -57,6 +57,23 @@ def load(model):
         raise StudyError(f"MuJoCo cannot load {path!r}: {exc}") from None
 
 
+def source_spec_of(source, flex):
+    """An ``MjSpec`` of the study's source when it holds plugin elements (their method is set there), else None.
+
+    None too for an ``MjModel`` whose file MuJoCo no longer keeps (``mj_saveLastXML``).
+    """
+    if "plugin" not in flex.kinds:
+        return None
+    if isinstance(source, mujoco.MjSpec):
+        return copy_spec(source)
+    if isinstance(source, mujoco.MjModel):
+        try:
+            return variant.source_spec(source)
+        except TypeError:
+            return None
+    return mujoco.MjSpec.from_file(os.fspath(source))
+
+
 def flexures_of(model, name):
     try:
         flex = Flexures(model)
@@ -64,9 +81,9 @@ def flexures_of(model, name):
         raise StudyError(f"{name}: {exc}") from None
     if not len(flex):
         raise StudyError(
-            f'{name} has no mjflex elements (no <text name="mjflex:..."> records with their sites), so there is '
-            "nothing to study: the study compares ways of simulating flexures. Add elements as described in "
-            "docs/reference/mjcf_schema.md or with mjflex.add_flexure, then run it again."
+            f'{name} has no mjflex elements (no mjflex.flexure plugin instances, no <text name="mjflex:..."> records '
+            "with their sites), so there is nothing to study: the study compares ways of simulating flexures. Add "
+            "elements as described in docs/reference/mjcf_schema.md or with mjflex.add_flexure, then run it again."
         )
     return flex
 
@@ -129,7 +146,7 @@ def default_frame(model, flex):
     the rigid motion of the whole (ARCADE spins at 105 rad/s); for a grounded mechanism the
     world frame already does.
     """
-    sites = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) for e in flex.names for s in site_names(e)]
+    sites = [int(s) for pair in flex.site_ids for s in pair]
     if any(model.body_weldid[model.site_bodyid[s]] == 0 for s in sites):
         return None
     tops = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0 and model.body_dofnum[b] > 0]

@@ -15,7 +15,16 @@ from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._options import METHODS, check_options
 from ._result import Limit, Reference, Row, StudyResult
 from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
-from ._scene import StudyError, build_variant, flexures_of, initial_state, load, tracked_items, variant_state
+from ._scene import (
+    StudyError,
+    build_variant,
+    flexures_of,
+    initial_state,
+    load,
+    source_spec_of,
+    tracked_items,
+    variant_state,
+)
 from ._stability import MAX_HALVINGS, MAX_NV, limiting_mode, linear_limit, linearization, perturbation
 from .variants import DEFAULT_VARIANTS
 
@@ -320,7 +329,7 @@ class _Study:
                 limit.largest_stable = h
 
 
-def _variant_sims(entries, source, src, data0, items, frame, result):
+def _variant_sims(entries, source, src, data0, items, frame, result, methods):
     sims = []
     for entry in entries:
         try:
@@ -336,12 +345,16 @@ def _variant_sims(entries, source, src, data0, items, frame, result):
                 result.notes.append(f"variant name {v.name!r} is reserved or repeated; that variant was left out")
                 continue
             try:
-                sims.append(
-                    Sim(v.name, v.model, v.body_map, variant_state(v, src, data0), items, frame, report=v.report)
-                )
+                sim = Sim(v.name, v.model, v.body_map, variant_state(v, src, data0), items, frame, report=v.report,
+                          spec=v.spec)  # fmt: skip
             except (ValueError, KeyError) as exc:
                 result.notes.append(f"variant {v.name!r} left out: {exc}")
                 continue
+            problem = sim.method_switch_problem(methods)
+            if problem:
+                result.notes.append(f"variant {v.name!r} left out: {problem}")
+                continue
+            sims.append(sim)
             result.variants[v.name] = v.report
     return sims
 
@@ -402,7 +415,7 @@ class _Scene:
 
 
 def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps, step_count, max_step, min_step,
-           samples, frequencies, **_):  # fmt: skip
+           samples, frequencies, methods, **_):  # fmt: skip
     """Load and check the model, its initial state and tracked items, and plan the steps (nothing runs)."""
     src, result.model, source = load(model)
     flex = flexures_of(src, result.model)
@@ -410,7 +423,10 @@ def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps
                                                        qvel=qvel)  # fmt: skip
     items, frame_body = tracked_items(src, flex, result.model, track, frame)
     result.frame, result.tracked = frame_body or "the world", [i.label for i in items]
-    full = Sim("full", src, None, state, items, frame_body)
+    full = Sim("full", src, None, state, items, frame_body, spec=source_spec_of(source, flex))
+    problem = full.method_switch_problem(methods)
+    if problem:
+        raise StudyError(problem)
     result.model_setting = {"integrator": integrator_name(src), "timestep": float(src.opt.timestep),
                             "method": full.methods_label(None)}  # fmt: skip
     lin = linearized_frequencies(full.model, full.flex, state["qpos"], ctrl=state["ctrl"], act=state["act"])
@@ -432,7 +448,8 @@ def _run(result, scene, bar, *, methods, integrators, steps, variants, repeat, b
                  clock=clock, bar=bar)  # fmt: skip
     ctx.reference(tol=reference_tol, max_refinements=max_refinements, start_step=reference_step)
     entries = DEFAULT_VARIANTS if variants is None else variants
-    sims = [full] + _variant_sims(entries, scene.source, scene.src, scene.data0, scene.items, scene.frame, result)
+    sims = [full] + _variant_sims(entries, scene.source, scene.src, scene.data0, scene.items, scene.frame, result,
+                                  methods)  # fmt: skip
     groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
     bar.total = bar.n + groups * (len(plan.grid) + 5) + 1 + max(1, repeat)  # ~3 bisection, 2 perturbed runs a group
     bar.refresh()

@@ -23,12 +23,9 @@ def arcade_edit(spec, leaf_scale=1.0, beta=2e-6):
     """Scale the 12 leaf springs' stiffness by ``leaf_scale``; damping ``B = beta K`` [s] for all 48 flexures."""
     if not (leaf_scale > 0 and beta >= 0):
         raise ValueError(f"leaf_scale must be > 0 and beta >= 0; got {leaf_scale!r}, {beta!r}")
-    from ...mj import schema
+    from ...mj.convert import spec_elements
 
-    for text in spec.texts:
-        if not text.name.startswith(schema.PREFIX):
-            continue
-        element = text.name[len(schema.PREFIX) :]
+    for element in [e.name for e in spec_elements(spec)]:  # text records or plugin instances alike
         K, _ = flexure_matrices(spec, element)
         if element.startswith("leaf_"):
             K = leaf_scale * K
@@ -55,15 +52,11 @@ def first_frequency(model, flex, data):
 
 
 def arcade_recipe() -> Recipe:
-    """The recipe on ``models/arcade.xml`` (or the model built in memory, as text)."""
-    from ..cli import REPO_MODELS
+    """The recipe on ``models/arcade.xml`` (or the model built in memory, as text: ``cli.arcade_source``)."""
+    from ..cli import arcade_source
 
-    path = os.path.join(REPO_MODELS, "arcade.xml")
-    if not os.path.exists(path):
-        from ..arcade import build_arcade_spec
-
-        path = build_arcade_spec().to_xml()
-    return Recipe(path, arcade_edit, keyframe="paper_run")
+    source, _ = arcade_source()
+    return Recipe(source if isinstance(source, str) else source.to_xml(), arcade_edit, keyframe="paper_run")
 
 
 def make_executor(kind, workers):

@@ -6,7 +6,6 @@ never shipped.
 """
 
 import inspect
-import json
 import os
 import pickle
 from collections.abc import Callable
@@ -171,13 +170,14 @@ def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
     Parameters
     ----------
     spec : mujoco.MjSpec
-        A spec whose text record ``mjflex:<element>`` holds the element.
+        A spec holding the element, as a text record or an ``mjflex.flexure`` plugin instance
+        (it stays in its form).
     element : str
         The element's name.
     K, B : array_like, optional
         New 6x6 (or 3x3 planar) matrices, or their diagonals, in the element frame, rows
-        ``[rotation; translation]``, SI units; validated when the model's
-        :class:`mjflex.Flexures` is built. ``B`` may be 0-size (``[]``) to remove damping.
+        ``[rotation; translation]``, SI units; checked here by the record's rules (ValueError
+        naming the element). ``B`` may be 0-size (``[]``) to remove damping.
 
     Examples
     --------
@@ -196,21 +196,17 @@ def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
     >>> print(K2[2, 2], B2[2, 2])
     2.0 0.0001
     """
-    from ...mj import schema
+    from ...mj import convert, schema
 
-    text = spec.text(schema.PREFIX + element)
-    if text is None:
-        names = [t.name[len(schema.PREFIX) :] for t in spec.texts if t.name.startswith(schema.PREFIX)]
-        raise KeyError(f"no flexure {element!r} in the spec; its flexures are {names}")
-    payload = json.loads(text.data)
-    for key, value in (("K", K), ("B", B)):
-        if value is not None:
-            arr = np.asarray(value, dtype=float)
-            if key == "B" and arr.size == 0:
-                payload.pop("B", None)
-            else:
-                payload[key] = arr.tolist()
-    text.data = json.dumps(payload)
+    record = convert.element_record(spec, element)  # KeyError naming close matches
+    if K is not None:
+        record.K = schema.element_matrix(K, f"K of flexure {element!r}")
+    if B is not None:
+        arr = np.asarray(B, dtype=float)
+        record.B = None if arr.size == 0 else schema.element_matrix(B, f"B of flexure {element!r}")
+        if arr.size == 0:
+            record.viscous = True
+    convert.write_record(spec, element, record)
 
 
 def flexure_matrices(spec: mujoco.MjSpec, element: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -219,7 +215,7 @@ def flexure_matrices(spec: mujoco.MjSpec, element: str) -> tuple[np.ndarray, np.
     Parameters
     ----------
     spec : mujoco.MjSpec
-        A spec whose text record ``mjflex:<element>`` holds the element.
+        A spec that holds the element as a text record or an ``mjflex.flexure`` plugin instance.
     element : str
         The element's name.
 
@@ -245,10 +241,7 @@ def flexure_matrices(spec: mujoco.MjSpec, element: str) -> tuple[np.ndarray, np.
     >>> print(K.diagonal(), B)
     [2.e+00 2.e+00 1.e+00 1.e+04 1.e+04 1.e+04] None
     """
-    from ...mj import schema
+    from ...mj import convert
 
-    text = spec.text(schema.PREFIX + element)
-    if text is None:
-        raise KeyError(f"no flexure {element!r} in the spec")
-    record = schema.parse_text(element, text.data)
+    record = convert.element_record(spec, element)  # KeyError naming close matches
     return record.K, record.B
