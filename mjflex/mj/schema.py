@@ -206,6 +206,9 @@ class FlexureRecord:
         Order of the potential (2: quadratic).
     site : str or None
         The site that gives the element frame, if the element was placed at one.
+    strain_scale : float or None
+        Full scale of the element's strain colour in MuJoCo's viewer (bending strain, or rotation
+        in rad without ``strain_per_radian``); None: the default (``DEFAULT_STRAIN_SCALE``).
 
     Examples
     --------
