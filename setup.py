@@ -82,7 +82,7 @@ def _cflags():
     -fno-math-errno so that sqrt is one instruction. No -march: the library must run on any x86-64."""
     if sys.platform == "win32":
         return ["/O2"]
-    return ["-O3", "-std=c11", "-fexceptions", "-fno-math-errno", "-Wall"]
+    return ["-O3", "-std=c11", "-fexceptions", "-fno-math-errno", "-ffp-contract=off", "-Wall"]
 
 
 setup(
