@@ -90,7 +90,7 @@ setup(
         Extension(
             "mjflex.native.libmjflex",
             sources=SOURCES,
-            depends=[f.replace(".c", ".h") for f in SOURCES if os.path.exists(f.replace(".c", ".h"))],
+            depends=sorted(os.path.join(NATIVE, f) for f in os.listdir(NATIVE) if f.endswith(".h")),
             extra_compile_args=_cflags(),
             optional=True,
         )

@@ -16,11 +16,12 @@ static const struct {
   const char* name;
   size_t offset;
 } FIELDS[] = {
-    FIELD(K),        FIELD(B),        FIELD(R0),       FIELD(p0),       FIELD(inv_mass), FIELD(inv_inertia),
-    FIELD(site_a),   FIELD(site_b),   FIELD(body_a),   FIELD(body_b),   FIELD(method),   FIELD(enabled),
-    FIELD(viscous),  FIELD(offset),   FIELD(free_a),   FIELD(free_b),   FIELD(chain_a0), FIELD(chain_a1),
-    FIELD(chain_b0), FIELD(chain_b1), FIELD(terms_lo), FIELD(terms_hi), FIELD(terms_top), FIELD(kstruct),
-    FIELD(bstruct),  FIELD(qa),       FIELD(qb),
+    FIELD(site_a),   FIELD(site_b),   FIELD(body_a),   FIELD(body_b),    FIELD(method),   FIELD(enabled),
+    FIELD(viscous),  FIELD(offset),   FIELD(free_a),   FIELD(free_b),    FIELD(chain_a0), FIELD(chain_a1),
+    FIELD(chain_b0), FIELD(chain_b1), FIELD(terms_lo), FIELD(terms_hi),  FIELD(terms_top), FIELD(kstruct),
+    FIELD(bstruct),  FIELD(qa),       FIELD(qb),       FIELD(p0),        FIELD(lever_a),  FIELD(lever_b),
+    FIELD(inv_mass), FIELD(inv_inertia), FIELD(kdiag), FIELD(bdiag),     FIELD(K),        FIELD(B),
+    FIELD(R0),
 };
 
 // byte offset of a field of mjfxElement (-1: no such field); sizeof with name NULL

@@ -42,7 +42,7 @@ int mjfx_lanes_available(int lanes) {
 #if MJFX_HAVE_AVX2_BUILD
   if (lanes == 4) {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2");
+    return __builtin_cpu_supports("avx2") != 0;
   }
 #endif
   return 0;
@@ -56,14 +56,19 @@ int mjfx_set_lanes(int lanes) {
   return previous;
 }
 
-int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
-                  const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
-                  mjfxScan* scan) {
+int mjfx_lanes(void) {
   int lanes = atomic_load_explicit(&g_lanes, memory_order_relaxed);
   if (!lanes) {
     mjfx_set_lanes(0);
     lanes = atomic_load(&g_lanes);
   }
+  return lanes;
+}
+
+int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
+                  const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
+                  mjfxScan* scan) {
+  int lanes = mjfx_lanes();
   Evaluate run = mjfx_evaluate_lanes2;
 #if MJFX_HAVE_AVX2_BUILD
   if (lanes == 4) run = mjfx_evaluate_lanes4;
@@ -105,6 +110,14 @@ void mjfx_element_prepare(const mjModel* m, mjfxElement* e) {
   }
   e->kstruct = mjfx_matrix_structure(e->K);
   e->bstruct = mjfx_matrix_structure(e->B);
+  for (int i = 0; i < 6; i++) e->kdiag[i] = e->K[7 * i], e->bdiag[i] = e->B[7 * i];
+  double R[9];
+  mjfx_rot_from_quat(e->qb, R);
+  const double *pa = m->site_pos + 3 * e->site_a, *pb = m->site_pos + 3 * e->site_b, *p0 = e->p0;
+  for (int i = 0; i < 3; i++) {
+    e->lever_a[i] = pa[i];
+    e->lever_b[i] = e->offset ? pb[i] - (R[3 * i] * p0[0] + R[3 * i + 1] * p0[1] + R[3 * i + 2] * p0[2]) : pb[i];
+  }
 }
 
 int mjfx_offset_is_identity(const double R0[9], const double p0[3]) {

@@ -28,16 +28,19 @@
 #define KIND_FREE_A 256
 #define KIND_FREE_B 512
 
-EV_INLINE int kind_of(const mjfxElement* e, int spring_on, int damper_on, int method) {
-  return method | (spring_on ? e->kstruct : MJFX_ZERO) << 1 | e->bstruct << 3 | (damper_on & e->viscous) << 5 |
+// the kind of an element (its method, or the twist's for the twist coordinates query)
+EV_INLINE int kind_of(const mjfxElement* e, int spring_on, int damper_on, int coords) {
+  return (coords ? MJFX_TWIST : e->method) | (spring_on ? e->kstruct : MJFX_ZERO) << 1 | e->bstruct << 3 |
+         (damper_on & e->viscous) << 5 |
          e->offset << 6 | (spring_on & (e->terms_hi > e->terms_lo)) << 7 | (e->free_a >= 0) << 8 |
          (e->free_b >= 0) << 9;
 }
 
 // A group's results, one column per lane: the wrench on body B (moment about pb, world axes), pb,
 // the body-frame moments of free bodies A and B (their rotational dofs' generalized forces), the
-// power, and the sum of the wrench and power (not finite: something is not).
-enum { R_M = 0, R_F = 3, R_PB = 6, R_TA = 9, R_TB = 12, R_POWER = 15, R_SUM = 16, R_ROWS = 17 };
+// power, the sum of the wrench and power (not finite: something is not), and the acceleration the
+// element alone gives its bodies (for the divergence scan).
+enum { R_M = 0, R_F = 3, R_PB = 6, R_TA = 9, R_TB = 12, R_POWER = 15, R_SUM = 16, R_ACCEL = 17, R_ROWS = 18 };
 typedef struct {
   double row[R_ROWS][MJFX_LANES];
 } Results;
@@ -53,40 +56,42 @@ EV_INLINE void put3(Results* r, int row, mjfxV3 v) {
 // The pose of each lane's element: the relative pose (q_ab with w >= 0, p_ab) of frame b*, the rest
 // offset removed (X_Wb* = X_Wb X_ab0^-1), seen from frame a, and frame b*'s world pose (Rb, pb). The
 // relative quaternion comes from MuJoCo's body quaternions and the sites' constant local orientations
-// (as MuJoCo composes site frames), without a matrix-to-quaternion conversion.
+// (as MuJoCo composes site frames), without a matrix-to-quaternion conversion. Also kept: qa and qb,
+// the local orientations of frames a and b* in their bodies.
+typedef struct {
+  mjfxVec qa[4], qb[4];
+} Local;
+
 EV_INLINE void group_pose(const mjData* d, const mjfxElement* const e[MJFX_LANES], int offset, mjfxLanes* x,
-                          mjfxVec Rb[9], mjfxV3* pb) {
+                          mjfxVec Rb[9], mjfxV3* pb, Local* local) {
   const double *xqa[MJFX_LANES], *xqb[MJFX_LANES], *qa[MJFX_LANES], *qb[MJFX_LANES];
   for (int l = 0; l < MJFX_LANES; l++) {
     xqa[l] = d->xquat + 4 * e[l]->body_a, xqb[l] = d->xquat + 4 * e[l]->body_b;
     qa[l] = e[l]->qa, qb[l] = e[l]->qb;
   }
-  mjfxVec A[4], Q[4], wa[4], wb[4];
-  for (int i = 0; i < 4; i++) A[i] = MJFX_GATHER(xqa, i), Q[i] = MJFX_GATHER(qa, i);
-  q4_mul(A, Q, wa);
-  for (int i = 0; i < 4; i++) A[i] = MJFX_GATHER(xqb, i), Q[i] = MJFX_GATHER(qb, i);
-  q4_mul(A, Q, wb);
+  mjfxVec A[4], wa[4], wb[4];
+  for (int i = 0; i < 4; i++) A[i] = MJFX_GATHER(xqa, i), local->qa[i] = MJFX_GATHER(qa, i);
+  q4_mul(A, local->qa, wa);
+  for (int i = 0; i < 4; i++) A[i] = MJFX_GATHER(xqb, i), local->qb[i] = MJFX_GATHER(qb, i);
+  q4_mul(A, local->qb, wb);
   q4_conj_mul(wa, wb, x->q);
   mjfxVec sign = x->q[0];
   for (int l = 0; l < MJFX_LANES; l++) MJFX_LANE(sign, l) = MJFX_LANE(x->q[0], l) < 0.0 ? -1.0 : 1.0;
   for (int i = 0; i < 4; i++) x->q[i] = sign * x->q[i];
-  const double *sb[MJFX_LANES], *Rs[MJFX_LANES], *pa[MJFX_LANES], *Ra[MJFX_LANES];
-  for (int l = 0; l < MJFX_LANES; l++) {
-    sb[l] = d->site_xpos + 3 * e[l]->site_b, Rs[l] = d->site_xmat + 9 * e[l]->site_b;
-    pa[l] = d->site_xpos + 3 * e[l]->site_a, Ra[l] = d->site_xmat + 9 * e[l]->site_a;
-  }
+  const double *sb[MJFX_LANES], *pa[MJFX_LANES];
+  for (int l = 0; l < MJFX_LANES; l++) sb[l] = d->site_xpos + 3 * e[l]->site_b, pa[l] = d->site_xpos + 3 * e[l]->site_a;
   if (offset) {
     const double* p0[MJFX_LANES];
     for (int l = 0; l < MJFX_LANES; l++) p0[l] = e[l]->p0;
     q4_rot(wb, Rb);
     *pb = v3_sub(v3_gather(sb), v3_rot(Rb, v3_gather(p0)));
   } else {
+    const double* Rs[MJFX_LANES];
+    for (int l = 0; l < MJFX_LANES; l++) Rs[l] = d->site_xmat + 9 * e[l]->site_b;
     for (int i = 0; i < 9; i++) Rb[i] = MJFX_GATHER(Rs, i);
     *pb = v3_gather(sb);
   }
-  mjfxVec RA[9];
-  for (int i = 0; i < 9; i++) RA[i] = MJFX_GATHER(Ra, i);
-  x->p = v3_rot_t(RA, v3_sub(*pb, v3_gather(pa)));
+  x->p = q4_apply(wa, v3_sub(*pb, v3_gather(pa)), 1);  // R_Wa^T (pb - pa)
 }
 
 // Velocity of frame b* (origin pb, axes Rb) relative to frame a in frame b*'s axes: the bodies' angular
@@ -107,28 +112,20 @@ EV_INLINE void group_velocity(const mjModel* m, const mjData* d, const mjfxEleme
   x->v = v3_rot_t(Rb, v3_sub(vb, va));
 }
 
-// body-frame moment (about the body's origin) of a wrench (mo about pb, f; world axes) on each lane's body
-EV_INLINE mjfxV3 group_torque(const mjData* d, const int body[MJFX_LANES], mjfxV3 mo, mjfxV3 f, mjfxV3 pb) {
-  const double *o[MJFX_LANES], *R[MJFX_LANES];
-  for (int l = 0; l < MJFX_LANES; l++) o[l] = d->xpos + 3 * body[l], R[l] = d->xmat + 9 * body[l];
-  mjfxVec RR[9];
-  for (int i = 0; i < 9; i++) RR[i] = MJFX_GATHER(R, i);
-  return v3_rot_t(RR, v3_add(mo, v3_cross(v3_sub(pb, v3_gather(o)), f)));
-}
-
 // Wrenches of a group of elements of one kind (lanes past the group repeat its last element) into r.
 EV_INLINE void group_wrench(const mjModel* m, const mjData* d, const mjfxElement* const e[MJFX_LANES], int kind,
                             int method, const int* exps, const double* coefs, Results* r) {
   mjfxLanes x;
   mjfxVec Rb[9];
   mjfxV3 pb;
-  group_pose(d, e, kind & KIND_OFFSET, &x, Rb, &pb);
+  Local local;
+  group_pose(d, e, kind & KIND_OFFSET, &x, Rb, &pb, &local);
   x.method = method, x.kstruct = (kind >> 1) & 3, x.bstruct = (kind >> 3) & 3;
   x.viscous = (kind & KIND_VISCOUS) != 0;
   x.has_terms = (kind & KIND_TERMS) != 0;
   mjfxTerms terms[MJFX_LANES];
   for (int l = 0; l < MJFX_LANES; l++) {
-    x.K[l] = e[l]->K, x.B[l] = e[l]->B;
+    x.K[l] = e[l]->K, x.B[l] = e[l]->B, x.Kd[l] = e[l]->kdiag, x.Bd[l] = e[l]->bdiag;
     if (x.has_terms) {
       terms[l].exps = exps + MJFX_TERM_COLUMNS * e[l]->terms_lo, terms[l].coefs = coefs + e[l]->terms_lo;
       terms[l].n = e[l]->terms_hi - e[l]->terms_lo, terms[l].top = e[l]->terms_top;
@@ -146,14 +143,27 @@ EV_INLINE void group_wrench(const mjModel* m, const mjData* d, const mjfxElement
   mjfxV3 mo = v3_rot(Rb, mb), f = v3_rot(Rb, fb);  // to world axes
   put3(r, R_M, mo), put3(r, R_F, f), put3(r, R_PB, pb), put(r, R_POWER, power);
   put(r, R_SUM, mo.x + mo.y + mo.z + f.x + f.y + f.z + power);
-  int body[MJFX_LANES];
+  // the acceleration the element alone gives its bodies (a bound: largest component / smallest inertia)
+  const double *im[MJFX_LANES], *ii[MJFX_LANES], *sp[MJFX_LANES];
+  for (int l = 0; l < MJFX_LANES; l++) im[l] = &e[l]->inv_mass, ii[l] = &e[l]->inv_inertia;
+  put(r, R_ACCEL, mjfx_max(v3_max_abs(f) * MJFX_GATHER(im, 0), v3_max_abs(mo) * MJFX_GATHER(ii, 0)));
+  // Free bodies: the moments about their origins in their own axes (their rotational dofs'
+  // generalized forces), from the wrench in frame b*: R_WB^T R_Wb* = R(qb), and the lever arm
+  // R_WB^T (pb - x_B) is the constant position of b* in B; likewise for A, where
+  // R_WA^T R_Wb* = R(qa q_ab) and R_WA^T (pb - x_A) = R(qa) p_ab + (site a's position in A).
   if (kind & KIND_FREE_B) {
-    for (int l = 0; l < MJFX_LANES; l++) body[l] = e[l]->body_b;
-    put3(r, R_TB, group_torque(d, body, mo, f, pb));
+    mjfxVec Rl[9];
+    q4_rot(local.qb, Rl);
+    for (int l = 0; l < MJFX_LANES; l++) sp[l] = e[l]->lever_b;
+    put3(r, R_TB, v3_add(v3_rot(Rl, mb), v3_cross(v3_gather(sp), v3_rot(Rl, fb))));
   }
   if (kind & KIND_FREE_A) {
-    for (int l = 0; l < MJFX_LANES; l++) body[l] = e[l]->body_a;
-    put3(r, R_TA, group_torque(d, body, mo, f, pb));
+    mjfxVec qab[4], Rl[9];
+    q4_mul(local.qa, x.q, qab);
+    q4_rot(qab, Rl);
+    for (int l = 0; l < MJFX_LANES; l++) sp[l] = e[l]->lever_a;
+    mjfxV3 lever = v3_add(q4_apply(local.qa, x.p, 0), v3_gather(sp));
+    put3(r, R_TA, v3_add(v3_rot(Rl, mb), v3_cross(lever, v3_rot(Rl, fb))));
   }
 }
 
@@ -175,10 +185,11 @@ EV_NOINLINE void group_queries(const mjData* d, const mjfxElement* const e[MJFX_
   mjfxVec Rb[9];
   mjfxV3 pb;
   mjfxTerms terms[MJFX_LANES];
-  group_pose(d, e, kind & KIND_OFFSET, &x, Rb, &pb);
+  Local local;
+  group_pose(d, e, kind & KIND_OFFSET, &x, Rb, &pb, &local);
   x.method = kind & KIND_METHOD, x.kstruct = (kind >> 1) & 3, x.has_terms = (kind & KIND_TERMS) != 0;
   for (int l = 0; l < MJFX_LANES; l++) {
-    x.K[l] = e[l]->K;
+    x.K[l] = e[l]->K, x.Kd[l] = e[l]->kdiag;
     terms[l].exps = exps + MJFX_TERM_COLUMNS * e[l]->terms_lo, terms[l].coefs = coefs + e[l]->terms_lo;
     terms[l].n = e[l]->terms_hi - e[l]->terms_lo, terms[l].top = e[l]->terms_top;
     x.terms[l] = terms + l;
@@ -226,12 +237,11 @@ int MJFX_EVALUATE(const mjModel* m, const mjData* d, const mjfxElement* el, int 
       continue;
     }
     // the group: consecutive enabled elements of one kind, up to MJFX_LANES
-    int method = coords ? MJFX_TWIST : first->method;
-    int kind = kind_of(first, spring_on, damper_on, method), count = 1;
+    int kind = kind_of(first, spring_on, damper_on, coords), count = 1, method = kind & KIND_METHOD;
     const mjfxElement* e[MJFX_LANES];
     e[0] = first;
     while (count < MJFX_LANES && i + count < n && el[i + count].enabled &&
-           kind_of(el + i + count, spring_on, damper_on, method) == kind) {
+           kind_of(el + i + count, spring_on, damper_on, coords) == kind) {
       e[count] = el + i + count;
       count++;
     }
@@ -255,12 +265,7 @@ int MJFX_EVALUATE(const mjModel* m, const mjData* d, const mjfxElement* el, int 
       }
       double mo[3] = {r.row[R_M][l], r.row[R_M + 1][l], r.row[R_M + 2][l]};
       double f[3] = {r.row[R_F][l], r.row[R_F + 1][l], r.row[R_F + 2][l]};
-      if (scan) {  // the acceleration this element alone gives its bodies (a bound: max force / min mass)
-        double fm = fmax(fmax(fabs(f[0]), fabs(f[1])), fabs(f[2]));
-        double mm = fmax(fmax(fabs(mo[0]), fabs(mo[1])), fabs(mo[2]));
-        double accel = fmax(fm * t->inv_mass, mm * t->inv_inertia);
-        if (accel > scan->accel) scan->accel = accel, scan->largest = i;
-      }
+      if (scan && r.row[R_ACCEL][l] > scan->accel) scan->accel = r.row[R_ACCEL][l], scan->largest = i;
       if (mode & MJFX_WRENCH) {
         double* o = out6 + 6 * i;
         o[0] = mo[0], o[1] = mo[1], o[2] = mo[2], o[3] = f[0], o[4] = f[1], o[5] = f[2];

@@ -63,37 +63,41 @@ MJFX_HOT mjfxVec mjfx_all(double a) {
 // The scalar functions of the angle alpha of a unit quaternion (w >= 0, vector part of squared
 // norm n2): s = alpha / n, the factor from the vector part to the rotation vector, and the twist
 // maps' c(alpha) = (1 - (alpha/2) cot(alpha/2)) / alpha^2 and g(alpha) = c'(alpha) / alpha.
-// Below about 11 degrees (n < w / 10: mjfx_angle_small) all three are series (mjfx_angle_series),
-// which the lanes evaluate together; above, each lane on its own (mjfx_angle_coefs: atan2, and
-// series or closed forms in alpha, flexure_math.c). One element gives the same bits either way.
+// Below about 11 degrees (n < w / 10: mjfx_angle_small) all three are series in
+// rho = (n / w)^2 = tan^2(alpha / 2) (MJFX_ANGLE_SERIES), which the lanes evaluate together; above,
+// each lane on its own (mjfx_angle_coefs: atan2, then series in alpha^2 or closed forms,
+// flexure_math.c). One element gives the same bits either way.
 void mjfx_angle_coefs(double n2, double w, double* s, double* c, double* g);
 void mjfx_jl_inv_coefs(double a, double cos_h, double sin_h, double* c, double* g);
+// Series in rho < 0.01 (flexure_math.c, exact rationals; tests/test_native_math.py checks them):
+// atan(r) / r = sum (-rho)^k / (2k + 1) (9 terms), and c, g as functions of rho, from the Taylor
+// series of c and g in alpha^2 (Bernoulli numbers) composed with alpha^2 = 4 atan(r)^2 (8 terms
+// each). Their coefficients are O(1e-3) at most and alternate: term k is below 0.01^k of the
+// first, the first left out (which bounds what is left out) below 2e-18 of it.
 #define MJFX_ODD_TERMS 9
-extern const double mjfx_odd_inv[MJFX_ODD_TERMS];  // 1 / (2k + 1)
-extern const double* const mjfx_jl_c;  // Taylor coefficients of c and g in alpha^2 (mjflex.core._series)
-extern const double* const mjfx_jl_g;
-// terms of the c and g series below the threshold: alpha < 2 atan(0.1), alpha^2 < 0.04, where
-// term k is about (0.04 / 39.5)^k of the first: the 7th is ~1e-21 of it
-#define MJFX_SMALL_CG_TERMS 7
+#define MJFX_SMALL_TERMS 8
+extern const double mjfx_odd_inv[MJFX_ODD_TERMS];
+extern const double mjfx_small_c[MJFX_SMALL_TERMS];
+extern const double mjfx_small_g[MJFX_SMALL_TERMS];
 
 MJFX_HOT int mjfx_angle_small(double n2, double w) {
   return n2 < 0.01 * (w * w);
 }
 
-// s, c, g by their series: s = (2 / w) sum_k (-r^2)^k / (2k + 1), r = n / w < 0.1 (9 terms: the
-// 10th is below 1e-19); c and g in x = alpha^2 = s^2 n^2. Written once for scalars and lanes
-// (MJFX_ANGLE_SERIES), so that both compute the same operations.
-#define MJFX_ANGLE_SERIES(T, n2, w, s, c, g)                                   \
-  do {                                                                          \
-    T zero_ = (T){0}, iw_ = 1.0 / (w), nr2_ = -((n2) * iw_ * iw_), acc_ = zero_ + mjfx_odd_inv[MJFX_ODD_TERMS - 1]; \
-    for (int k_ = MJFX_ODD_TERMS - 2; k_ >= 0; k_--) acc_ = acc_ * nr2_ + mjfx_odd_inv[k_]; \
-    T s_ = 2.0 * iw_ * acc_, x_ = s_ * s_ * (n2);                               \
-    T c_ = zero_ + mjfx_jl_c[MJFX_SMALL_CG_TERMS - 1], g_ = zero_ + mjfx_jl_g[MJFX_SMALL_CG_TERMS - 1]; \
-    for (int k_ = MJFX_SMALL_CG_TERMS - 2; k_ >= 0; k_--) {                    \
-      c_ = c_ * x_ + mjfx_jl_c[k_];                                             \
-      g_ = g_ * x_ + mjfx_jl_g[k_];                                             \
-    }                                                                           \
-    (s) = s_, (c) = c_, (g) = g_;                                               \
+// sum_{k < 8} a[k] z^k by Estrin's scheme (z2 = z^2, z4 = z^4): a short chain of dependent operations
+#define MJFX_ESTRIN8(a, z, z2, z4)                                                                        \
+  ((((a)[0] + (a)[1] * (z)) + ((a)[2] + (a)[3] * (z)) * (z2)) +                                         \
+   (((a)[4] + (a)[5] * (z)) + ((a)[6] + (a)[7] * (z)) * (z2)) * (z4))
+
+// s, c, g by their series, written once for scalars and lanes (T), so that both compute the same
+// operations: s = (2 / w) atan(r) / r, the three polynomials in rho side by side
+#define MJFX_ANGLE_SERIES(T, n2, w, s, c, g)                                                             \
+  do {                                                                                                   \
+    T iw_ = 1.0 / (w), rho_ = (n2) * iw_ * iw_, nrho_ = -rho_, rho2_ = rho_ * rho_, rho4_ = rho2_ * rho2_; \
+    T atan_ = MJFX_ESTRIN8(mjfx_odd_inv, nrho_, rho2_, rho4_) + mjfx_odd_inv[8] * (rho4_ * rho4_);     \
+    (s) = 2.0 * iw_ * atan_;                                                                             \
+    (c) = MJFX_ESTRIN8(mjfx_small_c, rho_, rho2_, rho4_);                                                \
+    (g) = MJFX_ESTRIN8(mjfx_small_g, rho_, rho2_, rho4_);                                                \
   } while (0)
 
 MJFX_HOT void mjfx_angle_series(double n2, double w, double* s, double* c, double* g) {
@@ -138,6 +142,29 @@ MJFX_HOT mjfxV3 v3_rot_t(const mjfxVec R[9], mjfxV3 v) {
   return v3(R[0] * v.x + R[3] * v.y + R[6] * v.z, R[1] * v.x + R[4] * v.y + R[7] * v.z,
             R[2] * v.x + R[5] * v.y + R[8] * v.z);
 }
+#if MJFX_LANES > 1
+typedef long long mjfxMask __attribute__((vector_size(8 * MJFX_LANES)));
+// lane-wise |a| and max(a, b) (a, b not NaN)
+MJFX_HOT mjfxVec mjfx_abs(mjfxVec a) {
+  return (mjfxVec)((mjfxMask)a & 0x7fffffffffffffffLL);
+}
+MJFX_HOT mjfxVec mjfx_max(mjfxVec a, mjfxVec b) {
+  mjfxMask take = a > b;
+  return (mjfxVec)((take & (mjfxMask)a) | (~take & (mjfxMask)b));
+}
+#else
+MJFX_HOT mjfxVec mjfx_abs(mjfxVec a) {
+  return fabs(a);
+}
+MJFX_HOT mjfxVec mjfx_max(mjfxVec a, mjfxVec b) {
+  return a > b ? a : b;
+}
+#endif
+// largest |component|
+MJFX_HOT mjfxVec v3_max_abs(mjfxV3 a) {
+  return mjfx_max(mjfx_max(mjfx_abs(a.x), mjfx_abs(a.y)), mjfx_abs(a.z));
+}
+
 // lane l of a 3-vector into out[3]
 MJFX_HOT void v3_lane(mjfxV3 a, int l, double out[3]) {
   out[0] = MJFX_LANE(a.x, l), out[1] = MJFX_LANE(a.y, l), out[2] = MJFX_LANE(a.z, l);
@@ -166,6 +193,15 @@ MJFX_HOT void q4_conj_mul(const mjfxVec a[4], const mjfxVec b[4], mjfxVec out[4]
   out[0] = w, out[1] = x, out[2] = y, out[3] = z;
 }
 
+// R(q) v and R(q)^T v for a unit quaternion q = (w, u): with t = 2 u x v,
+// R v = v + w t + u x t and R^T v = v - w t + u x t
+MJFX_HOT mjfxV3 q4_apply(const mjfxVec q[4], mjfxV3 v, int inverse) {
+  mjfxV3 u = v3(q[1], q[2], q[3]);
+  mjfxV3 t = v3_scale(mjfx_all(2.0), v3_cross(u, v));
+  mjfxV3 wt = v3_scale(q[0], t);
+  return v3_add(inverse ? v3_sub(v, wt) : v3_add(v, wt), v3_cross(u, t));
+}
+
 // rotation matrix (row-major) of a unit quaternion
 MJFX_HOT void q4_rot(const mjfxVec q[4], mjfxVec R[9]) {
   mjfxVec ww = q[0] * q[0], xx = q[1] * q[1], yy = q[2] * q[2], zz = q[3] * q[3];
@@ -185,6 +221,8 @@ typedef struct {
   mjfxV3 w, v;      // velocity of frame b relative to frame a, frame b axes (when viscous)
   const double* K[MJFX_LANES];  // 36 each, row-major
   const double* B[MJFX_LANES];
+  const double* Kd[MJFX_LANES];  // their diagonals, 6 each (read when diagonal)
+  const double* Bd[MJFX_LANES];
   const mjfxTerms* terms[MJFX_LANES];  // read when has_terms
   int method, kstruct, bstruct, viscous, has_terms;
 } mjfxLanes;
@@ -253,17 +291,17 @@ MJFX_HOT void mjfx_map(int method, const mjfxCoords* k, double sign, mjfxV3 x0, 
   *o1 = v3_add(v3_add(v3_scale(k->w, x1), v3_scale(k->s_d, x0)), v3_scale(sg, c12));
 }
 
-// [y1; y2] = M [a; b] for 6x6 row-major matrices M[l] of the given structure
-MJFX_HOT void mjfx_mat6(const double* const M[MJFX_LANES], int structure, mjfxV3 a, mjfxV3 b, mjfxV3* y1,
-                        mjfxV3* y2) {
+// [y1; y2] = M [a; b] for 6x6 row-major matrices M[l] of the given structure (diagonals D[l])
+MJFX_HOT void mjfx_mat6(const double* const M[MJFX_LANES], const double* const D[MJFX_LANES], int structure,
+                        mjfxV3 a, mjfxV3 b, mjfxV3* y1, mjfxV3* y2) {
   if (structure == MJFX_ZERO) {
     mjfxVec z = mjfx_all(0.0);
     *y1 = *y2 = v3(z, z, z);
     return;
   }
   if (structure == MJFX_DIAGONAL) {
-    *y1 = v3(MJFX_GATHER(M, 0) * a.x, MJFX_GATHER(M, 7) * a.y, MJFX_GATHER(M, 14) * a.z);
-    *y2 = v3(MJFX_GATHER(M, 21) * b.x, MJFX_GATHER(M, 28) * b.y, MJFX_GATHER(M, 35) * b.z);
+    *y1 = v3(MJFX_GATHER(D, 0) * a.x, MJFX_GATHER(D, 1) * a.y, MJFX_GATHER(D, 2) * a.z);
+    *y2 = v3(MJFX_GATHER(D, 3) * b.x, MJFX_GATHER(D, 4) * b.y, MJFX_GATHER(D, 5) * b.z);
     return;
   }
   mjfxVec r[6];
@@ -296,7 +334,7 @@ MJFX_HOT void mjfx_kernel(const mjfxLanes* in, mjfxV3* m, mjfxV3* f, mjfxVec* po
   int method = in->method;
   mjfx_coords(method, in->q, in->p, &k);
   mjfxV3 y1, y2, mb, fb;
-  mjfx_mat6(in->K, in->kstruct, k.e1, k.e2, &y1, &y2);
+  mjfx_mat6(in->K, in->Kd, in->kstruct, k.e1, k.e2, &y1, &y2);
   mjfxVec pwr = mjfx_all(0.0);
   if (in->viscous && in->bstruct != MJFX_ZERO) {
     // rate of the coordinates: Gamma_ab^T V (eq. 58) or Lambda_ab^T V / 2 (eqs 84, 97)
@@ -306,7 +344,7 @@ MJFX_HOT void mjfx_kernel(const mjfxLanes* in, mjfxV3* m, mjfxV3* f, mjfxVec* po
       mjfxVec half = mjfx_all(0.5);
       r1 = v3_scale(half, r1), r2 = v3_scale(half, r2);
     }
-    mjfx_mat6(in->B, in->bstruct, r1, r2, &b1, &b2);
+    mjfx_mat6(in->B, in->Bd, in->bstruct, r1, r2, &b1, &b2);
     pwr = v3_dot(r1, b1) + v3_dot(r2, b2);
     y1 = v3_add(y1, b1), y2 = v3_add(y2, b2);
   }
@@ -349,7 +387,7 @@ MJFX_HOT mjfxVec mjfx_kernel_potential(const mjfxLanes* in) {
   int method = in->method;
   mjfx_coords(method, in->q, in->p, &k);
   mjfxV3 y1, y2;
-  mjfx_mat6(in->K, in->kstruct, k.e1, k.e2, &y1, &y2);
+  mjfx_mat6(in->K, in->Kd, in->kstruct, k.e1, k.e2, &y1, &y2);
   double scale = method == MJFX_TWIST ? 0.5 : 2.0;
   mjfxVec u = mjfx_all(scale) * (v3_dot(k.e1, y1) + v3_dot(k.e2, y2));
   if (in->has_terms) {

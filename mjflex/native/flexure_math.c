@@ -14,21 +14,27 @@
 #define HOT static inline
 #endif
 
-// Taylor coefficients in x = a^2 of c(a) = (1 - (a/2) cot(a/2)) / a^2 and of g(a) = c'(a) / a
-// (mjflex.core._series.JL_INV_COEFFS, JL_INV_RATE_COEFFS, exact to the last digit shown).
-#define NSERIES 12
+// Taylor coefficients in x = a^2 of c(a) = (1 - (a/2) cot(a/2)) / a^2 and of g(a) = c'(a) / a: the
+// first 12 are mjflex.core._series.JL_INV_COEFFS, JL_INV_RATE_COEFFS (exact to the last digit shown),
+// the last 8 exact too, from c_k = (-1)^k B_(2k+2) / (2k+2)!, g_k = 2 (k+1) c_(k+1) (Bernoulli numbers).
+#define NSERIES 20
 static const double JL_C[NSERIES] = {
     0.08333333333333333,    0.001388888888888889,   3.306878306878307e-05,  8.267195767195768e-07,
     2.08767569878681e-08,   5.284190138687493e-10,  1.3382536530684679e-11, 3.3896802963225827e-13,
     8.586062056277845e-15,  2.174868698558062e-16,  5.5090028283602295e-18, 1.3954464685812522e-19,
+    3.534707039629467e-21,  8.953517427037546e-23,  2.267952452337683e-24,  5.744790668872202e-26,
+    1.455172475614865e-27,  3.6859949406653103e-29, 9.336734257095045e-31,  2.36502241570063e-32,
 };
 static const double JL_G[NSERIES] = {
     0.002777777777777778,  0.00013227513227513228, 4.96031746031746e-06,   1.670140559029448e-07,
     5.2841901386874934e-09, 1.6059043836821613e-10, 4.745552414851616e-12,  1.3737699290044552e-13,
     3.914763657404511e-15, 1.1018005656720459e-16, 3.069982230878755e-18,  8.483296895110721e-20,
+    2.327914531029762e-21, 6.350266866545513e-23,  1.7234372006616606e-24, 4.656551921967568e-26,
+    1.2532382798262054e-27, 3.3612243325542163e-29, 8.987085179662393e-31, 2.3962687049928537e-32,
 };
-// below this angle [rad] the series are used (mjflex.core._series.SERIES_THRESHOLD)
-#define SERIES_THRESHOLD 1.0
+// below this angle [rad] the series are used: the closed forms cancel below it (g's by up to 3e-13
+// near 1 rad, the core's threshold mjflex.core._series.SERIES_THRESHOLD; a few 1e-15 from 2.2 rad on)
+#define SERIES_THRESHOLD 2.2
 
 int mjfx_series_coefficients(double* c, double* g, int n) {
   for (int k = 0; k < n && k < NSERIES; k++) {
@@ -66,9 +72,11 @@ int mjfx_matrix_structure(const double M[36]) {
 //------------------------------------------------------------------------------ scalar functions
 
 // Terms of the series that matter at x = a^2: successive coefficients shrink by about
-// 1 / (2 pi)^2, so term k is ~(x / 39.5)^k of the first; the rest are below round-off.
+// 1 / (2 pi)^2, so term k is ~(x / 39.5)^k of the first; the rest are below round-off
+// (the 21st at x = 2.2^2 is 1e-17 of the first).
 HOT int series_terms(double x) {
-  return x < 1e-6 ? 3 : x < 1e-4 ? 4 : x < 1e-3 ? 5 : x < 1e-2 ? 6 : x < 0.1 ? 8 : NSERIES;
+  return x < 1e-6 ? 3 : x < 1e-4 ? 4 : x < 1e-3 ? 5 : x < 1e-2 ? 6 : x < 0.1 ? 8 : x < 1.0 ? 12 : x < 2.56 ? 16
+                                                                                                      : NSERIES;
 }
 
 // c(a) = (1 - (a/2) cot(a/2)) / a^2 and g(a) = c'(a) / a, given cos(a/2) and sin(a/2), 0 <= a < 2 pi
@@ -91,11 +99,17 @@ void mjfx_jl_inv_coefs(double a, double cos_h, double sin_h, double* c, double* 
   *g = dc_dh / (4.0 * h);
 }
 
-// 1 / (2k + 1): the series of atan(r) / r in -r^2
-const double mjfx_odd_inv[MJFX_ODD_TERMS] = {1.0,       1.0 / 3.0,  1.0 / 5.0,  1.0 / 7.0, 1.0 / 9.0,
+// The series of flexure_kernel.h in rho = tan^2(alpha / 2): 1 / (2k + 1), and c, g (exact rationals)
+const double mjfx_odd_inv[MJFX_ODD_TERMS] = {1.0,        1.0 / 3.0,  1.0 / 5.0,  1.0 / 7.0, 1.0 / 9.0,
                                              1.0 / 11.0, 1.0 / 13.0, 1.0 / 15.0, 1.0 / 17.0};
-const double* const mjfx_jl_c = JL_C;
-const double* const mjfx_jl_g = JL_G;
+const double mjfx_small_c[MJFX_SMALL_TERMS] = {
+    1.0 / 12.0,           1.0 / 180.0,          -1.0 / 315.0,           31.0 / 14175.0,
+    -773.0 / 467775.0,    280913.0 / 212837625.0, -2095427.0 / 1915538625.0, 454756559.0 / 488462349375.0,
+};
+const double mjfx_small_g[MJFX_SMALL_TERMS] = {
+    1.0 / 360.0,            1.0 / 1890.0,           -31.0 / 113400.0,     82.0 / 467775.0,
+    -80032.0 / 638512875.0, 183374.0 / 1915538625.0, -55304.0 / 723647925.0, 818343842.0 / 12993098493375.0,
+};
 
 void mjfx_angle_coefs(double n2, double w, double* s, double* c, double* g) {
   if (mjfx_angle_small(n2, w)) {
@@ -223,8 +237,8 @@ double mjfx_terms_eval(int method, const double* z, const mjfxTerms* t, double* 
 
 //------------------------------------------------------------------------------ one element
 
-// an input in every lane
-static void lanes_of(const mjfxInput* in, mjfxLanes* x) {
+// an input in every lane (diag: room for the diagonals of K and B)
+static void lanes_of(const mjfxInput* in, mjfxLanes* x, double diag[12]) {
   const double *q = in->q, *p = in->p;
   for (int i = 0; i < 4; i++) x->q[i] = mjfx_all(q[i]);
   x->p = v3(mjfx_all(p[0]), mjfx_all(p[1]), mjfx_all(p[2]));
@@ -234,14 +248,18 @@ static void lanes_of(const mjfxInput* in, mjfxLanes* x) {
     x->w = v3(mjfx_all(w[0]), mjfx_all(w[1]), mjfx_all(w[2]));
     x->v = v3(mjfx_all(v[0]), mjfx_all(v[1]), mjfx_all(v[2]));
   }
+  for (int i = 0; i < 6; i++) diag[i] = in->K ? in->K[7 * i] : 0.0, diag[6 + i] = in->B ? in->B[7 * i] : 0.0;
   x->has_terms = in->terms && in->terms->n > 0;
-  for (int l = 0; l < MJFX_LANES; l++) x->K[l] = in->K, x->B[l] = in->B, x->terms[l] = in->terms;
+  for (int l = 0; l < MJFX_LANES; l++) {
+    x->K[l] = in->K, x->B[l] = in->B, x->terms[l] = in->terms, x->Kd[l] = diag, x->Bd[l] = diag + 6;
+  }
   x->method = in->method, x->kstruct = in->kstruct, x->bstruct = in->B ? in->bstruct : MJFX_ZERO;
 }
 
 void mjfx_wrench_b(const mjfxInput* in, double m[3], double f[3], double* power) {
   mjfxLanes x;
-  lanes_of(in, &x);
+  double diag[12];
+  lanes_of(in, &x, diag);
   mjfxV3 mv, fv;
   mjfxVec pv;
   mjfx_kernel(&x, &mv, &fv, &pv);
@@ -252,13 +270,15 @@ void mjfx_wrench_b(const mjfxInput* in, double m[3], double f[3], double* power)
 
 double mjfx_potential(const mjfxInput* in) {
   mjfxLanes x;
-  lanes_of(in, &x);
+  double diag[12];
+  lanes_of(in, &x, diag);
   return MJFX_LANE(mjfx_kernel_potential(&x), 0);
 }
 
 void mjfx_coordinates(const mjfxInput* in, double xi[6]) {
   mjfxLanes x;
-  lanes_of(in, &x);
+  double diag[12];
+  lanes_of(in, &x, diag);
   mjfxV3 tau, t;
   mjfx_kernel_twist(&x, &tau, &t);
   v3_lane(tau, 0, xi);
