@@ -20,7 +20,7 @@ these versions, measured interleaved (same-repeat ratios: median, quartiles, min
 * **weld**: the same bodies joined instead by 48 MuJoCo ``weld`` equality constraints at the
   element frames (site-to-site), the native way to make a rigid joint.
 
-The native library evaluates the elements in vector lanes: 4 where the CPU has AVX2, else 2
+The native library evaluates the elements in vector lanes: 4 where the CPU has AVX, else 2
 (``--lanes`` forces a build; the JSON records the lanes used). It also measures the start-up: a
 fresh process from ``import mujoco`` to its first step of the plugin model (no mjflex import:
 ``import mujoco`` loads the plugin), and of the text-record model through ``import mjflex`` and
@@ -261,7 +261,7 @@ def main():
         "--lanes",
         choices=["auto", "2", "4"],
         default="auto",
-        help="vector lanes of the native evaluation: auto (4 with AVX2, else 2), or force 2 or 4",
+        help="vector lanes of the native evaluation: auto (4 with AVX, else 2), or force 2 or 4",
     )
     ap.add_argument("--startup-runs", type=int, default=5, help="fresh processes per start-up measurement (0: skip)")
     add_timing_options(ap, "out/bench_step.json", runs=5)

@@ -3,12 +3,17 @@
 * The functions of the rotation angle: their small-angle series (coefficients exact, re-derived here
   from Bernoulli numbers) and every branch against mpmath, on both sides of each threshold.
 * Elements are evaluated several at once, one per vector lane, and the lane count is chosen per CPU
-  (2 with SSE2, 4 with AVX2): an element's numbers must not depend on its neighbours nor on the lane
+  (2 with SSE2, 4 with AVX): an element's numbers must not depend on its neighbours nor on the lane
   count (bit for bit), and the generalized forces must be each wrench applied at frame b (mj_applyFT
   of the core's wrench, an independent path), for every kind of element and joint.
 """
 
 import ctypes
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
 from fractions import Fraction
 from math import comb, factorial
 
@@ -200,10 +205,10 @@ def _evaluate(flex, data, mode, sl=slice(None), qfrc=None):
 def test_lane_counts_give_the_same_bits(lanes):
     """Every lane count the CPU offers moves ARCADE and the mixed model identically, bit for bit."""
     native = _native.lib()
-    counts = [n for n in (2, 4) if native.mjfx_lanes_available(n)]
-    assert 2 in counts and (4 in counts) == bool(native.mjfx_lanes_available(4))
+    counts = [n for n in (1, 2, 4) if native.mjfx_lanes_available(n)]
+    assert counts and native.mjfx_lanes() == max(counts)  # the widest by default
     if 4 not in counts:
-        assert lanes(4) == -1  # refused, the 2-lane loop stays
+        assert lanes(4) == -1  # refused, the base loop stays
     arcade = mujoco.MjModel.from_xml_path("models/arcade.xml")
     for model in (arcade, mixed_model()):
         flex = mjflex.Flexures(model)
@@ -230,7 +235,7 @@ def test_an_element_gives_the_same_bits_alone_and_beside_any_other(lanes, angle)
     flex = mjflex.Flexures(model)
     data = _moved(model, np.random.default_rng(5), angle)
     native = _native.lib()
-    for n in [n for n in (2, 4) if native.mjfx_lanes_available(n)]:
+    for n in [n for n in (1, 2, 4) if native.mjfx_lanes_available(n)]:
         lanes(n)
         together = [_evaluate(flex, data, mode) for mode in (_native.WRENCH, _native.POWER, _native.ENERGY)]
         qfrc_together = np.zeros(model.nv)
@@ -305,3 +310,51 @@ def test_generalized_forces_are_each_wrench_applied_at_frame_b(which, angle):
     expected, scale = _core_generalized_forces(model, data, flex)
     got = flex.generalized_forces(data)
     assert np.all(np.abs(got - expected) <= 1e-12 * scale + 1e-300), np.max(np.abs(got - expected) / (scale + 1e-300))
+
+
+def test_a_one_lane_build_gives_the_same_bits(tmp_path):
+    """The portable build (a C compiler without GNU vector extensions; here GCC told so by -DMJFX_SCALAR) evaluates
+    one element at a time: the same bits as the vector builds, for every query and in every branch."""
+    folder = os.path.dirname(mujoco.__file__)
+    lib = next(f for f in os.listdir(folder) if f.startswith("libmujoco.so."))
+    cc = (sysconfig.get_config_var("CC") or "gcc").split()[0]
+    if shutil.which(cc) is None:
+        pytest.fail(f"no C compiler ({cc}) to build a test copy of the library")
+    native = os.path.join(os.path.dirname(_native.__file__), "..", "native")
+    sources = sorted(os.path.join(native, f) for f in os.listdir(native) if f.endswith(".c"))
+    copy = tmp_path / "libmjflex-scalar.so"
+    # another header version: the copy does not register the plugin a second time (its functions still work)
+    subprocess.run([cc, "-O2", "-shared", "-fPIC", "-std=c11", "-fexceptions", "-fno-math-errno", "-ffp-contract=off",
+                    "-DMJFX_SCALAR", "-DMJFX_HEADER_VERSION=3999999", f"-I{os.path.join(folder, 'include')}", *sources,
+                    "-o", str(copy), f"-L{folder}", f"-l:{lib}", f"-Wl,-rpath,{folder}", "-lm"],
+                   check=True, capture_output=True)  # fmt: skip
+    code = f"""
+import ctypes
+import numpy as np
+import mjflex
+from mjflex.mj import _native
+from tests.test_native_kernel import mixed_model, _moved
+
+copy = ctypes.CDLL({str(copy)!r})
+copy.mjfx_evaluate.restype, copy.mjfx_evaluate.argtypes = _native._SIGNATURES["mjfx_evaluate"]
+assert copy.mjfx_lanes() == 1 and copy.mjfx_set_lanes(2) == -1
+model = mixed_model()
+flex = mjflex.Flexures(model)
+t, n = flex._tables, len(flex)
+for seed, angle in ((1, 1e-3), (2, 0.3), (3, 3.0)):
+    data = _moved(model, np.random.default_rng(seed), angle)
+    for mode in (_native.APPLY | _native.WRENCH | _native.POWER, _native.ENERGY, _native.COORDS):
+        out = []
+        for evaluate in (copy.mjfx_evaluate, _native.lib().mjfx_evaluate):
+            qfrc, out6, out1 = np.zeros(model.nv), np.zeros((n, 6)), np.zeros(n)
+            evaluate(model._address, data._address, t.elements.ctypes.data, n, t.chain.ctypes.data,
+                     t.exps.ctypes.data, t.coefs.ctypes.data, mode, qfrc.ctypes.data, out6.ctypes.data,
+                     out1.ctypes.data, None)
+            out.append((qfrc, out6, out1))
+        assert all(np.array_equal(a, b) for a, b in zip(*out)), (seed, mode)
+print("same bits", _native.lanes())
+"""
+    root = os.path.join(os.path.dirname(__file__), "..")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root)
+    assert result.returncode == 0, result.stderr
+    assert "same bits" in result.stdout

@@ -153,7 +153,7 @@ def lib():
 
 
 def lanes() -> int:
-    """Elements the native loop evaluates at once (vector lanes: 4 where the CPU has AVX2, else 2)."""
+    """Elements the native loop evaluates at once (vector lanes: 4 where the CPU has AVX, else 2)."""
     return int(lib().mjfx_lanes())
 
 

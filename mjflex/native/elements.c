@@ -20,29 +20,27 @@ extern mjfLogHandler _mjPRIVATE_setTlsLogHandler(mjfLogHandler handler) __attrib
 
 //------------------------------------------------------------------------------ evaluation
 
-// the loop for 2 lanes (SSE2 on x86-64: any such CPU)
-#define MJFX_EVALUATE mjfx_evaluate_lanes2
+// the loop for the base build's lanes: 2 with GNU C (SSE2 on x86-64, any such CPU), else 1
+#define MJFX_EVALUATE mjfx_evaluate_base
 #include "evaluate.h"
+#define BASE_LANES MJFX_LANES
 
-// and for 4 (evaluate_avx2.c), where the compiler and the CPU have AVX2
-#if MJFX_HAVE_AVX2_BUILD
+// and for 4 (evaluate_avx.c), where the compiler and the CPU have AVX
+#if MJFX_HAVE_AVX_BUILD
 int mjfx_evaluate_lanes4(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
                          const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
                          mjfxScan* scan);
 #endif
 
-typedef int (*Evaluate)(const mjModel*, const mjData*, const mjfxElement*, int, const int*, const int*,
-                        const double*, int, double*, double*, double*, mjfxScan*);
-
 // 0: not chosen yet; else the lanes in use
 static _Atomic int g_lanes = 0;
 
 int mjfx_lanes_available(int lanes) {
-  if (lanes == 2) return 1;
-#if MJFX_HAVE_AVX2_BUILD
+  if (lanes == BASE_LANES) return 1;
+#if MJFX_HAVE_AVX_BUILD
   if (lanes == 4) {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
+    return __builtin_cpu_supports("avx") != 0;
   }
 #endif
   return 0;
@@ -50,7 +48,7 @@ int mjfx_lanes_available(int lanes) {
 
 int mjfx_set_lanes(int lanes) {
   int previous = atomic_load(&g_lanes);
-  if (lanes == 0) lanes = mjfx_lanes_available(4) ? 4 : 2;
+  if (lanes == 0) lanes = mjfx_lanes_available(4) ? 4 : BASE_LANES;
   if (!mjfx_lanes_available(lanes)) return -1;
   atomic_store(&g_lanes, lanes);
   return previous;
@@ -68,12 +66,10 @@ int mjfx_lanes(void) {
 int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
                   const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
                   mjfxScan* scan) {
-  int lanes = mjfx_lanes();
-  Evaluate run = mjfx_evaluate_lanes2;
-#if MJFX_HAVE_AVX2_BUILD
-  if (lanes == 4) run = mjfx_evaluate_lanes4;
+#if MJFX_HAVE_AVX_BUILD
+  if (mjfx_lanes() == 4) return mjfx_evaluate_lanes4(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
 #endif
-  return run(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
+  return mjfx_evaluate_base(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
 }
 
 //------------------------------------------------------------------------------ element set-up

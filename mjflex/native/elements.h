@@ -60,18 +60,19 @@ int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int 
                   mjfxScan* scan);
 
 // mjfx_evaluate evaluates consecutive elements of one kind together, one per lane of the CPU's
-// vectors: 2 lanes (SSE2) everywhere, 4 (AVX2) where the compiler is GCC on x86-64 and the CPU
-// has AVX2; the choice is made at the first evaluation. Every choice gives the same bits
-// (flexure_kernel.h). mjfx_set_lanes(0) picks the widest available, 2 or 4 forces one (for the
-// tests); it returns the previous choice (0: none yet), or -1 if that many lanes are not available.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define MJFX_HAVE_AVX2_BUILD 1
+// vectors: 2 lanes (SSE2 on x86-64) with GNU C, 4 (AVX) where the compiler is GCC on x86-64 and
+// the CPU has AVX, 1 with other compilers; the choice is made at the first evaluation. Every
+// choice gives the same bits (flexure_kernel.h). mjfx_set_lanes(0) picks the widest available,
+// 2 or 4 forces one (for the tests); it returns the previous choice (0: none yet), or -1 if that
+// many lanes are not available. mjfx_lanes: the lanes in use (1, 2 or 4).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(MJFX_SCALAR)
+#define MJFX_HAVE_AVX_BUILD 1
 #else
-#define MJFX_HAVE_AVX2_BUILD 0
+#define MJFX_HAVE_AVX_BUILD 0
 #endif
 int mjfx_set_lanes(int lanes);
 int mjfx_lanes_available(int lanes);
-int mjfx_lanes(void);  // the lanes in use (chosen now if not yet)
+int mjfx_lanes(void);
 
 // Rest offset (R0, p0) of site b seen from site a in d (at qpos0), its distance [m] and angle [rad].
 void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3], double* dist, double* angle);

@@ -28,7 +28,8 @@
 
 #include "flexure_math.h"
 
-#if defined(__GNUC__)
+// GNU C vector extensions (GCC, clang); any other C11 compiler, or -DMJFX_SCALAR, builds one lane.
+#if defined(__GNUC__) && !defined(MJFX_SCALAR)
 #define MJFX_HOT static inline __attribute__((always_inline))
 #ifndef MJFX_LANES
 #define MJFX_LANES 2
