@@ -165,7 +165,7 @@ def mixed_model():
         pa = poses[0][a + 1] if a >= 0 else np.zeros(3)
         mjflex.add_flexure(spec, f"e{e}", f"b{a}" if a >= 0 else "world", f"b{b}", pos=0.5 * (pa + poses[0][b + 1]),
                            quat=Rotation.random(random_state=rng).as_quat(scalar_first=True), K=K, B=B,
-                           method=method, poses=poses, **extra)  # fmt: skip
+                           method=method, poses=poses, kind="record", **extra)  # fmt: skip
     return mujoco.MjModel.from_xml_string(spec.to_xml())
 
 
