@@ -82,7 +82,7 @@ def _cflags():
     -fno-math-errno so that sqrt is one instruction. No -march: the library must run on any x86-64."""
     if sys.platform == "win32":
         return ["/O2"]
-    return ["-O3", "-std=c11", "-fexceptions", "-fno-math-errno", "-Wall"]
+    return ["-O3", "-std=c11", "-fexceptions", "-fno-math-errno", "-ffp-contract=off", "-Wall"]
 
 
 setup(
@@ -90,7 +90,7 @@ setup(
         Extension(
             "mjflex.native.libmjflex",
             sources=SOURCES,
-            depends=[f.replace(".c", ".h") for f in SOURCES if os.path.exists(f.replace(".c", ".h"))],
+            depends=sorted(os.path.join(NATIVE, f) for f in os.listdir(NATIVE) if f.endswith(".h")),
             extra_compile_args=_cflags(),
             optional=True,
         )

@@ -3,12 +3,14 @@
 Usage::
 
     python scripts/bench_step.py [--model models/arcade.xml | --random] [--json out/bench_step.json]
-                                 [--integrator euler|rk4] [--runs 5] [--repeat 21] [--startup-runs 5]
+                                 [--integrator euler rk4] [--lanes auto|2|4] [--runs 5] [--repeat 21]
+                                 [--startup-runs 5]
 
-The same 35 free bodies are stepped with ``mj_step`` (Euler by default, the model's time step)
-from the same state in these versions, measured interleaved (same-repeat ratios: median,
-quartiles, min-max) in each of ``--runs`` fresh processes, whose repeats are pooled
-(scripts/_bench.py):
+The same 35 free bodies are stepped with ``mj_step`` (the model's time step) from the same state in
+these versions, measured interleaved (same-repeat ratios: median, quartiles, min-max) in each of
+``--runs`` fresh processes, whose repeats are pooled (scripts/_bench.py), once per integrator
+(Euler and RK4 by default; the rows of the first are ``rows`` in the JSON, the others'
+``rows_<integrator>``):
 
 * **plugin**: the 48 elements as instances of the engine plugin ``mjflex.flexure`` (twist and
   dual-quaternion methods): the forces belong to the model;
@@ -18,12 +20,14 @@ quartiles, min-max) in each of ``--runs`` fresh processes, whose repeats are poo
 * **weld**: the same bodies joined instead by 48 MuJoCo ``weld`` equality constraints at the
   element frames (site-to-site), the native way to make a rigid joint.
 
-It also measures the start-up: a fresh process from ``import mujoco`` to its first step of the
-plugin model (no mjflex import: ``import mujoco`` loads the plugin), and of the text-record model
-through ``import mjflex`` and ``Flexures``, each the median of ``--startup-runs`` processes.
+The native library evaluates the elements in vector lanes: 4 where the CPU has AVX, else 2
+(``--lanes`` forces a build; the JSON records the lanes used). It also measures the start-up: a
+fresh process from ``import mujoco`` to its first step of the plugin model (no mjflex import:
+``import mujoco`` loads the plugin), and of the text-record model through ``import mjflex`` and
+``Flexures``, each the median of ``--startup-runs`` processes.
 
 Goals: issue "MuJoCo layer": flexure step <= 0.5 x weld step and <= 3 x bare step; issue 16
-(engine plugin): plugin step <= 1.5 x bare for both methods, start-up <= 0.5 s.
+(engine plugin): plugin step <= 1.5 x bare for both methods and both integrators, start-up <= 0.5 s.
 ``--random`` uses 35 free bodies on a line (neighbours and random next-but-one pairs linked) with
 48 notch-hinge stiffnesses in random orientations instead of the ARCADE model.
 """
@@ -162,11 +166,23 @@ WELD = "weld: 48 weld equality constraints"
 PLUGIN = ("plugin, twist method", "plugin, dual-quaternion method")
 
 
-def measure(args):
-    """Time the cases interleaved in this process: the payload's ``rows`` (per ``mj_step``)."""
+def set_lanes(lanes):
+    """Force the native library's lane count (2 or 4; 'auto': the widest the CPU has); returns the lanes used."""
+    from mjflex.mj import _native
+
+    native = _native.lib()
+    if native is None:
+        raise SystemExit("error: the native library is not available (mjflex runs its Python fallback)")
+    if native.mjfx_set_lanes(0 if lanes == "auto" else int(lanes)) < 0:
+        raise SystemExit(f"error: --lanes {lanes}: this CPU or build has no {lanes}-lane evaluation (try --lanes 2)")
+    return _native.lanes()
+
+
+def measure_integrator(args, integrator):
+    """Time the cases interleaved in this process with one integrator: ``rows`` (per ``mj_step``)."""
     spec = random_spec() if args.random else mujoco.MjSpec.from_file(args.model)
     plugins_to_records(spec)  # both forms are built from text records (models/arcade.xml holds plugin instances)
-    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{args.integrator.upper()}")
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
     models = {k: spec.compile() for k in ("twist", "dualquat", "bare")}
     models["weld"] = welded(spec, models["bare"]).compile()
     plugin_specs = {m: plugin_spec(spec, m) for m in ("twist", "dualquat")}
@@ -190,15 +206,30 @@ def measure(args):
         "flexures, dual-quaternion method": stepper(models["dualquat"], qvel, steps),
         WELD: stepper(models["weld"], qvel, steps),
     }
-    rows = compare(cases, BARE, repeat=args.repeat)
+    try:
+        rows = compare(cases, BARE, repeat=args.repeat)
+    finally:
+        for p in providers:
+            p.uninstall()
     check_stable(cases)
     for r in rows.values():  # per mj_step
         scale_times(r, 1 / steps)
-    for p in providers:
-        p.uninstall()
-    return {"model": "random" if args.random else os.path.basename(args.model), "rows": rows,
-            "steps_per_call": steps, "bodies": models["bare"].nbody - 1, "elements": len(providers[0]),
-            "integrator": args.integrator}  # fmt: skip
+    return rows, models["bare"].nbody - 1, len(providers[0])
+
+
+def rows_key(integrator, integrators):
+    """Where an integrator's rows are in the JSON: ``rows`` for the first, ``rows_<integrator>`` for the others."""
+    return "rows" if integrator == integrators[0] else f"rows_{integrator}"
+
+
+def measure(args):
+    """Time every integrator's cases in this process (the JSON's payload)."""
+    payload = {"model": "random" if args.random else os.path.basename(args.model), "steps_per_call": 5,
+               "integrators": list(args.integrator), "native_lanes": set_lanes(args.lanes)}  # fmt: skip
+    for integrator in args.integrator:
+        rows, payload["bodies"], payload["elements"] = measure_integrator(args, integrator)
+        payload[rows_key(integrator, args.integrator)] = rows
+    return payload
 
 
 def verdicts(rows):
@@ -221,19 +252,36 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default=os.path.join(HERE, "..", "models", "arcade.xml"))
     ap.add_argument("--random", action="store_true", help="random 35-body, 48-element model instead")
-    ap.add_argument("--integrator", choices=["euler", "rk4"], default="euler")
+    ap.add_argument(
+        "--integrator",
+        nargs="+",
+        choices=["euler", "rk4"],
+        default=["euler", "rk4"],
+        help="integrators to measure, each in its own table (default: euler rk4)",
+    )
+    ap.add_argument(
+        "--lanes",
+        choices=["auto", "2", "4"],
+        default="auto",
+        help="vector lanes of the native evaluation: auto (4 with AVX, else 2), or force 2 or 4",
+    )
     ap.add_argument("--startup-runs", type=int, default=5, help="fresh processes per start-up measurement (0: skip)")
     add_timing_options(ap, "out/bench_step.json", runs=5)
     args = ap.parse_args()
+    if len(set(args.integrator)) != len(args.integrator):
+        raise SystemExit(f"error: --integrator lists one twice: {' '.join(args.integrator)}")
     payload = measured_in_processes(args) or measure(args)
-    payload["verdict"] = verdicts(payload["rows"])
-    print_table(payload["rows"], f"mj_step ({args.integrator}), {payload['bodies']} free bodies, "
-                f"{payload['elements']} elements ('flexures': the C mjcb_passive provider); ratios to bare in the "
-                "same repeat")  # fmt: skip
-    for name, v in payload["verdict"].items():
-        goal = "<= 1.5x bare" if name in PLUGIN else "<= 3x bare, <= 0.5x weld"
-        print(f"{name}: {v['vs_bare']:.2f}x bare, {v['vs_weld']:.2f}x weld -> goal "
-              f"{'met' if v['goal_met'] else 'NOT met'} ({goal})")  # fmt: skip
+    payload["verdict"] = {}
+    for integrator in args.integrator:
+        rows = payload[rows_key(integrator, args.integrator)]
+        print_table(rows, f"mj_step ({integrator}), {payload['bodies']} free bodies, {payload['elements']} elements "
+                    f"('flexures': the C mjcb_passive provider; native lanes {payload['native_lanes']}); ratios to "
+                    "bare in the same repeat")  # fmt: skip
+        payload["verdict"][integrator] = verdict = verdicts(rows)
+        for name, v in verdict.items():
+            goal = "<= 1.5x bare" if name in PLUGIN else "<= 3x bare, <= 0.5x weld"
+            print(f"{name}: {v['vs_bare']:.2f}x bare, {v['vs_weld']:.2f}x weld -> goal "
+                  f"{'met' if v['goal_met'] else 'NOT met'} ({goal})")  # fmt: skip
     payload["startup"] = {}
     if args.startup_runs and not os.environ.get(CHILD):  # once, in the process that pools the runs
         spec = random_spec() if args.random else mujoco.MjSpec.from_file(args.model)

@@ -34,11 +34,12 @@ _INT_FIELDS = (
     "site_a", "site_b", "body_a", "body_b", "method", "enabled", "viscous", "offset", "free_a", "free_b",
     "chain_a0", "chain_a1", "chain_b0", "chain_b1", "terms_lo", "terms_hi", "terms_top", "kstruct", "bstruct",
 )  # fmt: skip
-#: One element of a model, as the C loop reads it (``mjfxElement``).
+#: One element of a model, as the C loop reads it (``mjfxElement``; the fields the per-step loop reads first).
 ELEMENT_DTYPE = np.dtype(
-    [("K", np.float64, (36,)), ("B", np.float64, (36,)), ("R0", np.float64, (9,)), ("p0", np.float64, (3,)),
-     ("qa", np.float64, (4,)), ("qb", np.float64, (4,)), ("inv_mass", np.float64), ("inv_inertia", np.float64),
-     *((f, np.int32) for f in _INT_FIELDS)],
+    [*((f, np.int32) for f in _INT_FIELDS), ("qa", np.float64, (4,)), ("qb", np.float64, (4,)),
+     ("p0", np.float64, (3,)), ("lever_a", np.float64, (3,)), ("lever_b", np.float64, (3,)),
+     ("inv_mass", np.float64), ("inv_inertia", np.float64), ("kdiag", np.float64, (6,)),
+     ("bdiag", np.float64, (6,)), ("K", np.float64, (36,)), ("B", np.float64, (36,)), ("R0", np.float64, (9,))],
     align=True,
 )  # fmt: skip
 
@@ -98,6 +99,10 @@ _SIGNATURES = {
     "mjfx_is_instance": (_I, [_P, _I]),
     "mjfx_element_prepare": (None, [_P, _P]),
     "mjfx_live_instances": (ctypes.c_long, []),
+    "mjfx_set_lanes": (_I, [_I]),
+    "mjfx_lanes_available": (_I, [_I]),
+    "mjfx_lanes": (_I, []),
+    "mjfx_angle_coefs": (None, [_D, _D, _DP, _DP, _DP]),
 }
 
 
@@ -147,6 +152,11 @@ def lib():
     return None
 
 
+def lanes() -> int:
+    """Elements the native loop evaluates at once (vector lanes: 4 where the CPU has AVX, else 2)."""
+    return int(lib().mjfx_lanes())
+
+
 def available() -> bool:
     """Whether the native library is in use."""
     return lib() is not None
@@ -192,7 +202,7 @@ def rest_offset(data, sa, sb):
 
 
 def prepare(model, elements, i):
-    """Fill row ``i``'s derived fields (``mjfx_element_prepare``: offset, qa, qb, kstruct, bstruct)."""
+    """Fill row ``i``'s derived fields (``mjfx_element_prepare``: offset, qa, qb, levers, structures, diagonals)."""
     lib().mjfx_element_prepare(model._address, elements.ctypes.data + i * elements.itemsize)
 
 

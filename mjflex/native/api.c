@@ -16,11 +16,12 @@ static const struct {
   const char* name;
   size_t offset;
 } FIELDS[] = {
-    FIELD(K),        FIELD(B),        FIELD(R0),       FIELD(p0),       FIELD(inv_mass), FIELD(inv_inertia),
-    FIELD(site_a),   FIELD(site_b),   FIELD(body_a),   FIELD(body_b),   FIELD(method),   FIELD(enabled),
-    FIELD(viscous),  FIELD(offset),   FIELD(free_a),   FIELD(free_b),   FIELD(chain_a0), FIELD(chain_a1),
-    FIELD(chain_b0), FIELD(chain_b1), FIELD(terms_lo), FIELD(terms_hi), FIELD(terms_top), FIELD(kstruct),
-    FIELD(bstruct),  FIELD(qa),       FIELD(qb),
+    FIELD(site_a),   FIELD(site_b),   FIELD(body_a),   FIELD(body_b),    FIELD(method),   FIELD(enabled),
+    FIELD(viscous),  FIELD(offset),   FIELD(free_a),   FIELD(free_b),    FIELD(chain_a0), FIELD(chain_a1),
+    FIELD(chain_b0), FIELD(chain_b1), FIELD(terms_lo), FIELD(terms_hi),  FIELD(terms_top), FIELD(kstruct),
+    FIELD(bstruct),  FIELD(qa),       FIELD(qb),       FIELD(p0),        FIELD(lever_a),  FIELD(lever_b),
+    FIELD(inv_mass), FIELD(inv_inertia), FIELD(kdiag), FIELD(bdiag),     FIELD(K),        FIELD(B),
+    FIELD(R0),
 };
 
 // byte offset of a field of mjfxElement (-1: no such field); sizeof with name NULL
@@ -52,12 +53,20 @@ void mjfx_wrench_batch(int n, int method, const double* Ra, const double* pa, co
                        double* out, double* power) {
   mjfxTerms terms = {exps, coefs, nterms, top};
   for (int i = 0; i < n; i++) {
-    mjfxInput in = {.Ra = Ra + 9 * i, .pa = pa + 3 * i, .Rb = Rb + 9 * i, .pb = pb + 3 * i, .K = K + 36 * i,
-                    .B = B ? B + 36 * i : NULL, .kstruct = mjfx_matrix_structure(K + 36 * i),
+    double q[4], p[3], w[3], v[3], mb[3], fb[3];
+    const double* R = Rb + 9 * i;
+    mjfx_relative_pose(Ra + 9 * i, pa + 3 * i, R, pb + 3 * i, q, p);
+    if (viscous) mjfx_relative_velocity(R, pa + 3 * i, pb + 3 * i, wa + 3 * i, va + 3 * i, wb + 3 * i, vb + 3 * i, w, v);
+    mjfxInput in = {.q = q, .p = p, .K = K + 36 * i, .B = B ? B + 36 * i : NULL,
+                    .kstruct = mjfx_matrix_structure(K + 36 * i),
                     .bstruct = B ? mjfx_matrix_structure(B + 36 * i) : MJFX_ZERO, .method = method,
-                    .viscous = viscous, .wa = viscous ? wa + 3 * i : NULL, .va = viscous ? va + 3 * i : NULL,
-                    .wb = viscous ? wb + 3 * i : NULL, .vb = viscous ? vb + 3 * i : NULL, .terms = &terms};
-    mjfx_wrench(&in, out + 6 * i, out + 6 * i + 3, power + i);
+                    .viscous = viscous, .w = w, .v = v, .terms = &terms};
+    mjfx_wrench_b(&in, mb, fb, power + i);
+    double* o = out + 6 * i;
+    for (int k = 0; k < 3; k++) {  // to world axes
+      o[k] = R[3 * k] * mb[0] + R[3 * k + 1] * mb[1] + R[3 * k + 2] * mb[2];
+      o[3 + k] = R[3 * k] * fb[0] + R[3 * k + 1] * fb[1] + R[3 * k + 2] * fb[2];
+    }
   }
 }
 
@@ -65,9 +74,10 @@ void mjfx_potential_batch(int n, int method, const double* Ra, const double* pa,
                           const double* K, const int* exps, const double* coefs, int nterms, int top, double* out) {
   mjfxTerms terms = {exps, coefs, nterms, top};
   for (int i = 0; i < n; i++) {
-    mjfxInput in = {.Ra = Ra + 9 * i, .pa = pa + 3 * i, .Rb = Rb + 9 * i, .pb = pb + 3 * i, .K = K + 36 * i,
-                    .kstruct = mjfx_matrix_structure(K + 36 * i), .bstruct = MJFX_ZERO, .method = method,
-                    .terms = &terms};
+    double q[4], p[3];
+    mjfx_relative_pose(Ra + 9 * i, pa + 3 * i, Rb + 9 * i, pb + 3 * i, q, p);
+    mjfxInput in = {.q = q, .p = p, .K = K + 36 * i, .kstruct = mjfx_matrix_structure(K + 36 * i),
+                    .bstruct = MJFX_ZERO, .method = method, .terms = &terms};
     out[i] = mjfx_potential(&in);
   }
 }

@@ -4,6 +4,7 @@
 #include "elements.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -19,154 +20,56 @@ extern mjfLogHandler _mjPRIVATE_setTlsLogHandler(mjfLogHandler handler) __attrib
 
 //------------------------------------------------------------------------------ evaluation
 
-#if defined(__GNUC__)
-#define HOT static inline __attribute__((always_inline))
-#else
-#define HOT static inline
+// the loop for the base build's lanes: 2 with GNU C (SSE2 on x86-64, any such CPU), else 1
+#define MJFX_EVALUATE mjfx_evaluate_base
+#include "evaluate.h"
+#define BASE_LANES MJFX_LANES
+
+// and for 4 (evaluate_avx.c), where the compiler and the CPU have AVX
+#if MJFX_HAVE_AVX_BUILD
+int mjfx_evaluate_lanes4(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
+                         const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
+                         mjfxScan* scan);
 #endif
 
-HOT void cross3(double out[3], const double a[3], const double b[3]) {
-  double x = a[1] * b[2] - a[2] * b[1];
-  double y = a[2] * b[0] - a[0] * b[2];
-  double z = a[0] * b[1] - a[1] * b[0];
-  out[0] = x, out[1] = y, out[2] = z;
+// 0: not chosen yet; else the lanes in use
+static _Atomic int g_lanes = 0;
+
+int mjfx_lanes_available(int lanes) {
+  if (lanes == BASE_LANES) return 1;
+#if MJFX_HAVE_AVX_BUILD
+  if (lanes == 4) {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") != 0;
+  }
+#endif
+  return 0;
 }
 
-// The pose of an element: the relative pose (q_ab with w >= 0, p_ab) of frame b, corrected by the
-// rest offset (X_Wb* = X_Wb X_ab0^-1), seen from frame a, and frame b*'s world pose (Rb, pb).
-// The relative quaternion comes from MuJoCo's body quaternions and the sites' constant local
-// orientations (as MuJoCo composes site frames), without a matrix-to-quaternion conversion.
-HOT void element_pose(const mjData* d, const mjfxElement* e, const double* Ra, const double* pa, double q[4],
-                      double p[3], const double** Rb, const double** pb, double Rb_buf[9], double pb_buf[3]) {
-  double qa[4], qb[4];
-  mjfx_quat_mul(d->xquat + 4 * e->body_a, e->qa, qa);
-  mjfx_quat_mul(d->xquat + 4 * e->body_b, e->qb, qb);
-  mjfx_quat_conj_mul(qa, qb, q);
-  if (q[0] < 0.0) q[0] = -q[0], q[1] = -q[1], q[2] = -q[2], q[3] = -q[3];
-  const double* site_p = d->site_xpos + 3 * e->site_b;
-  if (!e->offset) {
-    *Rb = d->site_xmat + 9 * e->site_b;
-    *pb = site_p;
-  } else {
-    mjfx_rot_from_quat(qb, Rb_buf);
-    const double* p0 = e->p0;
-    for (int i = 0; i < 3; i++) {
-      pb_buf[i] = site_p[i] - (Rb_buf[3 * i] * p0[0] + Rb_buf[3 * i + 1] * p0[1] + Rb_buf[3 * i + 2] * p0[2]);
-    }
-    *Rb = Rb_buf, *pb = pb_buf;
-  }
-  const double* b = *pb;
-  double dp[3] = {b[0] - pa[0], b[1] - pa[1], b[2] - pa[2]};
-  for (int i = 0; i < 3; i++) p[i] = Ra[i] * dp[0] + Ra[3 + i] * dp[1] + Ra[6 + i] * dp[2];
+int mjfx_set_lanes(int lanes) {
+  int previous = atomic_load(&g_lanes);
+  if (lanes == 0) lanes = mjfx_lanes_available(4) ? 4 : BASE_LANES;
+  if (!mjfx_lanes_available(lanes)) return -1;
+  atomic_store(&g_lanes, lanes);
+  return previous;
 }
 
-// world angular velocity of body and linear velocity of its point p
-HOT void point_velocity(const mjModel* m, const mjData* d, int body, const double p[3], double w[3],
-                           double v[3]) {
-  const double* cvel = d->cvel + 6 * body;
-  const double* c = d->subtree_com + 3 * m->body_rootid[body];
-  double r[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]}, wr[3];
-  w[0] = cvel[0], w[1] = cvel[1], w[2] = cvel[2];
-  cross3(wr, w, r);
-  for (int i = 0; i < 3; i++) v[i] = 1.0 * cvel[3 + i] + 1.0 * wr[i];
-}
-
-// add sign * (moment mo about p, force f) on body to qfrc (J^T of the wrench)
-HOT void apply(const mjModel* m, const mjData* d, double* qfrc, int body, int free_adr, const int* chain, int c0,
-               int c1, const double mo[3], const double f[3], const double p[3], double sign) {
-  if (free_adr < 0 && c0 == c1) return;  // a body that does not move (the world, a fixed base)
-  if (free_adr >= 0) {
-    // free joint: dofs are the world velocity of the body origin, then the body-frame angular velocity
-    const double* o = d->xpos + 3 * body;
-    const double* R = d->xmat + 9 * body;
-    double r[3] = {p[0] - o[0], p[1] - o[1], p[2] - o[2]}, rf[3], mm[3];
-    cross3(rf, r, f);
-    for (int k = 0; k < 3; k++) mm[k] = 1.0 * mo[k] + 1.0 * rf[k];
-    for (int k = 0; k < 3; k++) {
-      qfrc[free_adr + k] += sign * f[k];
-      qfrc[free_adr + 3 + k] += sign * (R[k] * mm[0] + R[3 + k] * mm[1] + R[6 + k] * mm[2]);
-    }
-    return;
+int mjfx_lanes(void) {
+  int lanes = atomic_load_explicit(&g_lanes, memory_order_relaxed);
+  if (!lanes) {
+    mjfx_set_lanes(0);
+    lanes = atomic_load(&g_lanes);
   }
-  const double* c = d->subtree_com + 3 * m->body_rootid[body];
-  double r[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]}, rf[3], mc[3];
-  cross3(rf, r, f);
-  for (int k = 0; k < 3; k++) mc[k] = 1.0 * mo[k] + 1.0 * rf[k];
-  for (int k = c0; k < c1; k++) {
-    int j = chain[k];
-    const double* cd = d->cdof + 6 * j;
-    qfrc[j] += sign * (cd[0] * mc[0] + cd[1] * mc[1] + cd[2] * mc[2] + cd[3] * f[0] + cd[4] * f[1] + cd[5] * f[2]);
-  }
+  return lanes;
 }
 
 int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
                   const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
                   mjfxScan* scan) {
-  int spring_on = !(m->opt.disableflags & mjDSBL_SPRING);
-  int damper_on = !(m->opt.disableflags & mjDSBL_DAMPER);
-  if (scan) {
-    scan->nonfinite = scan->largest = -1;
-    scan->accel = 0.0;
-  }
-  for (int i = 0; i < n; i++) {
-    const mjfxElement* e = el + i;
-    if (!e->enabled) {
-      if (mode & (MJFX_WRENCH | MJFX_COORDS)) memset(out6 + 6 * i, 0, 6 * sizeof(double));
-      if (mode & (MJFX_ENERGY | MJFX_POWER)) out1[i] = 0.0;
-      continue;
-    }
-    const double* Ra = d->site_xmat + 9 * e->site_a;
-    const double* pa = d->site_xpos + 3 * e->site_a;
-    double q[4], p[3], Rb_buf[9], pb_buf[3];
-    const double *Rb, *pb;
-    element_pose(d, e, Ra, pa, q, p, &Rb, &pb, Rb_buf, pb_buf);
-    mjfxTerms terms = {exps + MJFX_TERM_COLUMNS * e->terms_lo, coefs + e->terms_lo,
-                       spring_on ? e->terms_hi - e->terms_lo : 0, e->terms_top};
-    mjfxInput in = {.Ra = Ra, .pa = pa, .Rb = Rb, .pb = pb, .q = q, .p = p, .K = e->K, .B = e->B,
-                    .kstruct = spring_on ? e->kstruct : MJFX_ZERO, .bstruct = e->bstruct,
-                    .method = (mode & MJFX_COORDS) ? MJFX_TWIST : e->method, .terms = &terms};
-    if (mode & MJFX_COORDS) {
-      mjfx_coordinates(&in, out6 + 6 * i);
-      continue;
-    }
-    if (mode & MJFX_ENERGY) {
-      out1[i] = mjfx_potential(&in);
-      continue;
-    }
-    double wa[3], va[3], wb[3], vb[3];
-    if (damper_on && e->viscous) {
-      point_velocity(m, d, e->body_a, pa, wa, va);
-      point_velocity(m, d, e->body_b, pb, wb, vb);
-      in.viscous = 1;
-      in.wa = wa, in.va = va, in.wb = wb, in.vb = vb;
-    }
-    double mo[3], f[3], power;
-    mjfx_wrench(&in, mo, f, &power);
-    if (!isfinite(mo[0] + mo[1] + mo[2] + f[0] + f[1] + f[2] + power)) {
-      if (scan) scan->nonfinite = i;
-      return i;
-    }
-    if (scan) {  // the acceleration this element alone gives its bodies (a bound: max force / min mass)
-      double fm = fabs(f[0]), mm = fabs(mo[0]);
-      for (int k = 1; k < 3; k++) {
-        if (fabs(f[k]) > fm) fm = fabs(f[k]);
-        if (fabs(mo[k]) > mm) mm = fabs(mo[k]);
-      }
-      double accel = fm * e->inv_mass, angular = mm * e->inv_inertia;
-      if (angular > accel) accel = angular;
-      if (accel > scan->accel) scan->accel = accel, scan->largest = i;
-    }
-    if (mode & MJFX_WRENCH) {
-      double* o = out6 + 6 * i;
-      o[0] = mo[0], o[1] = mo[1], o[2] = mo[2], o[3] = f[0], o[4] = f[1], o[5] = f[2];
-    }
-    if (mode & MJFX_POWER) out1[i] = power;
-    if (mode & MJFX_APPLY) {
-      apply(m, d, qfrc, e->body_b, e->free_b, chain, e->chain_b0, e->chain_b1, mo, f, pb, 1.0);
-      apply(m, d, qfrc, e->body_a, e->free_a, chain, e->chain_a0, e->chain_a1, mo, f, pb, -1.0);
-    }
-  }
-  return -1;
+#if MJFX_HAVE_AVX_BUILD
+  if (mjfx_lanes() == 4) return mjfx_evaluate_lanes4(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
+#endif
+  return mjfx_evaluate_base(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
 }
 
 //------------------------------------------------------------------------------ element set-up
@@ -203,6 +106,14 @@ void mjfx_element_prepare(const mjModel* m, mjfxElement* e) {
   }
   e->kstruct = mjfx_matrix_structure(e->K);
   e->bstruct = mjfx_matrix_structure(e->B);
+  for (int i = 0; i < 6; i++) e->kdiag[i] = e->K[7 * i], e->bdiag[i] = e->B[7 * i];
+  double R[9];
+  mjfx_rot_from_quat(e->qb, R);
+  const double *pa = m->site_pos + 3 * e->site_a, *pb = m->site_pos + 3 * e->site_b, *p0 = e->p0;
+  for (int i = 0; i < 3; i++) {
+    e->lever_a[i] = pa[i];
+    e->lever_b[i] = e->offset ? pb[i] - (R[3 * i] * p0[0] + R[3 * i + 1] * p0[1] + R[3 * i + 2] * p0[2]) : pb[i];
+  }
 }
 
 int mjfx_offset_is_identity(const double R0[9], const double p0[3]) {

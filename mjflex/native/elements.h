@@ -19,14 +19,7 @@
 // instance). Python mirrors this struct as a numpy dtype whose offsets it reads from
 // mjfx_element_field (mjflex/mj/_native.py), so the two cannot drift apart.
 typedef struct mjfxElement_ {
-  double K[36];        // stiffness in the element frame, row-major (planar: embedded)
-  double B[36];        // damping, same layout (zero without damping)
-  double R0[9];        // rest offset: pose of frame b seen from frame a at qpos0 (row-major)
-  double p0[3];
-  double qa[4];        // site a's orientation in body A (the model's site_quat)
-  double qb[4];        // site b's orientation in body B, times the rest offset's inverse (mjfx_element_prepare)
-  double inv_mass;     // largest 1/mass of the element's (non-world) bodies [1/kg]
-  double inv_inertia;  // largest 1/(principal inertia) [1/(kg m^2)]
+  // read at every evaluation (first, together: a few cache lines)
   int site_a, site_b, body_a, body_b;
   int method, enabled, viscous;
   int offset;  // the rest offset is not the identity
@@ -34,6 +27,19 @@ typedef struct mjfxElement_ {
   int chain_a0, chain_a1, chain_b0, chain_b1;  // ranges into the chain of dofs that move each body
   int terms_lo, terms_hi, terms_top;           // rows of the terms' tables, largest exponent
   int kstruct, bstruct;                        // MJFX_FULL / MJFX_DIAGONAL / MJFX_ZERO of K and B
+  double qa[4];        // site a's orientation in body A (the model's site_quat)
+  double qb[4];        // site b's orientation in body B, times the rest offset's inverse (mjfx_element_prepare)
+  double p0[3];        // rest offset: position of frame b seen from frame a at qpos0
+  double lever_a[3];   // origin of frame a in body A (site a's position; mjfx_element_prepare)
+  double lever_b[3];   // origin of frame b* in body B: site b's position - R(qb) p0 (mjfx_element_prepare)
+  double inv_mass;     // largest 1/mass of the element's (non-world) bodies [1/kg]
+  double inv_inertia;  // largest 1/(principal inertia) [1/(kg m^2)]
+  double kdiag[6];     // diagonals of K and B (mjfx_element_prepare)
+  double bdiag[6];
+  // read when K or B are not diagonal
+  double K[36];        // stiffness in the element frame, row-major (planar: embedded)
+  double B[36];        // damping, same layout (zero without damping)
+  double R0[9];        // rest offset: orientation of frame b seen from frame a at qpos0 (row-major)
 } mjfxElement;
 
 // What an evaluation found for divergence reporting: the first element whose wrench is not
@@ -53,14 +59,29 @@ int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int 
                   const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
                   mjfxScan* scan);
 
+// mjfx_evaluate evaluates consecutive elements of one kind together, one per lane of the CPU's
+// vectors: 2 lanes (SSE2 on x86-64) with GNU C, 4 (AVX) where the compiler is GCC on x86-64 and
+// the CPU has AVX, 1 with other compilers; the choice is made at the first evaluation. Every
+// choice gives the same bits (flexure_kernel.h). mjfx_set_lanes(0) picks the widest available,
+// 2 or 4 forces one (for the tests); it returns the previous choice (0: none yet), or -1 if that
+// many lanes are not available. mjfx_lanes: the lanes in use (1, 2 or 4).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(MJFX_SCALAR)
+#define MJFX_HAVE_AVX_BUILD 1
+#else
+#define MJFX_HAVE_AVX_BUILD 0
+#endif
+int mjfx_set_lanes(int lanes);
+int mjfx_lanes_available(int lanes);
+int mjfx_lanes(void);
+
 // Rest offset (R0, p0) of site b seen from site a in d (at qpos0), its distance [m] and angle [rad].
 void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3], double* dist, double* angle);
 
 // Whether (R0, p0) is exactly the identity.
 int mjfx_offset_is_identity(const double R0[9], const double p0[3]);
 
-// Fill an element's derived fields from its sites, rest offset, K and B: offset, qa, qb,
-// kstruct, bstruct (what Python's tables and the plugin's init both call).
+// Fill an element's derived fields from its sites, rest offset, K and B: offset, qa, qb, lever_a,
+// lever_b, kstruct, bstruct, kdiag, bdiag (what Python's tables and the plugin's init both call).
 void mjfx_element_prepare(const mjModel* m, mjfxElement* e);
 
 // Summed lengths [m] of the site and body positions that place sites sa and sb (the scale of

@@ -2,8 +2,12 @@
 // polynomial terms. No MuJoCo here: poses and velocities come in as plain arrays.
 //
 // Conventions (as in the Python package): 6-vectors angular first, wrenches [moment; force],
-// rotation matrices row-major with R_WB x_B = x_W, quaternions w-first. The wrench returned is
-// the one the element exerts on body B, moment about the origin of frame b, world axes.
+// rotation matrices row-major with R_WB x_B = x_W, quaternions w-first.
+//
+// An element is evaluated from its relative state: the pose of frame b seen from frame a (a unit
+// quaternion and a position) and, for damping, the velocity of frame b relative to frame a in
+// frame b's axes. The wrench comes back in frame b (the element's own frame): the callers rotate
+// it once into whatever frame they need.
 //
 // This is the one implementation of the per-step math; mjflex.core (numpy/numba) is the
 // independent reference it is tested against (tests/test_native_math.py).
@@ -34,42 +38,44 @@ typedef struct mjfxTerms_ {
   int top;
 } mjfxTerms;
 
-// Inputs of one element evaluation: poses of frames a and b (world), their velocities (world
-// angular velocity, linear velocity of the frame origin), K and B with their structure.
+// Inputs of one element evaluation.
 typedef struct mjfxInput_ {
-  const double* Ra;  // 9, row-major
-  const double* pa;  // 3
-  const double* Rb;
-  const double* pb;
-  const double* q;   // relative pose, if known: unit quaternion of R_ab = R_WA^T R_WB with w >= 0 (4),
-  const double* p;   // and p_ab = R_WA^T (p_WB - p_WA) (3); NULL: computed from Ra, pa, Rb, pb
-  const double* K;  // 36, row-major
-  const double* B;  // 36, or NULL
+  const double* q;   // relative pose: unit quaternion of R_ab = R_WA^T R_WB with w >= 0 (4)
+  const double* p;   // and p_ab = R_WA^T (p_WB - p_WA) (3)
+  const double* K;   // 36, row-major
+  const double* B;   // 36, or NULL
   int kstruct, bstruct;
   int method;
-  int viscous;  // evaluate the damping (velocities and B must be given)
-  const double* wa;
-  const double* va;
-  const double* wb;
-  const double* vb;
+  int viscous;       // evaluate the damping (w, v and B must be given)
+  const double* w;   // velocity of frame b relative to frame a, frame b axes: R_WB^T (w_WB - w_WA) (3)
+  const double* v;   // and R_WB^T (v_WB - v_WA - w_WA x (p_WB - p_WA)) (3)
   const mjfxTerms* terms;  // NULL or n == 0: quadratic potential only
 } mjfxInput;
 
 // MJFX_DIAGONAL, MJFX_ZERO or MJFX_FULL for a 6x6 row-major matrix.
 int mjfx_matrix_structure(const double M[36]);
 
-// Wrench of the element on body B: moment about pb and force, world axes [N m; N];
-// *power: the dissipated power [W] (0 unless viscous).
-void mjfx_wrench(const mjfxInput* in, double m[3], double f[3], double* power);
+// Wrench of the element on body B: moment about the origin of frame b and force, in frame b's
+// axes [N m; N]; *power: the dissipated power [W] (0 unless viscous).
+void mjfx_wrench_b(const mjfxInput* in, double m[3], double f[3], double* power);
 
 // Elastic energy [J] (K and the terms; B and velocities are not read).
 double mjfx_potential(const mjfxInput* in);
 
-// Finite twist [tau; t] of frame b relative to frame a (method and K not read).
-void mjfx_twist(const double Ra[9], const double pa[3], const double Rb[9], const double pb[3], double xi[6]);
-
-// The finite twist [tau; t] of an input's relative pose (its q and p if given).
+// The finite twist [tau; t] of an input's relative pose (method and K not read).
 void mjfx_coordinates(const mjfxInput* in, double xi[6]);
+
+// Relative pose of frame b seen from frame a, given their world poses: q (w >= 0) and p.
+void mjfx_relative_pose(const double Ra[9], const double pa[3], const double Rb[9], const double pb[3], double q[4],
+                        double p[3]);
+
+// Velocity of frame b relative to frame a in frame b's axes (mjfxInput's w, v), given the world
+// angular velocities of the frames and the world linear velocities of their origins.
+void mjfx_relative_velocity(const double Rb[9], const double pa[3], const double pb[3], const double wa[3],
+                            const double va[3], const double wb[3], const double vb[3], double w[3], double v[3]);
+
+// Finite twist [tau; t] of frame b relative to frame a (world poses).
+void mjfx_twist(const double Ra[9], const double pa[3], const double Rb[9], const double pb[3], double xi[6]);
 
 // Unit quaternion (w >= 0) of a rotation matrix (Shepperd), as mjflex.core.
 void mjfx_quat_from_rot(const double R[9], double q[4]);
