@@ -97,17 +97,71 @@ def row_bench_core(r):
     return what, f"twist {cell('twist')}; dual quaternion {cell('dualquat')}"
 
 
+STEP_CASES = (  # bench_step's rows: (row name, label)
+    ("plugin, twist method", "plugin, twist"),
+    ("plugin, dual-quaternion method", "plugin, dual quaternion"),
+    ("flexures, twist method", "`mjcb_passive`, twist"),
+    ("flexures, dual-quaternion method", "`mjcb_passive`, dual quaternion"),
+)
+STEP_BARE, STEP_WELD = "bare: same bodies, no elements (baseline)", "weld: 48 weld equality constraints"
+
+
+def _vs_weld(rows, name):
+    weld = rows[STEP_WELD]
+    vs_weld = same_repeat(rows[name], weld, "weld")  # older JSON: the ratio of the medians, no spread
+    return times(vs_weld.get("weld_median", rows[name]["median_s"] / weld["median_s"]), vs_weld, "weld")
+
+
 def row_bench_step(r):
     rows = r["rows"]
-    weld = rows["weld: 48 weld equality constraints"]
+    bare = rows[STEP_BARE]["median_s"]
+    if "plugin, twist method" not in rows:  # recorded before the engine plugin: the provider's rows only
+        cells = [f"{label} {spread(rows[name])} the bare step, {_vs_weld(rows, name)} the weld step"
+                 for name, label in (("flexures, twist method", "twist"),
+                                     ("flexures, dual-quaternion method", "dual quaternion"))]  # fmt: skip
+        what = f"`mj_step` with 48 flexures vs no elements vs 48 welds ({r['model']}, Euler)"
+        return what, "; ".join(cells) + f" (bare step {bare * 1e6:.1f} µs)"
+    rk4 = r.get("rows_rk4", {})
     cells = []
-    for name, label in (("flexures, twist method", "twist"), ("flexures, dual-quaternion method", "dual quaternion")):
-        vs_weld = same_repeat(rows[name], weld, "weld")  # older JSON: the ratio of the medians, no spread
-        median = vs_weld.get("weld_median", rows[name]["median_s"] / weld["median_s"])
-        cells.append(f"{label} {spread(rows[name])} the bare step, {times(median, vs_weld, 'weld')} the weld step")
-    bare = rows["bare: same bodies, no elements (baseline)"]["median_s"]
-    what = f"`mj_step` with 48 flexures vs no elements vs 48 welds ({r['model']}, Euler)"
-    return what, "; ".join(cells) + f" (bare step {bare * 1e6:.1f} µs)"
+    for name, label in STEP_CASES[:2]:
+        cell = f"{label.removeprefix('plugin, ')} {spread(rows[name])} (Euler)"
+        cells.append(cell + (f", {spread(rk4[name])} (RK4)" if name in rk4 else ""))
+    start = r.get("startup", {}).get("plugin")
+    started = f"; a fresh process from `import mujoco` to its first step {start['median_s']:.2f} s" if start else ""
+    what = f"`mj_step` with 48 plugin elements vs no elements ({r['model']})"
+    return what, "; ".join(cells) + f" the bare step ({bare * 1e6:.1f} µs Euler){started}"
+
+
+def block_step_cost(results):
+    """Per-step cost of each form of the elements against the bare step (Euler and RK4), start-up, machine."""
+    r = results["bench_step"]
+    integrators = [("rows", "Euler"), ("rows_rk4", "RK4")]
+    integrators = [(key, label) for key, label in integrators if key in r]
+    head = ["elements", *[f"{label}: vs bare" for _, label in integrators], "Euler: vs 48 welds"]
+    body = [["none (bare step)", *[f"{r[key][STEP_BARE]['median_s'] * 1e6:.1f} µs" for key, _ in integrators], ""]]
+    for name, label in STEP_CASES:
+        body.append([label, *[spread(r[key][name]) for key, _ in integrators], _vs_weld(r["rows"], name)])
+    narrow = results.get("bench_step_2lanes")  # the same run with 2 lanes: what a CPU without AVX gets
+    if narrow:
+        for name, label in STEP_CASES[:2]:
+            cells = [spread(narrow[key][name]) if key in narrow else "" for key, _ in integrators]
+            body.append([f"{label}, 2 lanes (`--lanes 2`: CPUs without AVX)", *cells, _vs_weld(narrow["rows"], name)])
+    lanes = r.get("native_lanes")
+    out = (
+        f"`{r['command']}` ({r['date'][:10]}; {r['bodies']} free bodies, {r['elements']} elements of ARCADE"
+        + (f", the native library evaluating {lanes} elements at a time" if lanes else "")
+        + "): the cost of `mj_step`, median of same-repeat ratios (min–max) pooled over fresh processes; the goal is "
+        "<= 1.5× the bare step for plugin elements.\n\n" + table(head, body)
+    )
+    start = r.get("startup", {})
+    if start:
+        parts = [f"{kind} {v['median_s']:.2f} s ({v['min_s']:.2f}–{v['max_s']:.2f})" for kind, v in start.items()]
+        runs = next(iter(start.values()))["runs"]
+        out += (f"\nStart-up, a fresh process from its first import to its first step (median of {runs} processes, "
+                f"min–max): {'; '.join(parts)} (plugin: `import mujoco` and the model file only; `mjcb_passive`: "
+                "`import mjflex` and `Flexures` too).\n")  # fmt: skip
+    note = machines_note(results, ["bench_step", "bench_step_2lanes"])
+    return out + ("\n" + note + "\n" if note else "")
 
 
 def _poly(r):
@@ -308,19 +362,34 @@ def _gl_kind(gl):
 def row_demo(r):
     d, b = r["commands"][DEMO_DEFAULT], r["commands"][DEMO_BEFORE]
     return (
-        f"`python -m mjflex demo`, start to exit ({r['machine']['cpus']} cores, {_gl_kind(d['gl'])})",
+        f"`python -m mjflex demo`, start to exit ({_cores(r)} cores, {_gl_kind(d['gl'])})",
         f"{_median_range(d['wall_s'])} with {d['frame_ms']['median']:.1f} ms a frame ({d['width']}×{d['height']}, "
         f"{d['look']['name']} look); {_median_range(b['wall_s'])} and {b['frame_ms']['median']:.0f} ms a frame with "
         "the full look at 1280×720",
     )
 
 
+def _cores(r):
+    m = r["machine"]
+    return m.get("logical_cores", m.get("cpus"))  # scripts/_bench.py's machine record; an older one says "cpus"
+
+
+def _cpu(r):
+    model = r["machine"].get("cpu_model")
+    return f"{model}, " if model else ""
+
+
+def _load(r):
+    m = r["machine"]
+    return m.get("load_average_1min_after", m.get("load_average_1min"))
+
+
 def block_demo(results):
     r = results["demo"]
     d, b = r["commands"][DEMO_DEFAULT], r["commands"][DEMO_BEFORE]
-    names = {"start-up": "start-up (Python, imports)", "kernels": "kernel compilation", "model": "model",
-             "run": "run", "rendering set-up": "GL set-up", "rendering": "rendering", "encoding": "waiting for the "
-             "encoder", "panels": "panels", "plots": "plots"}  # fmt: skip
+    names = {"start-up": "start-up (Python, imports)", "kernels": "provider set-up", "provider": "provider set-up",
+             "model": "model", "run": "run", "rendering set-up": "GL set-up", "rendering": "rendering",
+             "encoding": "waiting for the encoder", "panels": "panels", "plots": "plots"}  # fmt: skip
     phases = ", ".join(f"{names.get(k, k)} {sig(v['median'])} s" for k, v in d["phases_s"].items())
     f = r["frame_costs"]
     rows = []
@@ -331,8 +400,8 @@ def block_demo(results):
     looks = list(dict.fromkeys(x["look"] for x in f["rows"]))
     encoders = " / ".join(dict.fromkeys(x["encoder"] for x in f["encoders"]))
     return (
-        f"Recorded by `{r['command']}` ({r['date'][:10]}, {r['machine']['cpus']} cores, {_gl_kind(d['gl'])}, "
-        f"1-minute load average {r['machine']['load_average_1min']:g} at the end; {d['runs']} fresh runs of each, "
+        f"Recorded by `{r['command']}` ({r['date'][:10]}, {_cpu(r)}{_cores(r)} cores, {_gl_kind(d['gl'])}, "
+        f"1-minute load average {_load(r):g} at the end; {d['runs']} fresh runs of each, "
         f"median and min–max): the demo takes {_median_range(d['wall_s'])} from start "
         f"to exit ({sig(d['cpu_s']['median'])} s of CPU time); it reports {phases}. The video's {d['frames']} frames "
         f"({d['width']}×{d['height']}, {d['look']['name']} look) take {d['frame_ms']['median']:.1f} ms each, "
@@ -460,6 +529,7 @@ BLOCKS = {
     "sweep-arcade": (["sweep_arcade"], block_sweep_arcade),
     "sweep-bench": (["bench_sweep"], block_sweep_bench),
     "demo": (["demo"], block_demo),
+    "step-cost": (["bench_step", "bench_step_2lanes"], block_step_cost),
 }
 
 

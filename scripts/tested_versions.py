@@ -28,12 +28,12 @@ SHOWN = ["mujoco", "numpy", "scipy", "numba", "matplotlib", "xarray", "pandas", 
 
 
 def requirements():
-    """Every requirement of pyproject.toml (dependencies and the test extra's), e.g. ``numpy>=1.26``."""
+    """Every requirement of pyproject.toml (dependencies and the extras the test extra takes in), e.g. numpy>=1.26."""
     with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
         project = tomllib.load(f)["project"]
     extras = project["optional-dependencies"]
     found = list(project["dependencies"])
-    for extra in ("test", "fe", "dask"):
+    for extra in ("test", "fe", "dask", "docs"):
         found += [r for r in extras[extra] if not r.startswith("mjflex")]
     return found
 

@@ -24,7 +24,7 @@ from mjflex.app.timing import Stopwatch, process_start
 from .models import hinge_chain_spec, set_initial_motion
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
-PHASES = ["rendering set-up", "model", "kernels", "run", "rendering", "encoding", "panels", "plots"]
+PHASES = ["rendering set-up", "model", "provider", "run", "rendering", "encoding", "panels", "plots"]
 
 
 def _demo(out, *extra):

@@ -204,6 +204,48 @@ def test_batch_of_the_plain_model_needs_no_serve():
     assert np.array_equal(batch.qpos, _serial(model, qvels))
 
 
+def test_batch_with_a_model_per_simulation_gives_each_its_own_elements():
+    """``Batch.set_models`` steps each simulation's data with another model object than the one it was made from
+    (per-simulation parameters): the plugin reads the elements of the model it is stepped with, so every simulation
+    moves as a serial loop of its own model does (bit for bit), not with the elements of the batch's first model."""
+    models = [_plugin_model(K=scale * K_DEMO) for scale in (1.0, 0.5, 2.0, 4.0)]
+    qvels = _qvels(models[0], 4)
+    batch = mjbatch.Batch(models[0], nsim=4, nthread=2)
+    batch.set_models(models)
+    batch.qvel = np.array(qvels)
+    batch.step(nstep=300)
+    expected = np.array([_serial(m, [q])[0] for m, q in zip(models, qvels, strict=True)])
+    assert not np.array_equal(expected[0], _serial(models[1], qvels[:1])[0])  # the stiffness matters here
+    assert np.array_equal(batch.qpos, expected)
+
+
+def test_a_data_stepped_with_another_model_reads_that_models_elements():
+    """A data made from one model and stepped with an edited copy (other stiffness, another site pose: another rest
+    offset) moves as a data of the copy, and its kinematics stay its own."""
+    stiff = two_body_spec(K=3 * K_DEMO, B=B_DEMO, integrator="Euler", kind="plugin")
+    stiff.site("link/b").pos = stiff.site("link/b").pos + [1e-6, 0, 0]  # a rest offset of its own (within tolerance)
+    soft, stiff = _plugin_model(), stiff.compile()
+    qvel = _qvels(soft, 1)[0]
+    own = _trajectory(stiff, qvel, 300)
+    data = mujoco.MjData(soft)  # made from the soft model
+    data.qvel[:] = qvel
+    mujoco.mj_forward(stiff, data)
+    before = data.site_xpos.copy()
+    mujoco.mj_forward(stiff, data)  # the second call with the same model reads nothing again
+    assert np.array_equal(data.site_xpos, before)
+    mujoco.mj_step(stiff, data, nstep=300)
+    assert np.array_equal(np.r_[data.qpos, data.qvel], own[-1])
+    mujoco.mj_forward(stiff, data)
+    assert np.array_equal(data.qfrc_passive, _data_at(stiff, data).qfrc_passive)  # the forces its own data gets
+
+
+def _data_at(model, other):
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = other.qpos, other.qvel
+    mujoco.mj_forward(model, data)
+    return data
+
+
 def test_rollout_with_two_threads():
     model = _plugin_model()
     qvels = _qvels(model, 4)

@@ -21,8 +21,6 @@ Then run this page as a script: ``python docs/tutorials/plot_01_first_flexure.py
 # ``[rot_x, rot_y, rot_z, x, y, z]`` with ``x`` along the flexure and ``z`` the axis it bends about (N m/rad and
 # N/m), from stored finite-element tables whose error bands are stored with them
 # (:doc:`/background/stiffness_from_geometry`).
-import json
-
 import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
@@ -52,11 +50,17 @@ B[2] = 2 * 0.01 * np.sqrt(k_bend * inertia)
 # frame. Its ``x`` axis points down the pendulum and its ``z`` axis, the compliant one, along the world's ``y``
 # (``xyaxes`` gives the frame's x and y axes).
 #
+# The element's parameters are the configuration of an instance of mjflex's engine plugin ``mjflex.flexure``:
+# ``import mujoco`` loads the plugin (mjflex registers it when installed), so this file runs in any MuJoCo program,
+# MuJoCo's own viewer included, and its forces belong to the model: there is nothing to install. ``K`` and ``B``
+# are given by their diagonals here (6 numbers; 36 for a full matrix).
+#
 # .. note:: **The element's format.** This block is the one place of the tutorial that writes an element by hand:
-#    the two sites, and the stiffness and damping in a text record ``mjflex:hinge``. The same element can be an
-#    instance of mjflex's engine plugin ``mjflex.flexure`` instead; both formats, every key and the rules they
-#    are checked by: :doc:`/reference/mjcf_schema`. Everything below works the same on either.
-record = {"mjflex": 1, "method": "twist", "K": np.diag(K).tolist(), "B": B.tolist()}
+#    the two sites, and the stiffness and damping as the plugin instance ``hinge``. The same element can be a text
+#    record ``mjflex:hinge`` instead, served by the ``mjcb_passive`` provider (``python -m mjflex convert`` turns
+#    one into the other); both formats, every key and the rules they are checked by: :doc:`/reference/mjcf_schema`,
+#    and when to use which: :doc:`/howto/plugin_models`. Everything below works the same on either.
+numbers = " ".join  # a config value is text: numbers separated by spaces, every digit kept by repr
 xml = f"""
 <mujoco model="pendulum">
   <option timestep="1e-5" integrator="RK4" gravity="0 0 -9.81"/>
@@ -69,9 +73,16 @@ xml = f"""
       <site name="hinge/b" pos="0 0 0" xyaxes="0 0 -1 -1 0 0"/>
     </body>
   </worldbody>
-  <custom>
-    <text name="mjflex:hinge" data='{json.dumps(record)}'/>
-  </custom>
+  <extension>
+    <plugin plugin="mjflex.flexure">
+      <instance name="hinge">
+        <config key="site_a" value="hinge/a"/>
+        <config key="site_b" value="hinge/b"/>
+        <config key="K" value="{numbers(repr(float(k)) for k in np.diag(K))}"/>
+        <config key="B" value="{numbers(repr(float(c)) for c in B)}"/>
+      </instance>
+    </plugin>
+  </extension>
 </mujoco>
 """
 model = mujoco.MjModel.from_xml_string(xml)
@@ -94,9 +105,10 @@ print(f"highest mode {freq[-1]:.0f} Hz: RK4 stable below {2.8 / (2 * np.pi * fre
 # %%
 # Simulate
 # --------
-# Start the pendulum 0.1 rad out of the vertical, at rest, and step it for half a second with the flexure's
-# passive-force callback installed (``with flex:``). The element's displacement, a finite twist, gives the hinge
-# rotation: component 2 is the rotation about the compliant axis.
+# Start the pendulum 0.1 rad out of the vertical, at rest, and step it for half a second: MuJoCo's ``mj_step`` calls
+# the plugin, which adds the element's forces. The element's displacement, a finite twist read by ``flex``, gives the
+# hinge rotation: component 2 is the rotation about the compliant axis. (``with flex:`` installs the passive-force
+# callback a text-record element needs; for a plugin element it does nothing, so the function serves both forms.)
 
 
 def swing(model, flex, duration=0.5, angle=0.1, every=50):
@@ -151,9 +163,9 @@ ax.legend(loc="upper right")
 # %%
 # The same model from Python
 # --------------------------
-# :func:`mjflex.add_flexure` writes both sites, the record and (between two bodies) the contact exclusion into a
-# :class:`mujoco.MjSpec`; the element frame's pose is given in world coordinates, as a w-first quaternion. The
-# rotation here maps the frame's axes as ``xyaxes`` did above.
+# :func:`mjflex.add_flexure` writes both sites, the plugin instance and (between two bodies) the contact exclusion
+# into a :class:`mujoco.MjSpec`; the element frame's pose is given in world coordinates, as a w-first quaternion.
+# The rotation here maps the frame's axes as ``xyaxes`` did above.
 spec = mujoco.MjSpec()
 spec.option.timestep = 1e-5
 spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4

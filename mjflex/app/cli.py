@@ -139,7 +139,7 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
     rendered and encoded frame by frame after the run (``quality``: of
     :func:`mjflex.app.render.choose_look`). A divergence raises
     :class:`mjflex.app.simulate.DivergenceError`. ``clock``: a :class:`~mjflex.app.timing.Stopwatch`
-    given the phases "model", "kernels" (compiling and installing the force callback) and "run".
+    given the phases "model", "provider" (reading the elements, installing the callback for text records) and "run".
     """
     clock, started, cpu = clock or Stopwatch(), time.perf_counter(), time.process_time()
     try:
@@ -159,8 +159,8 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
     _switch(flex, name, method, damping)
     data, key = _initial_state(model, keyframe)
     clock.add("model", time.perf_counter() - started, time.process_time() - cpu)
-    with clock.phase("kernels"):
-        flex.install()  # compiles the force callback on its first use in a process
+    with clock.phase("provider"):
+        flex.install()  # the callback for text records (nothing for plugin elements)
         flex.uninstall()
     # without a video, samples only for the energy series (the maxima are tracked every step)
     sample_dt = None if every_step else 1.0 / (fps * slowdown) if video else duration / 2000

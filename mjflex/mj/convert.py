@@ -96,8 +96,27 @@ def spec_elements(spec) -> list[SpecElement]:
     return out
 
 
+def _named_element(spec, name):
+    """The element ``name`` found by its own record or instance name (no scan of every element), or None."""
+    text = spec.text(schema.PREFIX + name)
+    plugins = [p for p in spec.plugins if p.name == name and p.plugin_name == schema.PLUGIN_NAME]
+    if (text is None) == (not plugins):  # none, or both forms (spec_elements lists both): the full scan says
+        return None
+    sites = {s.name for s in spec.sites if s.name}
+    if text is not None:
+        match = schema.match_record(text.name, sites)
+        return None if match is None else SpecElement(match[0], RECORD, match[1], match[2], text, match[3])
+    config = dict(plugins[0].config)
+    a, b = (schema.attached_name(config.get(k, ""), name, sites) or config.get(k, "") for k in ("site_a", "site_b"))
+    return SpecElement(name, PLUGIN, a, b, plugins[0], a in sites and b in sites)
+
+
 def find_element(spec, name) -> SpecElement:
     """The element ``name`` of ``spec``; KeyError naming close matches."""
+    _check_spec(spec)
+    found = _named_element(spec, name) if isinstance(name, str) else None
+    if found is not None:  # the usual case, in O(1) spec look-ups: editing every element stays linear
+        return found
     elements = spec_elements(spec)
     for e in elements:
         if e.name == name:

@@ -55,6 +55,8 @@ typedef struct Instance_ {
   double strain_per_radian;  // 0: not given (the colour shows the rotation about z)
   double strain_scale;       // full scale of the colour (0: the default, MJFX_DEFAULT_*_SCALE)
   double* twists;            // 6 per element of the table, for visualize (leader only, allocated on first use)
+  const mjModel* model;      // the model init read the element from, and its configuration strings: a data
+  const char* attr;          //   stepped with another model reads its elements again (see leader_for)
 } Instance;
 
 static const char* instance_name(const mjModel* m, int instance) {
@@ -364,6 +366,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   e->chain_b1 = count;
   in->nchain = count;
 
+  in->model = m, in->attr = m->plugin_attr;
   in->leader = leader_of(m, instance);
   if (in->leader == instance) {
     in->watch = malloc(mjfx_watch_size(m->nplugin));
@@ -407,9 +410,52 @@ static void report(const mjModel* m, const Table* t, const mjfxVerdict* v) {
   if (v->element >= 0 && v->element < t->n) mjfx_report(m, v, instance_name(m, t->instance[v->element]));
 }
 
-static void flexure_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
+// The elements of d again, read from model m as init read them from the model d was made for: d is
+// stepped with another model object (mujoco.batch.Batch.set_models, or a copy of the model with other
+// parameters or geometry). The run's divergence tallies carry over. Init measures the rest offsets at
+// qpos0 in d, so d's kinematics are computed again afterwards (bit for bit what they were). NULL, with
+// a warning, where the elements cannot be read (then qfrc_passive gets NaN: no force is silently lost).
+static Instance* reread(const mjModel* m, mjData* d, int leader) {
+  Instance* old = (Instance*)d->plugin_data[leader];
+  mjfxWatch* watch = old->watch;
+  old->watch = NULL;
+  int last = last_of(m, leader);
+  for (int i = leader; i <= last; i++) {
+    if (m->plugin[i] != m->plugin[leader] || !d->plugin_data[i]) continue;
+    free_instance((Instance*)d->plugin_data[i]);
+    d->plugin_data[i] = 0;
+  }
+  int failed = 0;
+  for (int i = leader; i <= last && !failed; i++) {
+    if (m->plugin[i] == m->plugin[leader]) failed = flexure_init(m, d, i) != 0;
+  }
+  mj_kinematics(m, d);
+  Instance* in = failed ? NULL : (Instance*)d->plugin_data[leader];
+  if (in && in->watch && watch && in->watch->n == watch->n) memcpy(in->watch, watch, mjfx_watch_size(watch->n));
+  free(watch);
+  if (!in) {
+    mju_warning("mjflex: the elements of a data stepped with another model than its own could not be read from that "
+                "model (see the message above); make the data from the model you step it with (mujoco.MjData(model))");
+  }
+  return in;
+}
+
+// The leader's instance for model m (NULL for the other instances: the leader computes every element).
+static Instance* leader_for(const mjModel* m, mjData* d, int instance) {
   Instance* in = (Instance*)d->plugin_data[instance];
-  if (!in || !in->table) return;  // not the leader: the leader computes every element
+  if (!in || !in->table) return NULL;
+  if (in->model == m && in->attr == m->plugin_attr) return in;
+  return reread(m, d, instance);
+}
+
+static void flexure_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
+  Instance* in = leader_for(m, d, instance);
+  if (!in) {
+    if (d->plugin_data[instance] == 0 && instance == leader_of(m, instance)) {  // reread failed: no silent zero
+      for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;
+    }
+    return;
+  }
   Table* t = in->table;
   mjfxVerdict v;
   mjfx_watch_judge(in->watch, m, d, 1, &v);
@@ -425,8 +471,8 @@ static void flexure_compute(const mjModel* m, mjData* d, int instance, int capab
 }
 
 static void flexure_advance(const mjModel* m, mjData* d, int instance) {
-  Instance* in = (Instance*)d->plugin_data[instance];
-  if (!in || !in->table) return;
+  Instance* in = leader_for(m, d, instance);
+  if (!in) return;
   mjfxVerdict v;
   mjfx_watch_judge(in->watch, m, d, 1, &v);
   mjfx_watch_step_end(in->watch, d);
@@ -451,8 +497,8 @@ static void strain_color(double x, float rgba[4]) {
 // site's pose, coloured by |rotation about z| x strain_per_radian over the full scale (the rotation itself
 // without strain_per_radian); where site a's group is shown, while the scene has room.
 static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
-  Instance* in = (Instance*)d->plugin_data[instance];
-  if (!in || !in->table || !in->table->n) return;
+  Instance* in = leader_for(m, d, instance);
+  if (!in || !in->table->n) return;
   Table* t = in->table;
   if (!in->twists && !(in->twists = malloc(sizeof(double) * 6 * t->n))) return;
   mjfxScan scan;
