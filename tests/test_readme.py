@@ -145,7 +145,7 @@ NOT_TIMINGS = re.compile(r"\d×\d|100× the scene's step")
 #: A timing figure "2.47×" (not the upper end of a range "1.6–3.8×") without its spread " (2.18–2.61)".
 BARE_TIMING = re.compile(r"(?<![–\d.])\d+(?:\.\d+)?×(?! \()")
 #: Blocks that hold a table or an account of timings: each names the machine once.
-MACHINE_BLOCKS = ("measured", "polynomial-cost", "native", "reduce-arcade", "sweep-bench")
+MACHINE_BLOCKS = ("measured", "polynomial-cost", "native", "reduce-arcade", "sweep-bench", "step-cost")
 
 
 def _timing_rows(payload):
