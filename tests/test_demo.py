@@ -191,7 +191,7 @@ def test_panels_have_readable_titles_and_a_colour_bar_with_units(tmp_path):
     bars = [ax for ax in fig.axes if not ax.images and ax.get_visible()]
     assert len(bars) == 1 and bars[0].get_ylabel() == "bending strain [%]"
     assert bars[0].get_ylim() == pytest.approx((0.0, 100 * scale.vmax))
-    (solids,) = [c for c in bars[0].collections if isinstance(c, QuadMesh)]  # the bar's colours
+    (solids,) = (c for c in bars[0].collections if isinstance(c, QuadMesh))  # the bar's colours
     cmap = solids.cmap
     np.testing.assert_allclose(
         cmap(np.linspace(0, 1, 5))[:, :3], strain_colors(np.linspace(0, 1, 5), 1)[:, :3], atol=2 / 255

@@ -193,7 +193,10 @@ def lanes():
     native.mjfx_set_lanes(0)
 
 
-def _evaluate(flex, data, mode, sl=slice(None), qfrc=None):
+EVERY = slice(None)
+
+
+def _evaluate(flex, data, mode, sl=EVERY, qfrc=None):
     t = flex._tables
     n = len(flex)
     out6, out1 = np.zeros((n, 6)), np.zeros(n)

@@ -58,13 +58,13 @@ _IP = ctypes.POINTER(ctypes.c_int)
 class Verdict(ctypes.Structure):
     """``mjfxVerdict``: what a look at an mjData's divergence watch asks to report."""
 
-    _fields_ = [("element", _I), ("first", _I), ("nonfinite", _I), ("accel", _D), ("step", _D), ("bad", _I)]
+    _fields_ = (("element", _I), ("first", _I), ("nonfinite", _I), ("accel", _D), ("step", _D), ("bad", _I))
 
 
 class Scan(ctypes.Structure):
     """``mjfxScan``."""
 
-    _fields_ = [("nonfinite", _I), ("largest", _I), ("accel", _D)]
+    _fields_ = (("nonfinite", _I), ("largest", _I), ("accel", _D))
 
 
 _SIGNATURES = {
