@@ -88,7 +88,7 @@ def main(argv=None):
     cases = ["serial", *executors]
     load_before = os.getloadavg()[0]
     reference = run("serial", args.duration)
-    for name in cases[1:]:  # warm up the workers (imports, compilation) and check the results
+    for name in cases[1:]:  # warm up the workers (imports) and check the results
         np.testing.assert_array_equal(run(name, args.duration), reference, err_msg=name)
     wall = {name: [] for name in cases}
     overhead = {name: [] for name in cases}

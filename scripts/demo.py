@@ -9,7 +9,7 @@ Usage::
    its defaults and with the look and size it had before (``--quality full --width 1280
    --height 720``), interleaved ``--repeat`` times. Per run: the wall time seen from outside
    (start to exit), the child's CPU time, and the command's own breakdown from
-   ``arcade_summary.json`` (start-up, model, kernels, run, rendering, encoding, panels, plots).
+   ``arcade_summary.json`` (start-up, model, provider, run, rendering, encoding, panels, plots).
 2. One frame of ARCADE by size and look (:class:`mjflex.app.render.Look`): drawing
    (``mjr_render`` then ``glFinish``, since a software GL draws when asked to finish) and reading
    back (``mjr_readPixels``), wall and CPU time of this process (the GL's threads included),

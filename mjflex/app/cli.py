@@ -139,7 +139,8 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
     rendered and encoded frame by frame after the run (``quality``: of
     :func:`mjflex.app.render.choose_look`). A divergence raises
     :class:`mjflex.app.simulate.DivergenceError`. ``clock``: a :class:`~mjflex.app.timing.Stopwatch`
-    given the phases "model", "provider" (reading the elements, installing the callback for text records) and "run".
+    given the phases "model" (reading the elements too), "provider" (installing the callback for text
+    records) and "run".
     """
     clock, started, cpu = clock or Stopwatch(), time.perf_counter(), time.process_time()
     try:

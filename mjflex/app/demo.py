@@ -63,7 +63,7 @@ def run_demo(out, *, duration=0.08, width=None, height=None, fps=30, slowdown=10
 
     ``clock`` (a :class:`~mjflex.app.timing.Stopwatch`, default: started now) gets the phases
     rendering set-up (the GL is probed before the run, the renderer made after it), model,
-    kernels, run, rendering, encoding, panels and plots.
+    provider, run, rendering, encoding, panels and plots.
     """
     from .cli import _frames, _stop_on_divergence, arcade_model, run_model  # cli imports this module lazily
 
