@@ -157,8 +157,7 @@ def _terms_args(terms, method, K, check):
         H = terms.rest_stiffness()
         if np.any(H):
             check_psd_matrix(K + H, "K + terms.rest_stiffness()", 6, what="stiffness")
-    # writable copies: the compiled kernels then share one specialization with the MuJoCo loop's tables
-    return (np.array(terms.exponents), np.array(terms.coefficients), *_polyk.work_arrays(terms.exponents))
+    return (terms.exponents, terms.coefficients, *_polyk.work_arrays(terms.exponents))
 
 
 def _wrench_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL):
