@@ -83,3 +83,21 @@ def test_element_names_are_free_text(tmp_path, name):
     with flex, pytest.raises(mujoco.FatalError) as err:
         mujoco.mj_forward(model, data)
     assert f"flexure '{name}'" in str(err.value)  # '%' reaches the message unharmed
+
+
+def test_builders_compile_while_a_python_passive_callback_is_installed():
+    """MuJoCo refuses to compile while a Python mjcb_passive is installed: the builders take it off for the
+    compilation (add_flexure through build.compile_spec, the variants through variant.compile_spec) and put it back."""
+
+    def user_callback(m, d):
+        pass
+
+    spec = _two_bodies()
+    mujoco.set_mjcb_passive(user_callback)
+    try:
+        mjflex.add_flexure(spec, "e", "A", "B", pos=[0.2, 0.15, 0.25], K=np.ones(6))
+        variant = mjflex.weld_variant(spec)
+        assert mujoco.get_mjcb_passive() is user_callback
+    finally:
+        mujoco.set_mjcb_passive(None)
+    assert variant.model.neq == 1

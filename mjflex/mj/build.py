@@ -1,5 +1,6 @@
 """Adding flexure elements to a model with ``mujoco.MjSpec``."""
 
+import contextlib
 import ctypes
 import difflib
 from dataclasses import dataclass
@@ -95,24 +96,35 @@ def _body(spec, body, role):
     return found
 
 
+@contextlib.contextmanager
+def python_callback_lifted():
+    """A Python ``mjcb_passive`` taken off for the time of the block (MuJoCo cannot compile while one is installed).
+
+    mjflex's own callback is native and stays.
+    """
+    previous = mujoco.get_mjcb_passive()
+    python_callback = previous is not None and not isinstance(previous, ctypes._CFuncPtr)
+    if python_callback:
+        mujoco.set_mjcb_passive(None)
+    try:
+        yield
+    finally:
+        if python_callback:
+            mujoco.set_mjcb_passive(previous)
+
+
 def compile_spec(spec, why="place flexures in world coordinates") -> mujoco.MjModel:
     """``spec.compile()``, also while a Python passive callback is installed (MuJoCo cannot compile then).
 
     Raises ValueError saying ``why`` the spec had to compile.
     """
-    previous = mujoco.get_mjcb_passive()
-    python_callback = previous is not None and not isinstance(previous, ctypes._CFuncPtr)
-    if python_callback:  # MuJoCo cannot compile while a Python passive callback is installed
-        mujoco.set_mjcb_passive(None)
     try:
-        return spec.compile()
+        with python_callback_lifted():
+            return spec.compile()
     except ValueError as exc:
         raise ValueError(
             f"the spec must compile to {why} ({exc}); add the bodies' geoms or inertias before the flexures"
         ) from None
-    finally:
-        if python_callback:
-            mujoco.set_mjcb_passive(previous)
 
 
 def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:

@@ -11,7 +11,6 @@ model file, an ``MjSpec``, or the ``MjModel`` last loaded from XML) into an edit
 put its bodies where the source's bodies are, by Gauss-Newton on the body poses.
 """
 
-import ctypes
 import functools
 import os
 import tempfile
@@ -23,6 +22,7 @@ import numpy as np
 import scipy.linalg
 
 from . import _native, convert
+from .build import python_callback_lifted
 
 
 class VariantNotApplicableError(Exception):
@@ -101,17 +101,11 @@ def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
     """Compile ``spec``, lifting a Python passive callback for the time of the compilation.
 
     MuJoCo refuses to compile while a Python ``mjcb_passive`` is installed; mjflex's own
-    callback is native and does not get in the way.
+    callback is native and does not get in the way. MuJoCo's own errors pass through
+    (:func:`mjflex.mj.build.compile_spec` words them for a spec that flexures are added to).
     """
-    previous = mujoco.get_mjcb_passive()
-    python_callback = previous is not None and not isinstance(previous, ctypes._CFuncPtr)
-    if python_callback:
-        mujoco.set_mjcb_passive(None)
-    try:
+    with python_callback_lifted():
         return spec.compile()
-    finally:
-        if python_callback:
-            mujoco.set_mjcb_passive(previous)
 
 
 def source_spec(source) -> mujoco.MjSpec:
