@@ -52,7 +52,7 @@ from _bench import (
 )
 
 import mjflex
-from mjflex.mj.convert import copy_spec, plugins_to_records
+from mjflex.mj.convert import copy_spec, plugins_to_records, records_to_plugins
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -100,8 +100,6 @@ def welded(spec, model):
 
 def plugin_spec(spec, method):
     """A copy of the spec with every text record turned into an mjflex.flexure instance using ``method``."""
-    from mjflex.mj.build import records_to_plugins
-
     copy = copy_spec(spec)
     records_to_plugins(copy)
     for plugin in copy.plugins:

@@ -483,13 +483,6 @@ def add_plugin_element(spec, record, site_a: str, site_b: str):
     return plugin
 
 
-def records_to_plugins(spec, names=None) -> list[str]:
-    """Text-record elements of ``spec`` as plugin instances (:func:`mjflex.mj.convert.records_to_plugins`)."""
-    from .convert import records_to_plugins as convert
-
-    return convert(spec, names)
-
-
 def _checked_terms(terms, method, K, name):
     """``(terms, order)`` for the record: None and 2 without terms; raises ValueError naming the element."""
     if terms is None:
