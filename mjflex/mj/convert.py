@@ -81,19 +81,27 @@ def spec_elements(spec) -> list[SpecElement]:
     :class:`mjflex.Flexures` reports it when the model is built.
     """
     _check_spec(spec)
-    sites = {s.name for s in spec.sites if s.name}
-    out = []
-    for text in spec.texts:
-        match = schema.match_record(text.name, sites)
-        if match is not None:
-            out.append(SpecElement(match[0], RECORD, match[1], match[2], text, match[3]))
-    for plugin in spec.plugins:
-        if plugin.plugin_name == schema.PLUGIN_NAME and plugin.name:
-            config = dict(plugin.config)
-            a, b = (schema.attached_name(config.get(k, ""), plugin.name, sites) or config.get(k, "")
-                    for k in ("site_a", "site_b"))  # fmt: skip
-            out.append(SpecElement(plugin.name, PLUGIN, a, b, plugin, a in sites and b in sites))
-    return out
+    sites = _site_names(spec)
+    records = (_record_element(text, sites) for text in spec.texts)
+    return [e for e in records if e is not None] + [_plugin_element(p, sites) for p in _instances(spec)]
+
+
+def _site_names(spec):
+    return {s.name for s in spec.sites if s.name}
+
+
+def _record_element(text, sites):
+    """The element that text ``text`` records, or None when it is not an element's record."""
+    match = schema.match_record(text.name, sites)
+    return None if match is None else SpecElement(match[0], RECORD, match[1], match[2], text, match[3])
+
+
+def _plugin_element(plugin, sites):
+    """The element of ``mjflex.flexure`` instance ``plugin`` (its sites resolved as under ``MjSpec.attach``)."""
+    config = dict(plugin.config)
+    a, b = (schema.attached_name(config.get(k, ""), plugin.name, sites) or config.get(k, "")
+            for k in ("site_a", "site_b"))  # fmt: skip
+    return SpecElement(plugin.name, PLUGIN, a, b, plugin, a in sites and b in sites)
 
 
 def _named_element(spec, name):
@@ -102,13 +110,8 @@ def _named_element(spec, name):
     plugins = [p for p in spec.plugins if p.name == name and p.plugin_name == schema.PLUGIN_NAME]
     if (text is None) == (not plugins):  # none, or both forms (spec_elements lists both): the full scan says
         return None
-    sites = {s.name for s in spec.sites if s.name}
-    if text is not None:
-        match = schema.match_record(text.name, sites)
-        return None if match is None else SpecElement(match[0], RECORD, match[1], match[2], text, match[3])
-    config = dict(plugins[0].config)
-    a, b = (schema.attached_name(config.get(k, ""), name, sites) or config.get(k, "") for k in ("site_a", "site_b"))
-    return SpecElement(name, PLUGIN, a, b, plugins[0], a in sites and b in sites)
+    sites = _site_names(spec)
+    return _record_element(text, sites) if text is not None else _plugin_element(plugins[0], sites)
 
 
 def find_element(spec, name) -> SpecElement:
