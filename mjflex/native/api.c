@@ -2,7 +2,6 @@
 // versions of the element math (tested against mjflex.core), and the watch's contents.
 
 #include <stddef.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include <mujoco/mjplugin.h>
@@ -84,17 +83,6 @@ void mjfx_potential_batch(int n, int method, const double* Ra, const double* pa,
 
 void mjfx_twist_batch(int n, const double* Ra, const double* pa, const double* Rb, const double* pb, double* out) {
   for (int i = 0; i < n; i++) mjfx_twist(Ra + 9 * i, pa + 3 * i, Rb + 9 * i, pb + 3 * i, out + 6 * i);
-}
-
-// Validate a configuration (values in attribute order) the way the plugin's init does, without a
-// model (sites not checked); returns 0 or -1 with the message in err.
-int mjfx_check_config(const char* name, const char* const* values, char* err, int errsz) {
-  mjfxParsed parsed;
-  memset(&parsed, 0, sizeof(parsed));
-  int rc = mjfx_parse_config(name, values, &parsed, err, errsz);
-  free(parsed.exps);
-  free(parsed.coefs);
-  return rc;
 }
 
 // Number of tallies of a watch (0 for NULL).

@@ -157,14 +157,6 @@ void mjfx_quat_mul(const double a[4], const double b[4], double out[4]) {
   out[0] = w, out[1] = x, out[2] = y, out[3] = z;
 }
 
-void mjfx_quat_conj_mul(const double a[4], const double b[4], double out[4]) {
-  double w = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
-  double x = a[0] * b[1] - a[1] * b[0] - a[2] * b[3] + a[3] * b[2];
-  double y = a[0] * b[2] + a[1] * b[3] - a[2] * b[0] - a[3] * b[1];
-  double z = a[0] * b[3] - a[1] * b[2] + a[2] * b[1] - a[3] * b[0];
-  out[0] = w, out[1] = x, out[2] = y, out[3] = z;
-}
-
 void mjfx_rot_from_quat(const double q[4], double R[9]) {
   double ww = q[0] * q[0], xx = q[1] * q[1], yy = q[2] * q[2], zz = q[3] * q[3];
   double wx = q[0] * q[1], wy = q[0] * q[2], wz = q[0] * q[3], xy = q[1] * q[2], xz = q[1] * q[3], yz = q[2] * q[3];

@@ -80,9 +80,8 @@ void mjfx_twist(const double Ra[9], const double pa[3], const double Rb[9], cons
 // Unit quaternion (w >= 0) of a rotation matrix (Shepperd), as mjflex.core.
 void mjfx_quat_from_rot(const double R[9], double q[4]);
 
-// Quaternion product a b, the conjugate product a^* b, and the rotation matrix (row-major) of a unit quaternion.
+// Quaternion product a b, and the rotation matrix (row-major) of a unit quaternion.
 void mjfx_quat_mul(const double a[4], const double b[4], double out[4]);
-void mjfx_quat_conj_mul(const double a[4], const double b[4], double out[4]);
 void mjfx_rot_from_quat(const double q[4], double R[9]);
 
 // Series coefficients used near zero angle (for a test against mjflex.core._series).
