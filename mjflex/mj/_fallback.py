@@ -12,10 +12,10 @@ import mujoco
 import numpy as np
 
 from ..core import dissipation_power, potential, twist_from_transform, wrench_on_b
+from ..core.validation import METHOD_NAMES
 from . import _native
 from .divergence import Divergence, step_index, step_phrase
 
-_METHODS = ("twist", "dualquat")
 _CANDIDATE_ACCEL = 1e8  # a hundredth of MuJoCo's mjMAXVAL, as CANDIDATE_ACCEL in elements.c
 _BAD = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
 _BAD_NAMES = ("qpos", "qvel", "qacc")
@@ -52,7 +52,7 @@ def evaluate(model, data, tables, mode, *, qfrc=None, out6=None, out1=None, n=No
         if mode & _native.COORDS:
             out6[i] = twist_from_transform(Ra.T @ Rb, Ra.T @ (pb - pa), check=False)
             continue
-        method = _METHODS[int(row["method"])]
+        method = METHOD_NAMES[int(row["method"])]
         K = row["K"].reshape(6, 6) if spring else np.zeros((6, 6))
         terms = (
             rec.terms if spring and rec.terms is not None and len(rec.terms) and method == rec.terms.method else None
