@@ -253,8 +253,7 @@ def _plugin_elements(model, all_sites):
             problem = f"its plugin configuration is malformed: {str(exc).rstrip('.')}"
             raise model_error(element, problem, "Fix its <config> attributes (see mjflex.mj.schema).") from None
         text = schema.config_text(config)
-        site_a, site_b = (schema.attached_name(config[k], element, all_sites) or config[k]
-                          for k in ("site_a", "site_b"))  # fmt: skip
+        site_a, site_b = schema.config_sites(config, element, all_sites)
         out.append((element, text, site_a, site_b, record, i))
     return out
 

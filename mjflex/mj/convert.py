@@ -98,9 +98,7 @@ def _record_element(text, sites):
 
 def _plugin_element(plugin, sites):
     """The element of ``mjflex.flexure`` instance ``plugin`` (its sites resolved as under ``MjSpec.attach``)."""
-    config = dict(plugin.config)
-    a, b = (schema.attached_name(config.get(k, ""), plugin.name, sites) or config.get(k, "")
-            for k in ("site_a", "site_b"))  # fmt: skip
+    a, b = schema.config_sites(dict(plugin.config), plugin.name, sites)
     return SpecElement(plugin.name, PLUGIN, a, b, plugin, a in sites and b in sites)
 
 

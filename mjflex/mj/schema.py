@@ -599,6 +599,11 @@ def attached_name(value: str, element: str, names) -> str | None:
     return None
 
 
+def config_sites(config: dict, element: str, names) -> tuple[str, str]:
+    """The names of a plugin instance's two sites among ``names`` (:func:`attached_name`), else as written."""
+    return tuple(attached_name(config.get(k, ""), element, names) or config.get(k, "") for k in ("site_a", "site_b"))
+
+
 def config_from_record(record: FlexureRecord, site_a: str, site_b: str) -> dict[str, str]:
     """The plugin configuration of a record (lossless: 17 significant digits, the source verbatim)."""
     config = {"site_a": site_a, "site_b": site_b, "method": record.method, "K": _number_text(_compact(record.K))}
