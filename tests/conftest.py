@@ -21,3 +21,19 @@ def clean_callback():
     yield
     _callback.uninstall_all()
     mujoco.set_mjcb_passive(None)
+
+
+def require(name, available, reason):
+    """Skip the calling test when a system service ``name`` is missing, unless CI requires it.
+
+    A test that needs something beyond Python and the package (a display server, a C compiler, a
+    sanitizer runtime) calls this with ``available`` (bool) and ``reason`` (what is missing and how to
+    get it). Where the environment variable ``MJFLEX_REQUIRE`` lists ``name`` (comma-separated, or
+    ``all``), a missing service fails the test instead: ``.ci/run`` sets it, so CI never skips silently.
+    """
+    if available:
+        return
+    required = {item.strip() for item in os.environ.get("MJFLEX_REQUIRE", "").split(",") if item.strip()}
+    if name in required or "all" in required:
+        pytest.fail(f"{reason} (MJFLEX_REQUIRE lists {name!r}, so this must run here)")
+    pytest.skip(f"{reason}; set MJFLEX_REQUIRE={name} to make this a failure instead of a skip")
