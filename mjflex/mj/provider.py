@@ -575,14 +575,17 @@ class Flexures:
 
     @property
     def enabled(self) -> np.ndarray:
+        """``(n,)`` bool: which elements act now (the record's ``enabled``, then :meth:`set_enabled`), in row order."""
         return self._elements["enabled"][: len(self)].astype(bool)
 
     @property
     def viscous(self) -> np.ndarray:
+        """``(n,)`` bool: which elements add their damping ``B`` now (:meth:`set_viscous`), in row order."""
         return self._elements["viscous"][: len(self)].astype(bool)
 
     @property
     def methods(self) -> tuple[str, ...]:
+        """Each element's method now, ``"twist"`` or ``"dualquat"`` (:meth:`set_method`), in row order."""
         return tuple(validation.METHOD_NAMES[int(c)] for c in self._elements["method"][: len(self)])
 
 
