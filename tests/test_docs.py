@@ -53,6 +53,62 @@ def site(tmp_path_factory):
     return os.path.join(out, "html")
 
 
+def _requirement_closure(name, extras=()):
+    """Canonical names of the installed distributions that ``name[extras]`` requires, itself included, recursively."""
+    from importlib import metadata
+
+    from packaging.requirements import Requirement
+    from packaging.utils import canonicalize_name
+
+    found, stack = set(), [(name, tuple(extras))]
+    while stack:
+        dist, wanted = stack.pop()
+        key = canonicalize_name(dist)
+        if (key, wanted) in found:
+            continue
+        found.add((key, wanted))
+        try:
+            requirements = metadata.requires(dist) or []
+        except metadata.PackageNotFoundError:
+            continue
+        for requirement in map(Requirement, requirements):
+            environments = [{"extra": extra} for extra in wanted] or [{"extra": ""}]
+            if requirement.marker is None or any(requirement.marker.evaluate(env) for env in environments):
+                stack.append((requirement.name, tuple(sorted(requirement.extras))))
+    return {key for key, _ in found}
+
+
+def test_the_docs_extra_holds_everything_the_build_imports():
+    """``pip install -e ".[docs]"`` alone is enough to build the site: every distribution that the build imports
+    (every module of the package, which the API pages and their references import, and what the tutorials import)
+    is a requirement of mjflex or of its docs extra. scikit-fem, for mjflex.geometry.fe, was not."""
+    import ast
+    from importlib import metadata
+
+    modules = __import__("pkgutil").walk_packages([os.path.join(ROOT, "mjflex")], "mjflex.")
+    imported = [m.name for m in modules if m.name.split(".")[-1].isidentifier()]  # the native library is no module
+    imported = [name for name in imported if not name.endswith("__main__")]  # python -m mjflex: the command line
+    for script in _tutorials():
+        with open(script, encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+        imported += [a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names]
+        imported += [node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module]
+    code = (  # what the imports add to what the interpreter loaded at start-up (site's .pth files)
+        "import importlib, sys\nstart = set(sys.modules)\nfor name in sys.argv[1:]:\n"
+        "    importlib.import_module(name)\nprint(*(set(sys.modules) - start))"
+    )
+    done = subprocess.run([sys.executable, "-c", code, *imported], cwd=ROOT, capture_output=True, text=True,
+                          env=codeblocks.environment(), check=True)  # fmt: skip
+    owners = metadata.packages_distributions()
+    top = {name.split(".")[0] for name in done.stdout.split()} - set(sys.stdlib_module_names)
+    needed = {dist for name in top for dist in owners.get(name, [])}
+    allowed = _requirement_closure("mjflex", ["docs"])
+    from packaging.utils import canonicalize_name
+
+    missing = sorted(d for d in needed if canonicalize_name(d) not in allowed and canonicalize_name(d) != "mjflex")
+    assert "scikit-fem" in needed and not missing, f"the build imports {missing}, which .[docs] does not install"
+
+
 def test_site_builds_without_warnings(site):
     assert os.path.exists(os.path.join(site, "index.html"))
     for section in ("auto_tutorials/index", "howto/index", "reference/index", "background/index"):
