@@ -55,7 +55,9 @@ nitpick_ignore_regex = [
 # ----------------------------------------------------------------------------- API reference
 autosummary_generate = True
 autosummary_imported_members = True
-autodoc_default_options = {"members": False}
+# class pages: the template (_templates/autosummary/class.rst) documents every public method and property, own or
+# inherited from an mjflex base class, in source order; mjflex_docs.public_members says which must have an entry
+autodoc_default_options = {"member-order": "bysource"}
 autodoc_typehints = "none"  # the numpydoc sections state types, shapes and units
 numpydoc_show_class_members = False  # the class template lists the members
 numpydoc_class_members_toctree = False
@@ -79,6 +81,7 @@ sphinx_gallery_conf = {
     "matplotlib_animations": False,
     "image_scrapers": ("matplotlib",),
     "reset_modules": ("matplotlib", "mjflex_docs.reset_mujoco"),
+    "reset_modules_order": "both",  # after each tutorial too: mjflex_docs reports the warnings it printed
     "show_memory": False,
     "min_reported_time": 0,
     "capture_repr": (),  # printed output only, not the value of a block's last expression

@@ -30,30 +30,10 @@ def _study_limit(r, variant="full", method="twist"):
     return {lim["integrator"]: lim for lim in r["limits"] if lim["variant"] == variant and lim["method"] == method}
 
 
-#: What a study's linear limit means, said once in the study's block (records that have one).
-LINEAR_NOTE = (
-    "The linear limit is that of the model linearized at its initial pose, for any motion: a step above it runs "
-    "through only a scene that leaves the mode named unexcited, so the study recommends the smaller of the two "
-    "limits, checked by a run with a 1e-6 random velocity perturbation. "
-)
-
-
 def _usable_step(lim):
     """The step a study recommends for a (variant, method, integrator): checked (linear limit and perturbed run) or,
     in a record made before those checks, the measured one."""
     return lim["recommended"] if lim.get("checked") else lim["largest_stable"]
-
-
-def _linear_limit_text(lim):
-    """`` (linear limit …, set by the … mode; use h ≤ …)`` for a checked limit, else nothing (older records)."""
-    if not lim.get("checked"):
-        return ""
-    if lim["linear_step"] is None:
-        return f" ({lim['linear_note']})"
-    mode = lim["linear_mode"]
-    what = f"the {sig(mode['frequency_hz'] / 1e3, 3)} kHz mode" if mode["oscillating"] else "a damped motion"
-    use = f"; use h ≤ {sci(lim['recommended'], 3)} s" if lim["recommended"] else "; no step recommended"
-    return f" (linear limit {sci(lim['linear_step'], 3)} s, set by {what}{use})"
 
 
 def row_study_arcade(r):
@@ -64,8 +44,7 @@ def row_study_arcade(r):
     return (
         "speed against accuracy on the ARCADE run (`mjflex study`)",
         f"for ≤ 1 % pose error: {eng['choice']}, {eng['s per simulated s']} CPU s per simulated s, "
-        f"{faster} than the model's own RK4 at 1e-5 s; RK4 {'usable' if rk4.get('checked') else 'stable'} to "
-        f"{sci(_usable_step(rk4))} s",
+        f"{faster} than the model's own RK4 at 1e-5 s; the RK4 step it recommends {sci(_usable_step(rk4), 3)} s",
     )
 
 
@@ -74,57 +53,69 @@ def block_study_arcade(results):
     ref, lim = r["reference"], _study_limit(r)
     full = [x for x in r["rows"] if x["variant"] == "full" and x["status"] == "ok"]
     dq = [x["pose_error"] for x in full if x["method"] == "dualquat" and x["pose_error"] is not None]
-
-    def bracket(i):
-        return (f"{sci(lim[i]['largest_stable'], 3)} s and diverges at {sci(lim[i]['smallest_unstable'], 3)} s"
-                + _linear_limit_text(lim[i]))  # fmt: skip
-
-    others = [i for i in lim if i != "rk4"]
-    if len({(lim[i]["largest_stable"], lim[i]["smallest_unstable"], lim[i].get("linear_step")) for i in others}) == 1:
-        implicit = (
-            f"{join_and(others)} are all stable up to {bracket(others[0]).replace('diverges', 'diverge')}: the "
-            "implicit ones gain nothing, as mjflex forces enter every MuJoCo integrator explicitly"
-        )
-    else:
-        implicit = "; ".join(f"{i} is stable up to {bracket(i)}" for i in others)
     best = {v: min(x["pose_error"] for x in r["rows"] if x["variant"] == v and x["pose_error"] is not None)
             for v in r["variants"]}  # fmt: skip
     notes = {}
     for v, report in r["variants"].items():
         lines = report.splitlines()[1:]
         kept = sum("kept as an element" in line for line in lines)
+        dropped = sum("damping dropped" in line for line in lines)
         if v.startswith("reduced") and kept:
-            notes[v] = f" (keeps {kept} elements, drops the damping of {sum('damping dropped' in x for x in lines)})"
-    variants = (
-        "Best pose error of the default variants (any method, integrator and step): "
-        + ", ".join(f"{v} {pct(e)}{notes.get(v, '')}" for v, e in best.items())
-        + "."
-    )
-    elements = sorted({lim[i]["divergence"]["element"] for i in lim if lim[i]["divergence"]})
-    text = (
+            notes[v] = f" (keeps {kept} elements" + (f", drops the damping of {dropped})" if dropped else ")")
+    checked = lim["rk4"].get("checked")
+    rows = []
+    for name, x in lim.items():
+        div = x["divergence"] or {}
+        where = f"`{div['element']}`, t = {div['time'] * 1e3:.1f} ms" if div.get("element") else "-"
+        rows.append([name, f"{sci(x['largest_stable'], 3)} s", f"{sci(x['smallest_unstable'], 3)} s ({where})",
+                     f"{sci(_usable_step(x), 3)} s"])  # fmt: skip
+    width = max(x["smallest_unstable"] / x["largest_stable"] - 1 for x in lim.values())
+    use = "the step it recommends (no larger than its linear limit)" if checked else "the step to use"
+    return (
         f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['wall_s'])} of wall time on 2 cores, the "
-        f"{len(r['variants'])} default variants included): the "
-        f"paper's run for {r['duration'] * 1e3:.1f} ms, one period of the guide mode, {len(r['tracked'])} bodies "
-        f"tracked relative to the {r['frame']}. The reference is RK4 at {sci(ref['timestep'], 3)} s (successive "
-        f"refinements agree to {sci(ref['agreement'])}, estimated error {sci(ref['error_estimate'])}, observed "
-        f"order {ref['observed_order']:.1f}). Over this run RK4 (twist) is stable up to {bracket('rk4')}; {implicit}; "
-        f"each divergence names its element ({', '.join(f'`{e}`' for e in elements)}) and step. "
-        + (LINEAR_NOTE if lim["rk4"].get("checked") else "")
-        + "The dual-quaternion "
-        f"runs differ from the (twist) reference by {pct(min(dq))}–{pct(max(dq))}: the difference between the two "
-        f"element models at ARCADE's finite rotations, not integration error. {variants}\n\nWhich choice for which "
-        "need (CPU seconds of `mj_step` per simulated second):\n\n"
+        f"{len(r['variants'])} default variants included):\n\n"
+        f"- **Scene**: the paper's run for {r['duration'] * 1e3:.1f} ms, one period of the guide mode; "
+        f"{len(r['tracked'])} bodies tracked relative to the {r['frame']}.\n"
+        f"- **Reference**: RK4 at {sci(ref['timestep'], 3)} s; successive refinements agree to "
+        f"{sci(ref['agreement'])} (estimated error {sci(ref['error_estimate'])}, observed order "
+        f"{ref['observed_order']:.1f}).\n"
+        f"- **Stability** (twist elements; brackets within {pct(width, 1)}): the implicit integrators gain nothing, "
+        "as mjflex forces enter every MuJoCo integrator explicitly; each divergence names its element.\n\n"
+        + table(["integrator", "ran through at", "diverged at (element, time)", use], rows)
+        + "\n"
+        f"- **Element methods**: the dual-quaternion runs differ from the (twist) reference by {pct(min(dq))}–"
+        f"{pct(max(dq))}: the two element models differ at ARCADE's finite rotations; that is not integration "
+        "error.\n"
+        "- **Variants**, best pose error (any method, integrator and step): "
+        + ", ".join(f"{v} {pct(e)}{notes.get(v, '')}" for v, e in best.items())
+        + ".\n\nWhich choice for which need (CPU seconds of `mj_step` per simulated second):\n\n"
+        + table(list(r["needs"][0]), [list(n.values()) for n in r["needs"]])
     )
-    cols = list(r["needs"][0])
-    return text + table(cols, [[n[c] for c in cols] for n in r["needs"]])
 
 
 # ------------------------------------------------------------------- native alternatives, reduce
 
 
+#: How scripts/_variants.py's ``stable_step`` finds the "stable RK4 step" of the native and reduce tables, and the
+#: runs it judges (``costs_at_stable_steps(..., duration)`` in scripts/compare_native.py and _arcade_native.py; a
+#: test reads them there): a measured limit of a short scene, a lower bound within 2**(1/16) - 1 = 4.4 %.
+STABLE_STEP_SEARCH = "doubling the step, then 4 bisections: a lower bound within 4.4 %"
+STABLE_STEP_RUNS = {"bushing": 0.01, "cantilever": 0.002, "arcade": 0.005}  # [s] of each scene
+
+
 def _stable(cost):
     bound = "≥ " if cost.get("stable_step_is_search_limit") else ""
-    return f"{bound}{sci(cost['stable_step_s'])} s", f"{bound}{_speedup(cost)}"
+    return f"{bound}{sci(cost['stable_step_s'], 3)} s", f"{bound}{_speedup(cost)}"
+
+
+def _stable_step_note(others=True):
+    runs = STABLE_STEP_RUNS
+    also = f"; bushing {runs['bushing'] * 1e3:g} ms, cantilever {runs['cantilever'] * 1e3:g} ms" if others else ""
+    return (
+        f"stable RK4 step: the largest step at which the first {runs['arcade'] * 1e3:g} ms of ARCADE's paper run"
+        f"{also} run through, found by {STABLE_STEP_SEARCH}; a short scene's measured limit, not the model's linear "
+        "limit ({ref}`step-limits`)"
+    )
 
 
 def _speedup(cost):
@@ -199,9 +190,9 @@ def block_native(results):
     how = _spread_intro(r, f"cost ratios are medians of interleaved repeats in one process, for the bushing with their "
                            f"min–max{why}")  # fmt: skip
     return (
-        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}); per-step {how}; speed = wall "
-        "time per simulated second at each model's own stable step, relative to mjflex (≥: still stable at the "
-        "search's upper limit, 100× the scene's step):\n\n" + table(head, rows)
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}); per-step {how}; "
+        f"{_stable_step_note()}; speed = wall time per simulated second at each model's own stable step, relative to "
+        "mjflex (≥: still stable at the search's upper limit, 100× the scene's step):\n\n" + table(head, rows)
     )
 
 
@@ -217,21 +208,25 @@ def block_native_verdict(results):
     small = {k: pct(ar[k]["small_stroke"]["axial_error"]) for k in ar}
     prb = "pseudo-rigid-body"
     return (
-        "Verdict. For small motions every alternative that keeps the compliant directions is accurate (ARCADE's "
+        "Verdict:\n\n"
+        "- **Small motions**: every alternative that keeps the compliant directions is accurate (ARCADE's "
         f"0.01 m/s stroke: weld {small['weld(compliant)']}, 6-joint bushing {small['bushing']}, `reduce(50 Hz)` "
         f"{small[red]}), and only a reduction is also cheaper on a closed-loop mechanism without locking it "
-        f"(`reduce(50 Hz)`: {_speedup(ac[red])} mjflex's speed, each at its stable step). Welds cost "
-        f"{min(welds):.1f}–{max(welds):.1f}× mjflex per step and misstate anything anisotropic: a weld holds one "
+        f"(`reduce(50 Hz)`: {_speedup(ac[red])} mjflex's speed, each at its stable step).\n"
+        f"- **Welds** cost {min(welds):.1f}–{max(welds):.1f}× mjflex per step and misstate anything anisotropic: a "
+        "weld holds one "
         "isotropic rotational stiffness, so ARCADE's welded notches are as soft out of plane as about their axis, a "
         "spurious "
-        f"{a['modes_hz']['weld(compliant)'][1]:.1f} Hz second mode (mjflex {a['modes_hz'][full][1]:.1f} Hz). The "
-        "6-joint bushing is exact for small motion of a diagonal `K` but drops coupling, errs by "
+        f"{a['modes_hz']['weld(compliant)'][1]:.1f} Hz second mode (mjflex {a['modes_hz'][full][1]:.1f} Hz).\n"
+        "- **The 6-joint bushing** is exact for small motion of a diagonal `K` but drops coupling, errs by "
         f"{b['results']['bushing']['dynamic_rotation_error_deg']:.0f}° in the bushing scene's large motion and costs "
-        f"{min(bush):.1f}–{max(bush):.0f}× per step in chains. The pseudo-rigid-body model is the cheapest for open "
+        f"{min(bush):.1f}–{max(bush):.0f}× per step in chains.\n"
+        "- **The pseudo-rigid-body model** is the cheapest for open "
         f"chains ({_speedup(cc[prb])} mjflex's speed at {pct(abs(c['results'][prb]['small_error']))} "
         f"tip error on the cantilever) and locks closed ones (ARCADE: small stroke {small[prb]} off, paper-run stroke "
-        f"{ar[prb]['paper_run']['stroke_mm']:.2f} mm instead of {ar[full]['paper_run']['stroke_mm']:.2f} mm). On "
-        "ARCADE's paper run (1000 rpm) no cheaper model in this comparison follows the full model's axial trajectory "
+        f"{ar[prb]['paper_run']['stroke_mm']:.2f} mm instead of {ar[full]['paper_run']['stroke_mm']:.2f} mm).\n"
+        "- **Large motion**: on ARCADE's paper run (1000 rpm) no cheaper model in this comparison follows the full "
+        "model's axial trajectory "
         f"within {pct(best)} of its stroke: the straight legs and over-constrained plates turn stroke into "
         "second-order stretch and shear of the flexures, which only the full 6×6 elements carry (the scene analysis "
         "of `reduce` above measures it).\n"
@@ -264,7 +259,8 @@ def block_reduce_arcade(results):
     n, leaf_y, notch_x = _scene_directions(r["reports"][name], details[name])
     how = _spread_intro(r, "cost ratios are medians of interleaved repeats in one process")
     return (
-        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}; {how}):\n\n"
+        f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['script_wall_s'])}; {how}; "
+        f"{_stable_step_note(others=False)}):\n\n"
         + table(head, rows)
         + f"\nThe scene analysis (`scene=`) keeps {n} directions compliant that the paper run strains beyond 2 % of "
         f"its peak strain energy: each leaf's shear holds up to {pct(leaf_y)}, each notch's axial stretch up to "

@@ -11,6 +11,13 @@ blocks run in order as one script (later blocks use earlier names); a bash block
 line, and an unmarked bash block may only call ``python -m mjflex``. Both run in a temporary
 folder holding a copy of the repository's ``models/``, so paths like ``models/two_body.xml``
 work as they do from the repository root.
+
+A block passes when it exits with status 0 *and* what it printed is a result (:func:`output_problems`):
+no warning printed by MuJoCo (``mju_warning``: a line ``WARNING: ...`` and an entry in its log
+``MUJOCO_LOG.TXT``, which is how a diverged run shows: "Nan, Inf or huge value in QACC"), no warning
+printed by Python (mjflex's, or any library's: ``file:line: SomeWarning: ...``), and no ``nan`` or
+``inf`` among the printed numbers. A page that shows a warning on purpose catches it
+(``warnings.catch_warnings(record=True)``, ``mujoco.set_mju_user_warning``) and prints what it means.
 """
 
 import os
@@ -26,6 +33,13 @@ FENCE = re.compile(r"^(?P<indent> {0,3})(?P<fence>`{3,}|~{3,})(?P<info>[^`\n]*)$
 MARK = re.compile(r"^\s*<!--\s*not-run:\s*(?P<reason>.*?)\s*-->\s*$")
 #: Commands an unmarked bash block may run.
 RUNNABLE = re.compile(r"^(MUJOCO_GL=\w+ )?python -m mjflex ")
+#: MuJoCo's default warning handler prints ``WARNING: <text>`` (and appends it to MUJOCO_LOG.TXT in the working folder).
+MUJOCO_WARNING = re.compile(r"^WARNING: (?P<text>.*)$", re.M)
+MUJOCO_LOG = "MUJOCO_LOG.TXT"
+#: Python's ``warnings.formatwarning``: ``path:line: Category: message``.
+PYTHON_WARNING = re.compile(r"^(?P<where>\S.*?):\d+: (?P<category>\w*Warning): (?P<text>.*)$", re.M)
+#: A non-finite number in printed output: a diverged state or result printed as if it were one.
+NON_FINITE = re.compile(r"(?<![\w.])[-+]?(nan|inf)(?![\w(])", re.I)
 
 
 @dataclass
@@ -88,6 +102,27 @@ def problems(block):
     return []
 
 
+def output_problems(where, stdout, stderr, cwd=None):
+    """What is wrong with the output of a block that exited with status 0 (empty: nothing).
+
+    ``where`` names the block in the messages; ``cwd`` is the folder it ran in (its MuJoCo log is read, then
+    removed, so that the next command starts clean).
+    """
+    found = [f"{where}: MuJoCo warned: {m['text']}" for m in MUJOCO_WARNING.finditer(stdout + stderr)]
+    log = os.path.join(cwd, MUJOCO_LOG) if cwd else None
+    if log and os.path.exists(log):
+        with open(log, encoding="utf-8", errors="replace") as f:
+            entries = [line.strip() for line in f if line.strip()]
+        os.remove(log)
+        if not found:  # the log holds what was printed; without a printed line, say what the log holds
+            found += [f"{where}: MuJoCo's log {MUJOCO_LOG}: {entry}" for entry in entries]
+    found += [f"{where}: {m['category']} printed: {m['text']}" for m in PYTHON_WARNING.finditer(stderr)]
+    found += [f"{where}: printed a non-finite number ({m[0]!r}) in: {line.strip()!r}"
+              for line in stdout.splitlines() if not MUJOCO_WARNING.match(line)
+              for m in NON_FINITE.finditer(line)]  # fmt: skip
+    return found
+
+
 def workspace(tmp_path):
     """A folder with a copy of the repository's models/, for blocks written from the repository root."""
     shutil.copytree(os.path.join(ROOT, "models"), os.path.join(tmp_path, "models"))
@@ -115,10 +150,14 @@ def run_page(page_blocks, cwd, timeout=600):
                               timeout=timeout)  # fmt: skip
         if done.returncode:
             failures.append(f"{python[0].where()} (python blocks): exit {done.returncode}\n{done.stderr[-3000:]}")
+        else:
+            failures += output_problems(f"{python[0].where()} (python blocks)", done.stdout, done.stderr, cwd)
     for block in (b for b in page_blocks if b.language == "bash" and b.skip is None):
         for command in commands(block):
             done = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, capture_output=True, text=True,
                                   timeout=timeout)  # fmt: skip
             if done.returncode:
                 failures.append(f"{block.where()}: {command!r}: exit {done.returncode}\n{done.stderr[-3000:]}")
+            else:
+                failures += output_problems(f"{block.where()}: {command!r}", done.stdout, done.stderr, cwd)
     return failures

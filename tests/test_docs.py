@@ -53,6 +53,62 @@ def site(tmp_path_factory):
     return os.path.join(out, "html")
 
 
+def _requirement_closure(name, extras=()):
+    """Canonical names of the installed distributions that ``name[extras]`` requires, itself included, recursively."""
+    from importlib import metadata
+
+    from packaging.requirements import Requirement
+    from packaging.utils import canonicalize_name
+
+    found, stack = set(), [(name, tuple(extras))]
+    while stack:
+        dist, wanted = stack.pop()
+        key = canonicalize_name(dist)
+        if (key, wanted) in found:
+            continue
+        found.add((key, wanted))
+        try:
+            requirements = metadata.requires(dist) or []
+        except metadata.PackageNotFoundError:
+            continue
+        for requirement in map(Requirement, requirements):
+            environments = [{"extra": extra} for extra in wanted] or [{"extra": ""}]
+            if requirement.marker is None or any(requirement.marker.evaluate(env) for env in environments):
+                stack.append((requirement.name, tuple(sorted(requirement.extras))))
+    return {key for key, _ in found}
+
+
+def test_the_docs_extra_holds_everything_the_build_imports():
+    """``pip install -e ".[docs]"`` alone is enough to build the site: every distribution that the build imports
+    (every module of the package, which the API pages and their references import, and what the tutorials import)
+    is a requirement of mjflex or of its docs extra. scikit-fem, for mjflex.geometry.fe, was not."""
+    import ast
+    from importlib import metadata
+
+    modules = __import__("pkgutil").walk_packages([os.path.join(ROOT, "mjflex")], "mjflex.")
+    imported = [m.name for m in modules if m.name.split(".")[-1].isidentifier()]  # the native library is no module
+    imported = [name for name in imported if not name.endswith("__main__")]  # python -m mjflex: the command line
+    for script in _tutorials():
+        with open(script, encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+        imported += [a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names]
+        imported += [node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module]
+    code = (  # what the imports add to what the interpreter loaded at start-up (site's .pth files)
+        "import importlib, sys\nstart = set(sys.modules)\nfor name in sys.argv[1:]:\n"
+        "    importlib.import_module(name)\nprint(*(set(sys.modules) - start))"
+    )
+    done = subprocess.run([sys.executable, "-c", code, *imported], cwd=ROOT, capture_output=True, text=True,
+                          env=codeblocks.environment(), check=True)  # fmt: skip
+    owners = metadata.packages_distributions()
+    top = {name.split(".")[0] for name in done.stdout.split()} - set(sys.stdlib_module_names)
+    needed = {dist for name in top for dist in owners.get(name, [])}
+    allowed = _requirement_closure("mjflex", ["docs"])
+    from packaging.utils import canonicalize_name
+
+    missing = sorted(d for d in needed if canonicalize_name(d) not in allowed and canonicalize_name(d) != "mjflex")
+    assert "scikit-fem" in needed and not missing, f"the build imports {missing}, which .[docs] does not install"
+
+
 def test_site_builds_without_warnings(site):
     assert os.path.exists(os.path.join(site, "index.html"))
     for section in ("auto_tutorials/index", "howto/index", "reference/index", "background/index"):
@@ -76,6 +132,89 @@ def test_every_public_name_has_a_reference_entry(site):
     with open(os.path.join(site, "reference", "api.html"), encoding="utf-8") as f:
         api = f.read()
     assert all(f"{name}.html" in api for name in names), "the API page links every entry"
+
+
+def test_class_pages_list_every_public_member(site):
+    """Each public class's page documents each of its public methods and properties (an entry with its anchor),
+    and the search index holds them: a member without an entry fails here (and, without a docstring, the build)."""
+    extension = _extension()
+    missing, checked = [], 0
+    for name in extension.public_names():
+        obj = extension._resolve(name)
+        if not isinstance(obj, type):
+            continue
+        with open(os.path.join(site, "reference", "api", f"{name}.html"), encoding="utf-8") as f:
+            html = f.read()
+        for member in extension.public_members(obj):
+            checked += 1
+            if f'id="{name}.{member}"' not in html:
+                missing.append(f"{name}.{member}")
+    assert checked >= 40 and len(extension.public_members(_extension()._resolve("mjflex.Flexures"))) == 24
+    assert not missing, f"public members without an entry on their class's page: {missing}"
+    indexed = _search_index_objects(site)
+    assert not [m for m in _all_members(extension) if m not in indexed], "members missing from the search index"
+
+
+def _search_index_objects(site):
+    """Fully qualified names of the objects in the site's search index (searchindex.js)."""
+    import json
+
+    with open(os.path.join(site, "searchindex.js"), encoding="utf-8") as f:
+        text = f.read()
+    index = json.loads(text[text.index("(") + 1 : text.rindex(")")])
+    return {f"{prefix}.{entry[4]}" if prefix else entry[4] for prefix, entries in index["objects"].items()
+            for entry in entries}  # fmt: skip
+
+
+def _all_members(extension):
+    return [f"{name}.{member}" for name in extension.public_names() if isinstance(obj := extension._resolve(name), type)
+            for member in extension.public_members(obj)]  # fmt: skip
+
+
+def test_public_members_are_the_classes_own_and_their_mjflex_bases(tmp_path):
+    """What a class page must list: public methods and properties, inherited from mjflex classes too, not the
+    builtins' (an exception's ``with_traceback``) nor data fields."""
+    extension = _extension()
+    namespace = {"__name__": "mjflex.planted"}
+    exec(
+        "class Base:\n    def shared(self):\n        'Doc.'\n    def _private(self):\n        pass\n"
+        "class Public(Base, ValueError):\n    field = 1\n    @property\n    def size(self):\n        'Doc.'\n"
+        "    @classmethod\n    def make(cls):\n        pass\n",
+        namespace,
+    )
+    assert extension.public_members(namespace["Public"]) == ["shared", "size", "make"]
+
+
+def test_member_links_resolve(site):
+    """A reference to a member (``{meth}`mjflex.Flexures.table```) is a link to its entry, not plain code."""
+    with open(os.path.join(site, "reference", "provider.html"), encoding="utf-8") as f:
+        html = f.read()
+    for member in ("mjflex.Flexures.table", "mjflex.Flexures.serve", "mjflex.Flexures.divergences"):
+        assert f'href="api/mjflex.Flexures.html#{member}"' in html, member
+
+
+def test_no_page_shows_a_path_of_the_machine_that_built_it(site):
+    """The build warns (strict: fails) when a page holds the checkout's or the environment's path; checked here too."""
+    leaks = _extension().leaked_paths()
+    assert ROOT in leaks or os.path.realpath(ROOT) in leaks
+    found = []
+    for folder, _, files in os.walk(site):
+        for name in files:
+            if name.endswith((".html", ".txt", ".js")):
+                with open(os.path.join(folder, name), encoding="utf-8", errors="replace") as f:
+                    text = f.read()
+                found += [f"{os.path.relpath(os.path.join(folder, name), site)}: {p}" for p in leaks if p in text]
+    assert not found, found
+
+
+def test_tutorial_check_finds_warnings_in_its_output():
+    extension = _extension()
+    page = ".. code-block:: none\n\n    /x/plot_04.py:45: RuntimeWarning: mjflex.sweep: 2 diverged of 9 variants\n"
+    assert extension.tutorial_problems("    done\n", []) == []
+    assert extension.tutorial_problems(page, ["WARNING Sat: Nan, Inf or huge value in QACC"]) == [
+        "MuJoCo warned (its log): WARNING Sat: Nan, Inf or huge value in QACC",
+        "RuntimeWarning printed: mjflex.sweep: 2 diverged of 9 variants",
+    ]
 
 
 def test_tutorials_ran_and_drew_their_figures(site):
@@ -115,6 +254,53 @@ def test_error_bands_page_is_rendered_from_the_tables(site):
         html = f.read()
     for kind in ("notch", "leaf"):  # a table cell each, not text that happens to contain the number
         assert f"<td><p>{100 * error_bands(kind)['rot_z']['total']:.2g} %</p></td>" in html, kind
+
+
+#: Most words in one paragraph or list item of a page: past it, a page says things in steps, lists or tables.
+MAX_PARAGRAPH_WORDS = 150
+
+
+def paragraphs(text):
+    """Paragraphs and list items of a Markdown text, without code blocks, tables and comments: ``[(line, text)]``."""
+    out, current, start, fence = [], [], 0, None
+    for number, line in enumerate(text.split("\n"), 1):
+        stripped = line.strip()
+        if fence or stripped.startswith(("```", "~~~")):
+            if stripped.startswith(("```", "~~~")):
+                fence = None if fence and stripped.startswith(fence) else (fence or stripped[:3])
+            line = ""
+        item = re.match(r"\s*([-*+]|\d+\.) ", line)
+        label = re.match(r"\s*\([\w-]+\)=\s*$", line)  # a MyST target
+        if not line.strip() or item or label or line.lstrip().startswith(("|", "<!--", "#", ":::")):
+            if current:
+                out.append((start, " ".join(current)))
+            current = []
+            if not item:
+                continue
+        start = number if not current else start
+        current.append(line[item.end() :].strip() if item else line.strip())
+    if current:
+        out.append((start, " ".join(current)))
+    return out
+
+
+def test_paragraph_splitter():
+    text = "# T\n\none two\nthree\n\n- a b\n  c\n- d\n1. e\n\n```py\nx y z\n```\n| a | b |\n"
+    assert [(n, len(p.split())) for n, p in paragraphs(text)] == [(3, 3), (6, 3), (8, 1), (9, 1)]
+
+
+def test_pages_say_things_in_steps_lists_and_tables():
+    """No paragraph or list item of a hand-written page, nor of a block rendered into one, runs past
+    MAX_PARAGRAPH_WORDS words (docs/study/ is the study command's own report, written by mjflex)."""
+    long = []
+    for page in _pages():
+        if os.path.relpath(page, DOCS).startswith("study"):
+            continue
+        with open(page, encoding="utf-8") as f:
+            for line, paragraph in paragraphs(f.read()):
+                if len(paragraph.split()) > MAX_PARAGRAPH_WORDS:
+                    long.append(f"{os.path.relpath(page, ROOT)}:{line} ({len(paragraph.split())} words)")
+    assert not long, f"paragraphs to split into steps, lists or tables: {long}"
 
 
 # ----------------------------------------------------------------------------- docstring examples
@@ -226,6 +412,41 @@ def test_code_block_parser():
     assert [bool(codeblocks.problems(b)) for b in found] == [False, False, False, False, True, True]
 
 
+def test_output_check_finds_warnings_and_non_finite_numbers(tmp_path):
+    """What a block printed: MuJoCo's warnings (printed, or only in its log), Python's, and NaN/inf among numbers."""
+    fine = "stiffest mode 1882 Hz: Euler needs h < 2/omega = 0.00017 s\n('plugin',) 3.813e-03 J, information\n"
+    assert codeblocks.output_problems("b", fine, "100%|###| 9/9 [00:01<00:00]\n", str(tmp_path)) == []
+    mujoco_out = "WARNING: Nan, Inf or huge value in QACC at DOF 5. The simulation is unstable. Time = 0.0060.\n\n"
+    python_err = "/x/page.py:12: RuntimeWarning: mjflex.sweep: 2 diverged of 9 variants\n  ds = mjflex.sweep(\n"
+    (tmp_path / codeblocks.MUJOCO_LOG).write_text("WARNING Sat Nov 28 2026: Attach conflict\n")
+    found = codeblocks.output_problems("b", "energy nan J\n" + mujoco_out, python_err, str(tmp_path))
+    assert [x.split(": ", 1)[1][:24] for x in found] == [
+        "MuJoCo warned: Nan, Inf ", "RuntimeWarning printed: ", "printed a non-finite num"
+    ]  # fmt: skip
+    assert not (tmp_path / codeblocks.MUJOCO_LOG).exists()  # read and removed: the next command starts clean
+    (tmp_path / codeblocks.MUJOCO_LOG).write_text("WARNING Sat Nov 28 2026: Attach conflict\n")
+    assert ["Attach conflict" in x for x in codeblocks.output_problems("b", "", "", str(tmp_path))] == [True]
+    assert codeblocks.output_problems("b", "[ 0.  -inf  1.]\nx = -Inf\n", "", None) != []
+
+
+def test_a_block_that_diverges_fails(tmp_path):
+    """The "Build with plugin elements" block as it was: MuJoCo's default 2 ms step on a 1.9 kHz element. It exits
+    with status 0 and prints an energy of 0 J (MuJoCo reset the diverged state); the check fails it."""
+    page = (
+        "```python\nimport mujoco\nimport mjflex\n\nspec = mujoco.MjSpec()\n"
+        "for name, x in (('A', 0.0), ('B', 0.1)):\n    body = spec.worldbody.add_body(name=name, pos=[x, 0, 0])\n"
+        "    body.add_freejoint()\n"
+        "    body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.045, 0.01, 0.01], density=2700)\n"
+        "mjflex.add_flexure(spec, 'hinge', 'A', 'B', pos=[0.05, 0, 0], K=[0.3, 40, 0.25, 5e6, 3e5, 1.5e6],\n"
+        "                   B=[3e-6, 4e-4, 2.5e-6, 50, 3, 15])\nmodel = spec.compile()\n"
+        "data = mujoco.MjData(model)\ndata.qvel[11] = 20.0\nfor _ in range(100):\n    mujoco.mj_step(model, data)\n"
+        "print(f'{mjflex.Flexures(model).potential_energy(data):.3e} J')\n```\n"
+    )
+    failures = codeblocks.run_page(codeblocks.blocks("page.md", page), codeblocks.workspace(tmp_path))
+    assert failures and all("MuJoCo warned" in f for f in failures), failures
+    assert any("QACC" in f for f in failures) and any("diverged in the step" in f for f in failures)
+
+
 def test_code_blocks_of_the_pages_run_or_are_marked():
     """Every python and bash block of docs/ runs, or says in a marker why it does not; markers stay few."""
     found = [b for page in _pages() for b in codeblocks.blocks(page)]
@@ -259,11 +480,21 @@ def test_page_code_runs(page, tmp_path):
 
 
 def _run_in_process(page, tmp_path, monkeypatch):
-    """Run a page's python blocks here, in a workspace, and return their namespace (for checks of what they did)."""
+    """Run a page's python blocks here, in a workspace, and return their namespace (for checks of what they did).
+
+    As for the other pages (:func:`codeblocks.output_problems`), a warning the page does not catch itself, from
+    Python or from MuJoCo (its log in the workspace), fails."""
+    import warnings
+
     python = [b for b in codeblocks.blocks(os.path.join(ROOT, page)) if b.language == "python" and b.skip is None]
-    monkeypatch.chdir(codeblocks.workspace(tmp_path))
+    folder = codeblocks.workspace(tmp_path)
+    monkeypatch.chdir(folder)
     namespace = {"__name__": "__main__"}
-    exec(compile("".join(b.code for b in python), page, "exec"), namespace)
+    with warnings.catch_warnings(record=True) as uncaught:
+        warnings.simplefilter("default")
+        exec(compile("".join(b.code for b in python), page, "exec"), namespace)
+    assert not [str(w.message) for w in uncaught], f"{page}: warnings the page does not catch"
+    assert codeblocks.output_problems(page, "", "", folder) == []  # MuJoCo's log: nothing written
     return namespace
 
 

@@ -94,6 +94,27 @@ def test_every_block_has_one_place_and_every_page_is_what_the_recorded_json_give
     assert used == set(results), "every recorded JSON is shown on a page, and only those"
 
 
+def test_stable_step_scenes_are_stated_as_the_scripts_run_them():
+    """The native and reduce tables state which runs judged a "stable RK4 step" (the durations are the scripts'
+    arguments, not recorded in their JSON): the rendered note must say what the scripts do."""
+    generator = _generator()
+    from _readme_speed import STABLE_STEP_RUNS  # scripts/ is on the path once the generator is loaded
+
+    def durations(script):
+        with open(os.path.join(ROOT, "scripts", script), encoding="utf-8") as f:
+            return [
+                float(x) for x in re.findall(r"costs_at_stable_steps\(cases, h, repeat, [^\n]*, ([\d.e-]+)\)", f.read())
+            ]
+
+    assert durations("_arcade_native.py") == [STABLE_STEP_RUNS["arcade"]]
+    assert sorted(durations("compare_native.py")) == sorted(
+        [STABLE_STEP_RUNS["bushing"], STABLE_STEP_RUNS["cantilever"]]
+    )
+    with open(os.path.join(ROOT, "scripts", "_variants.py"), encoding="utf-8") as f:
+        assert "growth=2.0, bisections=4" in f.read()  # the 4.4 % of the note: 2 ** (1 / 2 ** 4) - 1
+    assert generator.BLOCKS["reduce-arcade"][1](generator.load_results()).count("4.4 %") == 1
+
+
 def test_block_places_are_found_on_any_page(tmp_path):
     """placements() sees blocks wherever they are, and counts a block placed twice twice (the test above then fails)."""
     generator = _generator()
@@ -134,6 +155,9 @@ def test_generator_rewrites_a_stale_block():
         assert generator.generate(stale, {"modes": {"arcade.xml": {"n_rigid": 6}}}) == (
             "x\n<!-- results:modes-table -->\n6\n<!-- /results -->\ny\n"
         )
+        inline = "a sentence with <!-- results:modes-table -->5<!-- /results --> rigid modes\n"  # a number in prose
+        generator.BLOCKS["modes-table"] = (["modes"], lambda results: f"{results['modes']['arcade.xml']['n_rigid']}")
+        assert generator.generate(inline, {"modes": {"arcade.xml": {"n_rigid": 6}}}) == inline.replace("5", "6")
     finally:
         del generator.BLOCKS["modes-table"]
 

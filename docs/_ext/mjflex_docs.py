@@ -6,13 +6,22 @@
   and a public object without a docstring is a build warning (an error in strict mode).
 * Resolves cross-references written with a defining module (``mjflex.mj.variant.Variant``) to
   the public name documented for the same object (``mjflex.Variant``).
-* ``reset_mujoco``: run by sphinx-gallery around each tutorial, so that no tutorial inherits
-  another's passive-force callback.
+* ``reset_mujoco``: run by sphinx-gallery before and after each tutorial, so that no tutorial
+  inherits another's passive-force callback, and a tutorial's output is a result: a warning that
+  MuJoCo printed (its log ``MUJOCO_LOG.TXT``: how a diverged run shows) or that Python printed (mjflex's
+  or any library's) during a tutorial is a build warning, an error in strict mode. A tutorial that shows
+  a warning on purpose catches it (``warnings.catch_warnings``, ``mujoco.set_mju_user_warning``).
+* Leaks: a built page that holds the path of the source checkout or of the Python environment
+  (a warning's file name, a default argument) is a build warning too; the site must read the same
+  wherever it was built.
 """
 
 import importlib
 import inspect
 import os
+import re
+import sys
+import sysconfig
 
 from docutils import nodes
 from sphinx.util import logging
@@ -33,8 +42,17 @@ SECTIONS = (
 )
 #: Public subpackages whose own ``__all__`` is documented under ``mjflex.<name>.``.
 SUBPACKAGES = ("geometry",)
-#: Names of ``mjflex.app.sweep.__all__`` documented beside ``mjflex.sweep`` (the recipe helpers).
-EXTRA = ("mjflex.app.sweep.edit_flexure", "mjflex.app.sweep.flexure_matrices")
+#: Names documented beside the lazy ``mjflex.sweep`` and ``mjflex.study``: the recipe helpers, and what a study
+#: returns and raises.
+EXTRA = (
+    "mjflex.app.sweep.edit_flexure",
+    "mjflex.app.sweep.flexure_matrices",
+    "mjflex.app.study.StudyResult",
+    "mjflex.app.study.Row",
+    "mjflex.app.study.Limit",
+    "mjflex.app.study.Reference",
+    "mjflex.app.study.StudyError",
+)
 
 
 def _resolve(qualified):
@@ -55,6 +73,25 @@ def public_names():
         else:
             names.append(f"mjflex.{name}")
     return [*names, *EXTRA]
+
+
+def public_members(cls):
+    """The public methods and properties of class ``cls`` that its page documents, in definition order.
+
+    Its own and those inherited from mjflex classes (not from Python's builtins: an exception's ``with_traceback``):
+    functions, class and static methods and properties whose name has no leading underscore. Data fields (a data
+    class's, a named tuple's) are described in the class docstring's Attributes section instead.
+    """
+    names = []
+    for owner in reversed(cls.__mro__):
+        if not (getattr(owner, "__module__", "") or "").startswith("mjflex"):
+            continue
+        for name, value in vars(owner).items():
+            if name.startswith("_") or name in names:
+                continue
+            if inspect.isfunction(value) or isinstance(value, classmethod | staticmethod | property):
+                names.append(name)
+    return names
 
 
 def sections():
@@ -104,6 +141,11 @@ def write_api_page(app, config=None):
         obj = _resolve(qualified)
         if not inspect.getdoc(obj):
             logger.warning(f"public name {qualified} has no docstring: write one (numpydoc)", type="mjflex")
+        if isinstance(obj, type):  # autodoc skips a member without a docstring: its class page would not list it
+            for name in public_members(obj):
+                if not inspect.getdoc(getattr(obj, name)):
+                    logger.warning(f"public member {qualified}.{name} has no docstring: write one (or make it "
+                                   "private with a leading underscore)", type="mjflex")  # fmt: skip
 
 
 def _find(qualified):
@@ -211,8 +253,38 @@ class ErrorBands(SphinxDirective):
         return [_table(header, rows)]
 
 
+MUJOCO_LOG = "MUJOCO_LOG.TXT"
+#: Python's ``warnings.formatwarning`` in a tutorial's captured output: ``path:line: Category: message``.
+PYTHON_WARNING = re.compile(r":\d+: (?P<category>\w*Warning): (?P<text>.*)$", re.M)
+_log_sizes = {}  # MuJoCo log -> its size before the tutorial ran
+
+
+def _mujoco_logs(gallery_conf):
+    """MuJoCo writes its log in the working folder: the tutorials' (sphinx-gallery runs them there), or the build's."""
+    folders = [os.path.join(gallery_conf["src_dir"], d) for d in gallery_conf["examples_dirs"]] + [os.getcwd()]
+    return sorted({os.path.join(os.path.abspath(f), MUJOCO_LOG) for f in folders})
+
+
+def _new_log_entries(log):
+    size = os.path.getsize(log) if os.path.exists(log) else 0
+    if size <= _log_sizes.get(log, 0):
+        return []
+    with open(log, encoding="utf-8", errors="replace") as f:
+        f.seek(_log_sizes.get(log, 0))
+        return [line.strip() for line in f if line.strip()]
+
+
+def tutorial_problems(output, log_entries):
+    """Why a tutorial's run is not a result: ``output`` its generated page (reST with the captured output),
+    ``log_entries`` what MuJoCo wrote to its log meanwhile. Empty: nothing."""
+    found = [f"MuJoCo warned (its log): {entry}" for entry in log_entries]
+    found += [f"{m['category']} printed: {m['text']}" for m in PYTHON_WARNING.finditer(output)]
+    return found
+
+
 def reset_mujoco(gallery_conf, fname, when=None):
-    """sphinx-gallery ``reset_modules`` entry: no passive-force callback survives a tutorial."""
+    """sphinx-gallery ``reset_modules`` entry, before and after each tutorial: no passive-force callback or
+    MuJoCo warning handler survives a tutorial, and a warning printed during one is reported (module docstring)."""
     import mujoco
 
     try:
@@ -221,13 +293,67 @@ def reset_mujoco(gallery_conf, fname, when=None):
         _callback.uninstall_all()
     finally:
         mujoco.set_mjcb_passive(None)
+        mujoco.set_mju_user_warning(None)  # MuJoCo's own handler: prints, and writes its log
+    if fname is None:
+        return
+    logs = _mujoco_logs(gallery_conf)
+    if when != "after":
+        _log_sizes.update({log: os.path.getsize(log) if os.path.exists(log) else 0 for log in logs})
+        return
+    stem = os.path.splitext(os.path.basename(str(fname)))[0]
+    pages = [os.path.join(gallery_conf["src_dir"], d, stem + ".rst") for d in gallery_conf["gallery_dirs"]]
+    output = ""
+    for page in pages:
+        if os.path.exists(page):
+            with open(page, encoding="utf-8") as f:
+                output += f.read()
+    for problem in tutorial_problems(output, [entry for log in logs for entry in _new_log_entries(log)]):
+        logger.warning(f"tutorial {stem}: {problem}: a tutorial's run must be a result (catch a warning shown on "
+                       "purpose)", type="mjflex")  # fmt: skip
+
+
+def leaked_paths():
+    """Paths of this machine that must not appear in a built page: the source checkout, the Python environment."""
+    root = os.path.dirname(os.path.dirname(HERE))
+    paths = {root, sys.prefix, sys.base_prefix, sysconfig.get_paths()["purelib"]}
+    return sorted(p for p in paths if p and len(p) > 1)
+
+
+def check_leaks(app, exception):
+    """``build-finished``: warn about every built page holding a path of this machine (:func:`leaked_paths`)."""
+    if exception is not None or app.builder.format != "html":
+        return
+    paths = leaked_paths()
+    for folder, _, files in os.walk(app.outdir):
+        for name in files:
+            if not name.endswith((".html", ".txt", ".js")):
+                continue
+            path = os.path.join(folder, name)
+            with open(path, encoding="utf-8", errors="replace") as f:
+                text = f.read()
+            for leak in (p for p in paths if p in text):
+                at = text.index(leak)
+                context = text[max(0, at - 80) : at + len(leak) + 40].replace("\n", " ")
+                logger.warning(f"{os.path.relpath(path, app.outdir)} shows the local path {leak!r}: ...{context}...",
+                               type="mjflex")  # fmt: skip
 
 
 def setup(app):
     app.connect("config-inited", write_api_page)  # before Sphinx lists the sources and autosummary reads them
     app.connect("missing-reference", resolve_alias)
+    app.connect("build-finished", check_leaks)
     app.add_directive("mjflex-error-bands", ErrorBands)
     return {"parallel_read_safe": True, "parallel_write_safe": True, "version": "1"}
 
 
-__all__ = ["api_page", "public_names", "reset_mujoco", "sections", "setup"]
+__all__ = [
+    "api_page",
+    "check_leaks",
+    "leaked_paths",
+    "public_members",
+    "public_names",
+    "reset_mujoco",
+    "sections",
+    "setup",
+    "tutorial_problems",
+]

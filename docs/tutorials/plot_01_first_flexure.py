@@ -93,10 +93,11 @@ print(flex)
 # The time step
 # -------------
 # The flexure's forces enter MuJoCo's integrators explicitly, so the step must resolve the model's fastest mode:
-# RK4 is stable below about ``2.8 / omega_max``. The hinge is soft in one rotation and very stiff in the others
+# undamped, RK4 is stable below ``2√2 / omega_max``. The hinge is soft in one rotation and very stiff in the others
 # and in translation; the normal modes of the linearized model show how stiff.
 freq, _ = mjflex.normal_modes(model, flex)
-print(f"highest mode {freq[-1]:.0f} Hz: RK4 stable below {2.8 / (2 * np.pi * freq[-1]):.2g} s; the model uses 1e-5 s")
+omega_max = 2 * np.pi * freq[-1]
+print(f"highest mode {freq[-1]:.0f} Hz: RK4 stable below {2 * np.sqrt(2) / omega_max:.2g} s; the model uses 1e-5 s")
 
 # %%
 # :func:`mjflex.normal_modes` linearizes at ``qpos0`` (or a keyframe); the same rule with a margin, and the
@@ -211,8 +212,9 @@ print(f"B about the hinge axis: hand estimate {B[2]:.3g}, from the model {B_rati
 #    (:doc:`/howto/add_flexures_to_a_robot`). Bodies joined by an element must not collide: ``add_flexure`` excludes
 #    the pair.
 # 4. **Damping**: :func:`mjflex.damping_from_ratios`, or ``B`` measured.
-# 5. **Time step**: from :func:`mjflex.normal_modes`, below ``2.8 / omega_max`` for RK4; for the accuracy you need,
-#    ``mjflex study`` on your scene (:doc:`plot_03_speed_against_accuracy`).
+# 5. **Time step**: from :func:`mjflex.normal_modes`, below ``2√2 / omega_max`` for RK4 (the limits:
+#    :ref:`step-limits`); for the accuracy you need, ``mjflex study`` on your scene
+#    (:doc:`plot_03_speed_against_accuracy`).
 #
 # Next: :doc:`plot_02_arcade_guide` (a mechanism of 48 flexures), or the reference for :class:`mjflex.Flexures`
 # (energies, wrenches, switches) and :func:`mjflex.add_flexure`.

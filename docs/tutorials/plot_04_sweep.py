@@ -14,9 +14,11 @@ the two-body model's hinge stiffness and its Rayleigh damping ``B = beta K``, 3 
 # ``edit`` changes one variant's :class:`mujoco.MjSpec` before it is compiled; :func:`mjflex.app.sweep.flexure_matrices`
 # and :func:`mjflex.app.sweep.edit_flexure` read and rewrite an element's ``K`` and ``B``. Define both functions at
 # the top level of a module when the sweep runs in other processes (they are pickled).
+import warnings
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import mujoco
 
 import mjflex
 from mjflex.app.sweep import edit_flexure, flexure_matrices
@@ -41,9 +43,23 @@ recipe = mjflex.Recipe(str(MODELS / "two_body.xml"), stiffness_and_damping, keyf
 # A dict of values runs every combination (one dimension per parameter). By default the variants are stepped
 # together by MuJoCo's ``mujoco.batch.Batch`` in this process; ``executor=`` takes a process pool or Dask
 # (:doc:`/howto/sweeps_on_a_cluster`), with bit-identical results.
+#
+# Two of these variants diverge, on purpose (below). MuJoCo prints a warning when a simulation diverges, and the
+# sweep warns once with the count; here both are collected, to be shown as what they are.
 grid = {"k_scale": [0.5, 1.0, 2.0], "beta": [0.0, 2e-4, 2e-3]}
-ds = mjflex.sweep(recipe, grid, 0.05, swing, samples=101, progress=False)
-print(ds[["angle", "status"]])
+mujoco_warnings = []
+mujoco.set_mju_user_warning(mujoco_warnings.append)  # MuJoCo's warnings into a list instead of its log
+try:
+    with warnings.catch_warnings(record=True) as sweep_warnings:
+        warnings.simplefilter("always")
+        ds = mjflex.sweep(recipe, grid, 0.05, swing, samples=101, progress=False)
+finally:
+    mujoco.set_mju_user_warning(None)  # MuJoCo's default again: print, and append to MUJOCO_LOG.TXT
+shown = ds[["angle", "status"]]
+shown.attrs = {}  # ds.attrs records how it was made: the recipe (with the model file's full path), grid, options
+print(shown)
+print("mjflex warned:", *(str(w.message) for w in sweep_warnings))
+print(f"MuJoCo warned {len(mujoco_warnings)} times, first: {mujoco_warnings[0]}")
 
 # %%
 # Every variant has a ``status`` (``ok``, ``diverged`` or ``failed``, with the element and time in ``error``,

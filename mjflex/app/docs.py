@@ -23,6 +23,7 @@ REQUIRED = {
     "myst_parser": "myst-parser",
     "furo": "furo",
     "sphinxarg": "sphinx-argparse",
+    "skfem": "scikit-fem",  # mjflex.geometry.fe, documented and linked (the docs extra pulls in the fe extra)
 }
 
 

@@ -458,7 +458,7 @@ class RunRenderer:
 
     @property
     def strain(self):
-        """``(samples, n)`` values the colours show (see :attr:`scale`)."""
+        """``(samples, n)`` values the colours show: ``scale.values`` of the run's :class:`ColourScale` ``scale``."""
         return self.scale.values
 
     def frame(self, k, label=True, look=None):

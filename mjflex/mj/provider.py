@@ -113,7 +113,7 @@ class Flexures:
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
     the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
-    discrete) and ``h < 2.8 / omega_max`` (RK4); see :func:`mjflex.normal_modes`.
+    discrete) and ``h < 2 sqrt(2) / omega_max`` (RK4, 2.83 / omega_max); see :func:`mjflex.normal_modes`.
     Convergence is first order for the single-step integrators and fourth order for RK4
     (tested). Under ``discrete`` the velocity-stepping solve treats them like any applied force:
     first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
@@ -575,14 +575,17 @@ class Flexures:
 
     @property
     def enabled(self) -> np.ndarray:
+        """``(n,)`` bool: which elements act now (the record's ``enabled``, then :meth:`set_enabled`), in row order."""
         return self._elements["enabled"][: len(self)].astype(bool)
 
     @property
     def viscous(self) -> np.ndarray:
+        """``(n,)`` bool: which elements add their damping ``B`` now (:meth:`set_viscous`), in row order."""
         return self._elements["viscous"][: len(self)].astype(bool)
 
     @property
     def methods(self) -> tuple[str, ...]:
+        """Each element's method now, ``"twist"`` or ``"dualquat"`` (:meth:`set_method`), in row order."""
         return tuple(validation.METHOD_NAMES[int(c)] for c in self._elements["method"][: len(self)])
 
 

@@ -238,6 +238,7 @@ class FlexureRecord:
 
     @property
     def planar(self) -> bool:
+        """True for a planar element (3×3 ``K`` over ``[theta; x; y]``), False for a spatial one (6×6)."""
         return self.K.shape == (3, 3)
 
     def to_text(self) -> str:

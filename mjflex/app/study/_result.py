@@ -25,7 +25,75 @@ def who(variant, integrator, method):
 
 @dataclass
 class Row:
-    """One candidate: a model variant, an element method, an integrator and a time step."""
+    """One candidate of a study: a model variant, an element method, an integrator and a time step.
+
+    ``StudyResult.rows`` holds one per run; ``StudyResult.records()`` gives them as flat dicts.
+
+    Attributes
+    ----------
+    variant : str
+        ``"full"`` for the model as given, else the name of the :class:`mjflex.Variant`.
+    method : str
+        ``"twist"`` or ``"dualquat"``; the file's own methods for its own setting (``"twist/dualquat"`` if mixed);
+        ``"-"`` for a variant without elements.
+    integrator : str
+        MuJoCo integrator: ``"rk4"``, ``"euler"``, ``"implicitfast"`` or ``"discrete"``.
+    timestep : float
+        Time step [s].
+    status : str
+        ``"ok"`` (ran the whole duration), ``"diverged"`` (see ``divergence``) or ``"skipped"`` (projected past
+        the study's ``max_run_wall``; see ``note``).
+    wall_per_sim_s, cpu_per_sim_s : float or None
+        Wall and thread CPU seconds of ``mj_step`` per simulated second: median of ``repeats`` interleaved
+        timings (a diverged or skipped row: over the steps it took, once).
+    cost : float or None
+        The one of the two that the study ranks by (its ``clock``).
+    wall_range : tuple of float or None
+        Smallest and largest wall time over the repeats [s per simulated s].
+    repeats : int
+        Timing rounds behind the medians.
+    pose_error : float or None
+        Headline error, relative: the larger of ``position_error`` and ``rotation_error``.
+    position_error, rotation_error : float or None
+        Largest distance (angle) of a tracked body or site from its reference pose over the largest displacement
+        (rotation) of any tracked item in the reference, in the study's frame.
+    energy_error : float or None
+        Largest deviation of the total energy from the reference's, over the reference's largest energy swing.
+    frequency_error : float or None
+        Largest relative difference of the first elastic natural frequencies from the full model's.
+    divergence : Divergence or None
+        Where and how the run diverged (time, step, element, reason; ``.text()`` says it in one line).
+    note : str
+        Why a row is special (skipped, above its recommended step).
+    source : str
+        ``"grid"`` (a candidate step), ``"bisection"`` (added by the search of the stability limit) or
+        ``"model"`` (the file's own setting).
+    model_setting : bool
+        The model file's own integrator, step and methods.
+    pareto : bool
+        No other row is both cheaper and more accurate.
+    beyond_limit : bool
+        Ran through, but above the step its :class:`Limit` recommends: stable only for this scene, never
+        recommended.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> result = mjflex.study(
+    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
+    ...     repeat=1, bisect=0, progress=False,
+    ... )
+    >>> row = result.rows[0]
+    >>> row.label, row.status, f"{row.pose_error:.0e}"
+    ('rk4, twist, h = 0.0002 s', 'ok', '2e-05')
+    """
 
     variant: str  # "full" for the model as given, else the Variant's name
     method: str  # "twist", "dualquat", the file's methods ("twist/dualquat" if mixed), "-" without elements
@@ -54,9 +122,11 @@ class Row:
 
     @property
     def label(self) -> str:
+        """``"[variant: ]integrator, method, h = … s"``: the candidate in one line."""
         return f"{who(self.variant, self.integrator, self.method)}, h = {self.timestep:.3g} s"
 
     def to_dict(self):
+        """The row as a dict of plain values (its ``divergence`` a dict too), as written to the JSON report."""
         return asdict(self)  # the divergence, a dataclass too, becomes a dict
 
 
@@ -69,6 +139,54 @@ class Limit:
     the ``linear_step`` of the model linearized at the initial pose (any motion) and the mode
     that diverges above it (:mod:`mjflex.app.study._stability`), and recommends the smaller of
     the two, checked by a run of the scene with a random velocity perturbation (``checks``).
+
+    Attributes
+    ----------
+    variant, method, integrator : str
+        The group, as in :class:`Row`.
+    largest_stable : float or None
+        Largest step that ran the whole duration [s] (None: every step diverged).
+    smallest_unstable : float or None
+        Smallest larger step that diverged [s] (None: every step tried ran through).
+    divergence : Divergence or None
+        How the run at ``smallest_unstable`` diverged.
+    steps_given : bool
+        The candidate steps were given (``steps=``), not the default range.
+    linear_step : float or None
+        Largest step at which the one-step map of the model linearized at the initial pose at rest is stable
+        [s]: the limit for any motion, with the model's damping.
+    linear_note : str
+        Why there is no ``linear_step``, when there is none.
+    linear_mode : dict or None
+        The mode that diverges first above ``linear_step``: ``frequency_hz``, ``oscillating``, ``where`` (the
+        element direction or joint storing most of its strain energy), ``share`` and ``scene_share`` (the part
+        of the scene's initial energy in it).
+    checks : list of dict
+        The perturbed runs: ``timestep``, ``status`` (``"ok"`` or ``"diverged"``), ``time`` and ``divergence``.
+    recommended : float or None
+        The smaller of the two limits, halved until a perturbed run went through [s].
+    checked : bool
+        The linear limit and the perturbed runs were done.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> result = mjflex.study(
+    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
+    ...     repeat=1, bisect=0, progress=False,
+    ... )
+    >>> limit = result.limits[0]
+    >>> limit.integrator, limit.largest_stable, limit.smallest_unstable, limit.recommended
+    ('rk4', 0.0002, None, 0.0002)
+    >>> limit.linear_note  # no linear limit below the search's end: this block's spring is soft
+    'the linearized model is stable at every step up to 0.00291 s'
     """
 
     variant: str
@@ -86,6 +204,7 @@ class Limit:
     checked: bool = False  # the linear limit and the perturbed runs were done
 
     def measured_text(self) -> str:
+        """The bracket measured on the scene, in words (or what to widen when there is none)."""
         if self.largest_stable is None:
             return f"diverged at every step tried (smallest {self.smallest_unstable:.3g} s)"
         if self.smallest_unstable is None:
@@ -94,6 +213,7 @@ class Limit:
         return f"stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
 
     def mode_text(self) -> str:
+        """The mode that diverges first above the linear limit, in words (empty without one)."""
         mode = self.linear_mode
         if not mode:
             return ""
@@ -107,6 +227,7 @@ class Limit:
         return f"{what} ({where}, {100 * mode['share']:.3g} %; {mode['scene_share']:.1g} of the scene's initial energy)"
 
     def text(self) -> str:
+        """The limit in one line: measured bracket, linear limit and its mode, the step to use (the report's)."""
         head = f"{who(self.variant, self.integrator, self.method)}: {self.measured_text()}"
         if not self.checked:
             return head
@@ -127,12 +248,55 @@ class Limit:
         return head
 
     def to_dict(self):
+        """The limit as a dict of plain values, as written to the JSON report."""
         return asdict(self)
 
 
 @dataclass
 class Reference:
-    """RK4 refined until two successive halvings of the step agree."""
+    """The study's reference run: RK4 refined until two successive halvings of the step agree.
+
+    Attributes
+    ----------
+    integrator, method : str
+        ``"rk4"`` and the element method of the reference (the model's own).
+    timestep : float or None
+        The step of the reference run [s] (None: every refinement diverged).
+    agreement : float or None
+        Pose error between the last two refinements (relative).
+    error_estimate : float or None
+        Of the reference itself: ``agreement / 15`` (RK4 is 4th order).
+    converged : bool
+        ``agreement`` reached the study's ``reference_tol``.
+    attempts : list of dict
+        Every refinement: ``timestep``, ``status``, ``agreement_with_previous``.
+    wall_per_sim_s, cpu_per_sim_s, cost : float or None
+        Its cost, as in :class:`Row`.
+    wall_range : tuple of float or None
+        Smallest and largest wall time over the repeats.
+    repeats : int
+        Timing rounds.
+    observed_order : float or None
+        ``log2`` of the ratio of successive agreements (4 for RK4 in its asymptotic range).
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> result = mjflex.study(
+    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
+    ...     repeat=1, bisect=0, progress=False,
+    ... )
+    >>> ref = result.reference
+    >>> ref.converged, ref.timestep, round(ref.observed_order)
+    (True, 2.5e-05, 4)
+    """
 
     integrator: str
     method: str
@@ -149,6 +313,7 @@ class Reference:
     observed_order: float | None = None  # log2 of the ratio of successive agreements
 
     def text(self) -> str:
+        """The reference in one line: its step, whether it converged, the agreement and estimated error."""
         if self.timestep is None:
             return "no reference: every refinement diverged"
         head = f"reference: {self.integrator.upper()} ({self.method}) at h = {self.timestep:.3g} s"
@@ -178,7 +343,81 @@ def _percent(x, floor=0.0):
 
 @dataclass
 class StudyResult:
-    """Everything the study measured; see :func:`mjflex.app.study.study`."""
+    """Everything a study measured, what it recommends, and its reports: what :func:`mjflex.study` returns.
+
+    Attributes
+    ----------
+    model : str
+        The model's name or path, as given.
+    initial_state : str
+        Where the runs start (a keyframe, or ``qpos``/``qvel`` given).
+    duration, sample_interval : float
+        Simulated time of each run and the interval at which poses are compared [s].
+    frame : str
+        Body the poses are taken in (``"world"`` for the world frame).
+    tracked : list of str
+        Bodies or sites whose poses are compared.
+    model_setting : dict
+        The model file's own ``integrator``, ``timestep`` and ``method``.
+    reference : Reference or None
+        The reference run (None: the study stopped before it had one).
+    rows : list of Row
+        One per candidate run, in the order they ran.
+    limits : list of Limit
+        One per (variant, method, integrator): the measured and linear stability limits and the step to use.
+    frequencies : dict
+        ``"variant/method"`` -> the first elastic natural frequencies of the linearized model [Hz].
+    highest_frequency : float or None
+        Highest natural frequency of the model as given [Hz].
+    fastest_rate : float or None
+        Largest ``|eigenvalue|`` of the linearized model with its damping [1/s].
+    variants : dict
+        Variant name -> its report (what it keeps, merges and drops).
+    targets : tuple of float
+        Pose-error targets of :meth:`recommendation` (relative).
+    clock : str
+        What ``cost`` is: ``"cpu"`` (thread CPU time) or ``"wall"``.
+    notes : list of str
+        Remarks of the study (a variant that changed nothing, a reduced range).
+    message : str or None
+        Why the study stopped early, if it did.
+    date : str
+        UTC start time, ISO 8601.
+    wall_s : float or None
+        Wall time of the whole study [s].
+    command : str
+        The command line that ran it (set by ``python -m mjflex study``).
+
+    See Also
+    --------
+    mjflex.study : runs a study and returns this.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+    >>> result = mjflex.study(
+    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
+    ...     repeat=1, bisect=0, progress=False,
+    ... )
+    >>> [(row.integrator, row.timestep, row.status) for row in result.rows]
+    [('rk4', 0.0002, 'ok'), ('rk4', 0.0001, 'ok'), ('euler', 0.0002, 'ok'), ('euler', 0.0001, 'ok')]
+    >>> [(limit.integrator, limit.recommended) for limit in result.limits]  # the step to use, per integrator
+    [('rk4', 0.0002), ('euler', 0.0002)]
+    >>> len(result.records()), sorted(result.records()[0])[:4]  # pandas.DataFrame(result.records()) for a table
+    (4, ['beyond_limit', 'cost', 'cpu_per_sim_s', 'divergence'])
+
+    :meth:`recommendation` and :meth:`needs` name the cheapest candidate per error target (costs are measured, so
+    they vary from run to run).
+
+    ``result.write("out")`` writes ``study_<model>.md``, ``.json`` and the Pareto plot ``.png``.
+    """
 
     model: str
     initial_state: str = ""
@@ -242,6 +481,7 @@ class StudyResult:
         return min(rows, key=lambda r: r.cost) if rows else None
 
     def model_setting_row(self):
+        """The row of the model file's own integrator, step and methods (None if it did not run)."""
         return next((r for r in self.rows if r.model_setting), None)
 
     def _speedups(self, row):
@@ -321,6 +561,7 @@ class StudyResult:
         return out
 
     def to_dict(self):
+        """Everything as a dict of plain values: the JSON report (``write``), with the recommendation and needs."""
         return {
             "model": self.model,
             "initial_state": self.initial_state,
@@ -348,6 +589,7 @@ class StudyResult:
         }
 
     def summary_lines(self) -> list[str]:
+        """The report's summary, one line each: model, run, reference, frequencies, wall time, notes."""
         lines = [f"model {self.model}" + (f", initial state: {self.initial_state}" if self.initial_state else "")]
         if self.duration:
             clock = "CPU" if self.clock == "cpu" else "wall"
@@ -369,6 +611,7 @@ class StudyResult:
         return lines + [f"note: {n}" for n in self.notes] + ([f"STOPPED: {self.message}"] if self.message else [])
 
     def to_markdown(self) -> str:
+        """The Markdown report: summary, recommendation, needs, stability limits, variants and every candidate."""
         floor = self.floor
         out = [f"# Speed-accuracy study: {self.model}", ""]
         out += [f"- {line}" for line in self.summary_lines()]

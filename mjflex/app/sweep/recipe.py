@@ -87,6 +87,7 @@ class Recipe:
 
     @property
     def is_file(self) -> bool:
+        """True when ``source`` is a path to an MJCF file, False when it is MJCF text."""
         return not _is_xml_text(self.source)
 
     def describe(self) -> str:
