@@ -165,6 +165,8 @@ class Flexures:
         self._copies = ()
         self._depth = 0
         self._tables = _tables.derive(model)
+        if not _native.available():
+            _fallback.check_supported(self._tables)
         t = self._tables
         self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
@@ -351,6 +353,8 @@ class Flexures:
         """
         with _callback._LOCK:
             if self._depth == 0 and self._served:
+                if not _native.available():
+                    _fallback.check_supported(self._tables)
                 for i, model in enumerate(self.models):
                     self._check_model(model, "flex.model" if i == 0 else f"served model {i - 1}")
                     self._warn_sleepy(model)
