@@ -542,3 +542,16 @@ def test_the_python_fallback_refuses_elements_with_stops(monkeypatch):
         with pytest.raises(mjflex.ModelError, match="end stops"):
             call()
     assert not flex.installed
+
+
+def test_variants_say_what_becomes_of_the_stops():
+    """The MuJoCo-native variants have no range for an element's stops: their reports say so; reduce keeps the stops
+    of an element it keeps whole."""
+    spec = _bodies(mujoco.MjSpec(), 1)
+    mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], K=np.diagonal(K_BUSH),
+                       stops=mjflex.Stops(upper=[0.1] * 6))  # fmt: skip
+    for build in (mjflex.bushing_variant, mjflex.weld_variant, mjflex.pseudo_rigid_body_variant):
+        assert "disc: its end stops are not represented: the replacement has no range" in build(spec).report
+    kept = mjflex.reduce(spec, keep_below_hz=1e9)
+    assert "disc: kept as an element" in kept.report and "disc: its end stops are kept if" in kept.report
+    assert mjflex.Flexures(kept.model).records[0].stops == mjflex.Stops(upper=[0.1] * 6)
