@@ -17,7 +17,7 @@ import pytest
 import mjflex
 from mjflex.mj import _native
 from tests.helpers import ridders
-from tests.plugin_models import as_plugins, as_records
+from tests.plugin_models import as_plugins, as_records, planar_spec
 
 # end stops need the native library (the Python fallback refuses them, tested below): not run on the fallback
 pytestmark = [
@@ -233,28 +233,11 @@ def test_record_and_plugin_forms_move_bit_identically_into_their_stops():
 # ------------------------------------------------------------------ planar elements
 
 
-def planar_stops_spec(kind="plugin", method="twist", stops=None):
-    """Two bodies on (slide x, slide y, hinge z) joints joined by one planar element with stops on [theta, x, y]."""
-    spec = mujoco.MjSpec()
-    spec.option.gravity = [0, 0, 0]
-    for name, x in (("A", 0.0), ("B", 0.1)):
-        body = spec.worldbody.add_body(name=name, pos=[x, 0, 0])
-        for axis in ([1, 0, 0], [0, 1, 0]):
-            body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis)
-        body.add_joint(type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.01, 0.01], density=1000, contype=0,
-                      conaffinity=0)  # fmt: skip
-    K = np.array([[0.4, 0.02, -0.01], [0.02, 90.0, 4.0], [-0.01, 4.0, 120.0]])
-    mjflex.add_flexure(spec, "planar", "A", "B", pos=[0.05, 0.0, 0.0], quat=[0.9, 0, 0, 0.3], K=K, method=method,
-                       kind=kind, stops=stops)  # fmt: skip
-    return spec
-
-
 @pytest.mark.parametrize("method", ["twist", "dualquat"])
 @pytest.mark.parametrize("kind", ["plugin", "record"])
 def test_planar_stops_act_on_theta_x_y_and_are_minus_the_gradient(kind, method):
     stops = mjflex.Stops(lower=[-0.05, None, -0.002], upper=[0.1, 0.001, None])  # derived: 100 x K's diagonal
-    model = planar_stops_spec(kind, method, stops).compile()
+    model = planar_spec(kind, method, stops).compile()  # qvel = 0 below: its damping plays no part
     flex, data = mjflex.Flexures(model), mujoco.MjData(model)
     assert flex.records[0].planar and flex.records[0].stops == stops
     qpos = np.array([0.001, -0.002, 0.05, 0.004, -0.008, -0.15])  # theta -0.2, x and y past their stops
