@@ -31,8 +31,8 @@ def as_plugins(spec, method=None):
     return copy
 
 
-def planar_spec(kind="record", method="twist"):
-    """Two bodies on (slide x, slide y, hinge z) joints joined by one planar (3x3) element 'planar'."""
+def planar_spec(kind="record", method="twist", stops=None):
+    """Two bodies on (slide x, slide y, hinge z) joints joined by one planar (3x3) element 'planar' (with ``stops``)."""
     spec = mujoco.MjSpec()
     spec.modelname = "planar"
     spec.option.gravity = [0, 0, 0]
@@ -47,7 +47,7 @@ def planar_spec(kind="record", method="twist"):
                       conaffinity=0)  # fmt: skip
     K = np.array([[0.4, 0.02, -0.01], [0.02, 90.0, 4.0], [-0.01, 4.0, 120.0]])
     mjflex.add_flexure(spec, "planar", "A", "B", pos=[0.05, 0.0, 0.0], quat=[0.9, 0, 0, 0.3], K=K, B=0.02 * K,
-                       method=method, kind=kind)  # fmt: skip
+                       method=method, kind=kind, stops=stops)  # fmt: skip
     return spec
 
 

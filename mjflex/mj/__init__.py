@@ -13,6 +13,7 @@ from .native import bushing_variant, pseudo_rigid_body_variant, weld_variant
 from .provider import Flexures, ModelError
 from .reduce import reduce
 from .schema import FlexureRecord
+from .stops import Stops
 from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "FlexureRecord",
     "Flexures",
     "ModelError",
+    "Stops",
     "Variant",
     "VariantNotApplicableError",
     "add_flexure",
