@@ -51,11 +51,12 @@ mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.rend
 
 from . import core, geometry, mj
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
+from .core import units
 from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 
 __version__ = "0.1.0"
 
-__all__ = ["geometry", *core.__all__, *mj.__all__]
+__all__ = ["geometry", "units", *core.__all__, *mj.__all__]
 
 _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
     "study": ("study", "study"),

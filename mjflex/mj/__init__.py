@@ -3,25 +3,33 @@
 (:mod:`mjflex.mj.divergence`), linearization (:func:`normal_modes`, damping from ratios), and the cheaper or
 MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
 
+from .advice import StepAdvice, step_advice
 from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, reference_body_poses, remove_flexure
 from .compliance import Compliance, make_compliant, make_rigid
 from .convert import attach, convert_model, copy_spec, edit_elements
 from .damping import damping_from_ratios
+from .divergence import DivergenceWarning, divergence_warnings
 from .file_convert import ConversionError, convert_file
-from .linearize import normal_modes
+from .linearize import normal_modes, static_equilibrium
 from .native import bushing_variant, pseudo_rigid_body_variant, weld_variant
+from .notices import LikelyMistakeWarning
 from .provider import Flexures, ModelError
 from .reduce import reduce
+from .replace import Replacement
 from .schema import FlexureRecord
 from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
     "Compliance",
     "ConversionError",
+    "DivergenceWarning",
     "FlexureHandle",
     "FlexureRecord",
     "Flexures",
+    "LikelyMistakeWarning",
     "ModelError",
+    "Replacement",
+    "StepAdvice",
     "Variant",
     "VariantNotApplicableError",
     "add_flexure",
@@ -32,6 +40,7 @@ __all__ = [
     "convert_model",
     "copy_spec",
     "damping_from_ratios",
+    "divergence_warnings",
     "edit_elements",
     "make_compliant",
     "make_rigid",
@@ -40,5 +49,7 @@ __all__ = [
     "reduce",
     "reference_body_poses",
     "remove_flexure",
+    "static_equilibrium",
+    "step_advice",
     "weld_variant",
 ]
