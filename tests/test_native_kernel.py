@@ -134,7 +134,8 @@ def test_angle_functions_match_mpmath_on_every_branch():
 def mixed_model():
     """Nine free boxes and the world joined by 13 elements of every kind, in an order that makes groups of 1 to 5
     consecutive elements of one kind: twist and dual quaternion, diagonal and full K and B, no damping,
-    polynomial terms, grounded, disabled. Saved and reloaded, so that 6-digit site poses leave rest offsets."""
+    polynomial terms, end stops (engaged at the states of _moved), grounded, disabled. Saved and reloaded, so that
+    6-digit site poses leave rest offsets."""
     rng = np.random.default_rng(8)
     spec = mujoco.MjSpec()
     spec.modelname = "mixed"
@@ -150,11 +151,20 @@ def mixed_model():
     full = random_spd(rng, cond=1e3, scales=[1, 1, 1, 60, 60, 60])
     terms = mjflex.PolynomialTerms("twist", mjflex.polynomial_basis("twist", 3),
                                    0.3 * rng.normal(size=len(mjflex.polynomial_basis("twist", 3))))  # fmt: skip
+
+    def stops(i):  # a little off rest, on every coordinate (some one-sided), as stiff as K (stable at the step),
+        s = 1.0 + 0.1 * i  # and different in each element (lanes must not mix)
+        return mjflex.Stops(
+            lower=[-0.02 * s, -0.03, None, -0.002, -0.003 * s, -0.001],
+            upper=[0.02, None, 0.01 * s, 0.002 * s, None, 0.004],
+            stiffness=s * diag.diagonal(),
+        )
+
     layout = [  # (body a, body b, method, K, B, extra)
-        *[(i, i + 1, "twist", diag, 1e-3 * diag, {}) for i in range(5)],
+        *[(i, i + 1, "twist", diag, 1e-3 * diag, {"stops": stops(i)} if i < 3 else {}) for i in range(5)],
         (5, 6, "dualquat", full, 2e-3 * full, {}),
-        (6, 7, "dualquat", full, None, {}),
-        (7, 8, "twist", full, 1e-3 * full, {"terms": terms}),
+        (6, 7, "dualquat", full, None, {"stops": stops(6)}),
+        (7, 8, "twist", full, 1e-3 * full, {"terms": terms, "stops": stops(7)}),
         (-1, 0, "twist", diag, 1e-3 * diag, {}),
         (0, 2, "twist", diag, 1e-3 * diag, {}),
         (1, 3, "dualquat", diag, 1e-3 * diag, {}),
@@ -264,8 +274,9 @@ def test_an_element_gives_the_same_bits_alone_and_beside_any_other(lanes, angle)
 
 
 def _core_generalized_forces(model, data, flex):
-    """Each element's wrench from the core (mjflex.wrench_on_b on the sites' world poses, the rest offset removed,
-    MuJoCo's site velocities) applied at frame b's origin by mj_applyFT; also the sum of |contributions| per dof."""
+    """Each element's wrench from the core (mjflex.wrench_on_b and mjflex.stop_wrench_on_b on the sites' world poses,
+    the rest offset removed, MuJoCo's site velocities) applied at frame b's origin by mj_applyFT; also the sum of
+    |contributions| per dof."""
     total, scale = np.zeros(model.nv), np.zeros(model.nv)
     rows = flex._tables.elements
     for e, rec in enumerate(flex.records):
@@ -284,6 +295,9 @@ def _core_generalized_forces(model, data, flex):
         viscous = {"B": rec.B, "w_WA": vel[0], "v_WA": vel[1], "w_WB": vel[2], "v_WB": vel[3]} if row["viscous"] else {}
         W = mjflex.wrench_on_b(R_a, p_a, R_b, p_b, rec.K, method=("twist", "dualquat")[row["method"]],
                                terms=rec.terms, **viscous)  # fmt: skip
+        if rec.stops:
+            limits = (*rec.stops.limits_for(6), rec.stops.stiffness_for(rec.K))
+            W = W + mjflex.stop_wrench_on_b(R_a, p_a, R_b, p_b, *limits)
         for sign, body in ((1.0, model.site_bodyid[sb]), (-1.0, model.site_bodyid[sa])):
             one = np.zeros(model.nv)
             mujoco.mj_applyFT(model, data, sign * W[3:], sign * W[:3], p_b, body, one)

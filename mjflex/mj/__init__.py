@@ -17,6 +17,7 @@ from .provider import Flexures, ModelError
 from .reduce import reduce
 from .replace import Replacement
 from .schema import FlexureRecord
+from .stops import Stops
 from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
@@ -30,6 +31,7 @@ __all__ = [
     "ModelError",
     "Replacement",
     "StepAdvice",
+    "Stops",
     "Variant",
     "VariantNotApplicableError",
     "add_flexure",

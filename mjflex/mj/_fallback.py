@@ -21,6 +21,20 @@ _BAD = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujo
 _BAD_NAMES = ("qpos", "qvel", "qacc")
 
 
+def check_supported(tables) -> None:
+    """Refuse, naming the element, what the fallback does not implement: end stops (they would be lost silently)."""
+    from ._tables import model_error
+
+    for name, rec in zip(tables.names, tables.records, strict=True):
+        if rec.stops:
+            why = _native.FORCE_FALLBACK["reason"] or _native._STATE.get("why") or "the native library is not loaded"
+            raise model_error(
+                name, f"it has end stops, which mjflex's Python fallback does not implement (the fallback runs: {why})",
+                "Build the native library (install a C compiler, then reinstall mjflex: pip install --force-reinstall "
+                "--no-deps <mjflex source>), or remove the element's stops",
+            )  # fmt: skip
+
+
 def _frame_b(row, R, p):
     if not row["offset"]:
         return R, p
@@ -39,6 +53,7 @@ def evaluate(model, data, tables, mode, *, qfrc=None, out6=None, out1=None, n=No
     spring = not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_SPRING
     damper = not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_DAMPER
     n = len(tables.names) if n is None else n
+    check_supported(tables)
     for i in range(n):
         row, rec = tables.elements[i], tables.records[i]
         if not row["enabled"]:

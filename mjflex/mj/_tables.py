@@ -311,6 +311,10 @@ def derive(model) -> Tables:
         row["K"], row["B"], row["R0"], row["p0"] = K.ravel(), B.ravel(), R0.ravel(), p0
         row["kstruct"], row["bstruct"] = matrix_structure(K), matrix_structure(B)
         row["inv_mass"], row["inv_inertia"] = _inverse_inertia(m, (ba, bb))
+        row["stop_lo"], row["stop_hi"] = -np.inf, np.inf  # as the plugin's init lays out an element without stops
+        if rec.stops:
+            row["stops"] = 1
+            row["stop_lo"], row["stop_hi"], row["stop_k"] = rec.stops.element_rows(rec.K)
         if _native.available():  # the derived fields exactly as the plugin's init computes them
             _native.prepare(m, elements, e)
         _lay_out_terms(row, rec.terms, terms)

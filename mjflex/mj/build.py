@@ -11,6 +11,7 @@ from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
 from . import _native, naming, schema
+from . import stops as _stops
 from .notices import warn_likely_mistake
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
@@ -202,7 +203,7 @@ def _site(spec, site):
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, frame="world", K, B=None, method="twist",
     terms=None, stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True, kind="plugin", strain_scale=None,
+    exclude_contact=True, kind="plugin", strain_scale=None, stops=None,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -262,6 +263,11 @@ def add_flexure(
         MuJoCo would push them apart. ``False`` keeps their contacts. A pair with the world is
         never excluded here (the world holds floors and obstacles; MuJoCo's parent-child filter
         exempts it likewise): :class:`mjflex.Flexures` warns if such geoms touch at rest.
+    stops : Stops, optional
+        End stops: one-sided limits on the element's coordinates (rotation vector and position of
+        frame b in frame a, ``[rx, ry, rz, x, y, z]``, or ``[theta, x, y]`` planar), in the
+        element frame, with a stated or derived stiffness (:class:`mjflex.Stops`). Stored in the
+        record or plugin instance (:mod:`mjflex.mj.schema`). Default: none.
     kind : {"plugin", "record"}
         How the element is written (:mod:`mjflex.mj.schema`). ``"plugin"`` (default): an
         instance of the engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to
@@ -336,7 +342,7 @@ def add_flexure(
             K = stiffness_in_frame(K, R_FE, p_FE)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
                                   *_checked_terms(terms, method, K, name), site=frame_site,
-                                  strain_scale=strain_scale)  # fmt: skip
+                                  strain_scale=strain_scale, stops=_stops.checked(stops, K, name))  # fmt: skip
     text_data = _record_text(record)
     sites = []
     for b, site_name in zip(bodies, site_names, strict=True):

@@ -368,12 +368,22 @@ def same_record(a, b) -> bool:
         return False
     if not _same(a.K, b.K) or (a.B is None) != (b.B is None) or (a.B is not None and not _same(a.B, b.B)):
         return False
-    if (a.terms is None) != (b.terms is None):
+    if (a.terms is None) != (b.terms is None) or not _same_stops(a.stops, b.stops):
         return False
     return a.terms is None or (
         a.terms.method == b.terms.method
         and _same(a.terms.exponents, b.terms.exponents)
         and _same(a.terms.coefficients, b.terms.coefficients)
+    )
+
+
+def _same_stops(a, b):
+    """Whether two elements' end stops are the same, every number bit for bit (None: none)."""
+    if a is None or b is None:
+        return a is b
+    fields = ("lower", "upper", "stiffness")
+    return all((getattr(a, f) is None) == (getattr(b, f) is None) for f in fields) and all(
+        _same(getattr(a, f), getattr(b, f)) for f in fields if getattr(a, f) is not None
     )
 
 

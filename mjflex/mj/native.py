@@ -49,9 +49,11 @@ from .variant import (
     keeps_element_kinds,
     polynomial_terms_lines,
     source_spec,
+    stops_lines,
 )
 
 _LINEAR = "are not represented: the replacement holds its stiffness at rest K only"
+_NO_STOPS = "are not represented: the replacement has no range (give its joints ranges, or keep the element)"
 
 WELD_MATCHES = ("compliant", "mean", "stiff", "rigid")
 #: Impedance of the matched welds: small, so that the constraint acts as a spring (the solver
@@ -193,7 +195,7 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
             f"{len(flex)} elements replaced by soft welds matched to the '{match}' eigenvalue of each block:"
             " isotropic, uncoupled, quaternion-error law; anisotropy and coupling are lost",
         )
-    lines += polynomial_terms_lines(flex, _LINEAR)
+    lines += polynomial_terms_lines(flex, _LINEAR) + stops_lines(flex, _NO_STOPS)
     variant_model = compile_spec(spec)
     body_map = identity_body_map(variant_model)
     details = {"match": match, "welds": len(flex), "nv": int(variant_model.nv), "constraints": "spring"}
@@ -321,7 +323,7 @@ def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
         f"{link.element}: {link.joints[0].kind} {link.joints[0].label}, stiffness {link.joints[0].stiffness:.4g}"
         for link in links
     ]
-    report += polynomial_terms_lines(flex, _LINEAR)
+    report += polynomial_terms_lines(flex, _LINEAR) + stops_lines(flex, _NO_STOPS)
     return assemble(
         spec,
         model,
@@ -383,6 +385,7 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
         f"{len(dirs)} elements replaced by up to six joints each (three slides, three hinges) with their principal "
         f"stiffness and damping; couplings dropped (largest normalized off-diagonal stiffness): {coupled}",
         *polynomial_terms_lines(flex, _LINEAR),
+        *stops_lines(flex, _NO_STOPS),
     ]
     details = {"kind": "bushing", "constraints": "spring"}
     variant = assemble(spec, model, links, closer=closer, name=name or "bushing", report=report, details=details)

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from ..core import validation
+from ..core.stops import stop_coordinates
 from . import _callback, _fallback, _native, _tables
 from ._tables import ModelError
 from .divergence import Divergence, step_index
@@ -165,6 +166,8 @@ class Flexures:
         self._copies = ()
         self._depth = 0
         self._tables = _tables.derive(model)
+        if not _native.available():
+            _fallback.check_supported(self._tables)
         t = self._tables
         self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
@@ -351,6 +354,8 @@ class Flexures:
         """
         with _callback._LOCK:
             if self._depth == 0 and self._served:
+                if not _native.available():
+                    _fallback.check_supported(self._tables)
                 for i, model in enumerate(self.models):
                     self._check_model(model, "flex.model" if i == 0 else f"served model {i - 1}")
                     self._warn_sleepy(model)
@@ -500,6 +505,22 @@ class Flexures:
         out = np.empty((len(self), 6))
         self._query(data, _native.COORDS, out6=out)
         return out
+
+    def stop_coordinates(self, data) -> np.ndarray:
+        """The coordinates end stops act on, ``(n, 6)``: ``[rx, ry, rz, x, y, z]`` of each element [rad; m].
+
+        The rotation vector of frame b relative to frame a and the position of frame b's origin in
+        frame a (:mod:`mjflex.core.stops`), for every element (with or without stops; planar ones
+        in ``rz, x, y``), as of the last ``mj_kinematics``. Compare them with ``flex.records[i].stops``
+        to see which stops are engaged; their energy is part of :meth:`potential_energies`.
+        """
+        self._check_data(data)
+        el = self._elements[: len(self)]
+        R_a, p_a = data.site_xmat[el["site_a"]].reshape(-1, 3, 3), data.site_xpos[el["site_a"]]
+        R0 = el["R0"].reshape(-1, 3, 3)
+        R_b = data.site_xmat[el["site_b"]].reshape(-1, 3, 3) @ np.swapaxes(R0, 1, 2)  # frame b* (rest offset removed)
+        p_b = data.site_xpos[el["site_b"]] - np.einsum("nij,nj->ni", R_b, el["p0"])
+        return stop_coordinates(R_a, p_a, R_b, p_b, check=False).reshape(len(self), 6)
 
     def table(self, data) -> np.ndarray:
         """Every per-element result in one labelled table: a structured array, one row per element.

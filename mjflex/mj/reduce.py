@@ -79,6 +79,7 @@ from .variant import (
     keeps_element_kinds,
     polynomial_terms_lines,
     source_spec,
+    stops_lines,
 )
 
 COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directions that become joint springs
@@ -271,7 +272,8 @@ def _record_text(rec, K=None, B=None, viscous=None):
     same = K is None  # the element stays whole: its polynomial terms too (restricted ones keep K's part only)
     out = schema.FlexureRecord(rec.name, rec.method, rec.K if K is None else K, rec.B if B is None else B,
                                rec.enabled, rec.viscous if viscous is None else viscous, rec.strain_per_radian,
-                               rec.source, rec.terms if same else None, rec.order if same else 2)  # fmt: skip
+                               rec.source, rec.terms if same else None, rec.order if same else 2,
+                               stops=rec.stops if same else None)  # fmt: skip
     if out.B is None or not np.any(out.B):
         out.viscous = True  # nothing to switch off; keep the record minimal
     return out.to_text()
@@ -402,6 +404,10 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         "are kept if it stays a full 3-D element; as joints, welds, a one-direction spring or a planar record "
         "it holds its stiffness at rest K only (the modal analysis uses K in every case)",
     )
+    report += stops_lines(
+        flex, "are kept if it stays a full 3-D element; as joints, welds, a one-direction spring or a planar record "
+        "it has no range (the joints get no limits)",
+    )  # fmt: skip
     if plane_line:
         report.insert(1, plane_line)
     if scene is not None:

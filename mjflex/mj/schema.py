@@ -35,7 +35,14 @@ An element named ``E`` (any text) is
     ``"wrist_site"`` (optional; written by ``add_flexure(..., site=...)``). The element's sites
     must then coincide with it at ``qpos0`` (the same tolerances as between the two sites), so a
     site moved in the file without its element is reported rather than silently ignored. Under
-    ``MjSpec.attach`` the name is read with the element's prefix and suffix.
+    ``MjSpec.attach`` the name is read with the element's prefix and suffix;
+  - ``"stops"``: end stops, one-sided limits on the element's coordinates (optional;
+    :class:`mjflex.Stops`, math in :mod:`mjflex.core.stops`): an object
+    ``{"lower": [...], "upper": [...], "stiffness": ...}`` whose lists have one entry per
+    coordinate, ``[rx, ry, rz, x, y, z]`` (rotation vector of frame b in frame a [rad], position
+    of frame b in frame a [m]) or ``[theta, x, y]`` for a planar element, ``null`` where a
+    coordinate has no stop; ``"stiffness"`` [N m/rad, N/m] is absent or ``null`` (derived:
+    100 times ``K``'s diagonal entry of each coordinate), a number, or one per coordinate.
 
 Validation rules (:func:`parse_text`; one place, mirrored by any other reader of records):
 
@@ -61,7 +68,12 @@ Validation rules (:func:`parse_text`; one place, mirrored by any other reader of
    ``"strain_scale"`` is ``null`` or a finite number > 0;
 8. ``"source"`` is ``null`` or an object (any content within rule 1);
 9. ``"site"`` is ``null`` or a non-empty string naming a site of the model (checked by
-   :class:`mjflex.Flexures`: the element frame must coincide with it at ``qpos0``).
+   :class:`mjflex.Flexures`: the element frame must coincide with it at ``qpos0``);
+10. ``"stops"`` is ``null`` or an object with only the keys ``"lower"``, ``"upper"``,
+    ``"stiffness"``: as many limits as ``K`` has rows, numbers or ``null``, none NaN; rotation
+    limits within ``[-pi, pi]`` (radians, not degrees); ``lower <= upper``; the stiffness finite,
+    ``>= 0``, and positive on every coordinate with a limit (a derived one needs ``K_ii > 0``);
+    no stiffness without a limit (:mod:`mjflex.mj.stops` has the rules).
 
 Every violation raises ValueError naming the key (and entry), quoting the bad value cut to
 :data:`mjflex.core.validation.SHORT_REPR` characters, and saying what is allowed; the model
@@ -108,7 +120,10 @@ the record's content, each value a string:
   per row, ``order`` as in the record;
 - ``enabled``, ``viscous``: ``true`` (default) or ``false``;
 - ``strain_per_radian``, ``strain_scale``: a number each (optional);
-- ``source``: the record's ``"source"`` object as JSON text, verbatim (optional).
+- ``source``: the record's ``"source"`` object as JSON text, verbatim (optional);
+- ``stop_lower``, ``stop_upper``: the record's ``"stops"`` limits, one number per coordinate,
+  ``-inf`` / ``inf`` where a coordinate has no stop; ``stop_stiffness``: absent (derived), one
+  number, or one per coordinate (optional; the record's rules).
 
 Numbers are separated by white space and written as the shortest text that reads back to the same double by
 :func:`config_from_record`, so the conversion is lossless. Every value is validated when MuJoCo
@@ -138,6 +153,7 @@ import numpy as np
 from ..core import validation
 from ..core.polynomial import MAX_EXPONENT, PolynomialTerms
 from ..core.validation import shorten
+from .stops import Stops
 
 PREFIX = "mjflex:"
 SITE_A_SUFFIX = "/a"
@@ -146,12 +162,13 @@ SITE_B_SUFFIX = "/b"
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
 KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "strain_scale",
-        "source", "site")  # fmt: skip
+        "source", "site", "stops")  # fmt: skip
 #: Name of mjflex's engine plugin, and its configuration attributes in the order MuJoCo stores
 #: their values (the native library's ``MJFX_ATTRIBUTES``; checked by the tests).
 PLUGIN_NAME = "mjflex.flexure"
 PLUGIN_ATTRIBUTES = ("site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients", "enabled",
-                     "viscous", "strain_per_radian", "strain_scale", "source", "site")  # fmt: skip
+                     "viscous", "strain_per_radian", "strain_scale", "source", "stop_lower", "stop_upper",
+                     "stop_stiffness", "site")  # fmt: skip
 #: Full scale of an element's strain colour in the viewer when ``"strain_scale"`` is not given: 1 %
 #: bending strain (where the elastic range of flexure metals ends: spring steel, titanium and
 #: aluminium alloys yield at 0.5-1 %), or 0.1 rad of rotation for an element without ``"strain_per_radian"``.
@@ -209,6 +226,8 @@ class FlexureRecord:
     strain_scale : float or None
         Full scale of the element's strain colour in MuJoCo's viewer (bending strain, or rotation
         in rad without ``strain_per_radian``); None: the default (``DEFAULT_STRAIN_SCALE``).
+    stops : Stops or None
+        End stops on the element's coordinates (:class:`mjflex.Stops`); None: none.
 
     Examples
     --------
@@ -235,6 +254,7 @@ class FlexureRecord:
     order: int = 2
     site: str | None = None
     strain_scale: float | None = None
+    stops: Stops | None = None
 
     @property
     def planar(self) -> bool:
@@ -260,6 +280,8 @@ class FlexureRecord:
             payload["source"] = self.source
         if self.site is not None:
             payload["site"] = self.site
+        if self.stops:
+            payload["stops"] = self.stops.to_dict()
         return json.dumps(payload)
 
 
@@ -461,7 +483,19 @@ def parse_payload(element: str, payload: dict) -> FlexureRecord:
         raise ValueError(f'"site" must be the name of a site of the model; got {shorten(site)}')
     order, terms = order_and_terms(payload, method, K)
     return FlexureRecord(element, method, K, B, enabled, viscous, strain, source, terms, order, site,
-                         _strain(payload, "strain_scale"))  # fmt: skip
+                         _strain(payload, "strain_scale"), _stops(payload, K))  # fmt: skip
+
+
+def _stops(payload, K):
+    """The record's end stops checked against its ``K`` (rule 10), or None."""
+    if payload.get("stops") is None:
+        return None
+    stops = Stops.from_dict(payload["stops"])
+    try:
+        stops.stiffness_for(K)
+    except ValueError as exc:
+        raise ValueError(f'"stops": {exc}') from None
+    return stops if stops else None
 
 
 def order_and_terms(payload, method, K):
@@ -572,6 +606,9 @@ def record_from_config(element: str, config: dict) -> FlexureRecord:
             raise ValueError("source must be a JSON object") from None
     if get["site"]:
         payload["site"] = get["site"]
+    stops = Stops.from_config(get)
+    if stops is not None:
+        payload["stops"] = stops.to_dict()
     return parse_payload(element, payload)
 
 
@@ -625,6 +662,8 @@ def config_from_record(record: FlexureRecord, site_a: str, site_b: str) -> dict[
         config["source"] = json.dumps(record.source)
     if record.site is not None:
         config["site"] = record.site
+    if record.stops:
+        config.update(record.stops.config())
     return config
 
 

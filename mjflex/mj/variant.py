@@ -349,6 +349,12 @@ class PoseFit:
         return d.qpos.copy(), qvel
 
 
+def stops_lines(flex, fate: str) -> list[str]:
+    """Report lines for the elements of ``flex`` with end stops, saying what a variant does with them (never dropped
+    silently; :class:`mjflex.Stops`)."""
+    return [f"{name}: its end stops {fate}" for name, rec in zip(flex.names, flex.records, strict=True) if rec.stops]
+
+
 def polynomial_terms_lines(flex, fate: str) -> list[str]:
     """Report lines for the elements of ``flex`` with polynomial terms, saying what a variant does with them.
 

@@ -20,7 +20,7 @@ static const struct {
     FIELD(chain_b0), FIELD(chain_b1), FIELD(terms_lo), FIELD(terms_hi),  FIELD(terms_top), FIELD(kstruct),
     FIELD(bstruct),  FIELD(qa),       FIELD(qb),       FIELD(p0),        FIELD(lever_a),  FIELD(lever_b),
     FIELD(inv_mass), FIELD(inv_inertia), FIELD(kdiag), FIELD(bdiag),     FIELD(K),        FIELD(B),
-    FIELD(R0),
+    FIELD(R0),       FIELD(stops),    FIELD(stop_lo),  FIELD(stop_hi),  FIELD(stop_k),
 };
 
 // byte offset of a field of mjfxElement (-1: no such field); sizeof with name NULL

@@ -12,14 +12,17 @@
 
 const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE] = {
     "site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients",
-    "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "site",
+    "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "stop_lower", "stop_upper", "stop_stiffness",
+    "site",
 };
 
 enum { A_SITE_A, A_SITE_B, A_METHOD, A_K, A_B, A_ORDER, A_EXPONENTS, A_COEFFICIENTS, A_ENABLED, A_VISCOUS, A_STRAIN,
-       A_STRAIN_SCALE, A_SOURCE, A_SITE };
+       A_STRAIN_SCALE, A_SOURCE, A_STOP_LOWER, A_STOP_UPPER, A_STOP_STIFFNESS, A_SITE };
 
 // planar coordinates [theta_z; x; y] within [rx, ry, rz, x, y, z] (mjflex.mj.schema.PLANAR_INDEX)
 static const int PLANAR_INDEX[3] = {2, 3, 4};
+// largest |rotation limit| [rad] (mjflex.mj.stops.MAX_ROTATION_LIMIT): pi, and the round-off of pi written in any way
+#define MJFX_PI_TOLERANT (3.141592653589793 * (1.0 + 1e-12))
 
 static int fail(char* err, int errsz, const char* name, const char* fmt, ...) {
   int len = snprintf(err, errsz, "mjflex: flexure '%.200s' (plugin instance of %s): ", name, MJFX_PLUGIN_NAME);
@@ -409,6 +412,111 @@ static int parse_terms(const char* name, const char* const* values, int method, 
   return 0;
 }
 
+//------------------------------------------------------------------------------ end stops
+
+static const char* const STOP_COORDINATES[2][6] = {{"rx", "ry", "rz", "x", "y", "z"}, {"theta", "x", "y"}};
+static const char* const STOP_KEYS[2] = {"stop_lower", "stop_upper"};
+
+// The end stops (stop_lower, stop_upper, stop_stiffness; the rules of mjflex.mj.stops) into e: limits and
+// stiffness on the stop coordinates (planar ones embedded at PLANAR_INDEX), stiffness 0 and limits -inf /
+// +inf where a coordinate has no stop; e->stops when any limit is finite. K6: the element's (embedded) K.
+static int parse_stops(const char* name, const char* const* values, int planar, const double K6[36], mjfxElement* e,
+                       char* err, int errsz) {
+  int n = planar ? 3 : 6;
+  const char* const* coord = STOP_COORDINATES[planar ? 1 : 0];
+  const char* units = planar ? "[theta x y]" : "[rx ry rz x y z]";
+  double lim[2][6], k[6];
+  char bad[48];
+  int any = 0;
+  for (int i = 0; i < 6; i++) e->stop_lo[i] = -INFINITY, e->stop_hi[i] = INFINITY, e->stop_k[i] = 0.0;
+  e->stops = 0;
+  for (int s = 0; s < 2; s++) {
+    const char* key = STOP_KEYS[s];
+    for (int i = 0; i < 6; i++) lim[s][i] = s ? INFINITY : -INFINITY;
+    const char* text = values[A_STOP_LOWER + s];
+    if (is_blank(text)) continue;
+    int count = parse_numbers(text, lim[s], 6, bad, sizeof(bad));
+    if (count < 0) {
+      return fail(err, errsz, name, "%s has '%s', which is not a number. Give one limit per coordinate %s [rad, m], "
+                  "%s where a coordinate has no stop", key, bad, units, s ? "inf" : "-inf");
+    }
+    if (count != n) {
+      return fail(err, errsz, name, "%s has %d numbers; give %d, one per coordinate %s of this %s element (%s "
+                  "where a coordinate has no stop)", key, count, n, units, planar ? "planar" : "spatial",
+                  s ? "inf" : "-inf");
+    }
+    for (int i = 0; i < n; i++) {
+      double v = lim[s][i];
+      if (isnan(v)) {
+        return fail(err, errsz, name, "%s of %s is NaN; write %s for a coordinate without a stop", key, coord[i],
+                    s ? "inf" : "-inf");
+      }
+      if (s ? v == -INFINITY : v == INFINITY) {
+        return fail(err, errsz, name, "%s of %s is %s, a stop that would push at every pose; write %s for a "
+                    "coordinate without a stop", key, coord[i], s ? "-inf" : "inf", s ? "inf" : "-inf");
+      }
+      int rotation = planar ? i == 0 : i < 3;
+      if (rotation && isfinite(v) && fabs(v) > MJFX_PI_TOLERANT) {
+        return fail(err, errsz, name, "%s of %s is %g rad, beyond pi: a rotation coordinate (a component of the "
+                    "rotation vector) lies in [-pi, pi], so this stop could never act. Give radians (not degrees) "
+                    "in [-pi, pi], or %s for no stop", key, coord[i], v, s ? "inf" : "-inf");
+      }
+      any |= isfinite(v);
+    }
+  }
+  for (int i = 0; i < n; i++) {
+    if (lim[0][i] > lim[1][i]) {
+      return fail(err, errsz, name, "stop_lower of %s (%g) is above its stop_upper (%g); a range needs lower <= "
+                  "upper", coord[i], lim[0][i], lim[1][i]);
+    }
+  }
+  const char* ks = values[A_STOP_STIFFNESS];
+  if (!any) {
+    if (!is_blank(ks)) {
+      return fail(err, errsz, name, "stop_stiffness is given but there is no stop; add stop_lower or stop_upper, or "
+                  "drop stop_stiffness");
+    }
+    return 0;
+  }
+  int derived = is_blank(ks);
+  if (derived) {
+    for (int i = 0; i < n; i++) {
+      int j = planar ? PLANAR_INDEX[i] : i;
+      k[i] = MJFX_STOP_STIFFNESS_FACTOR * K6[7 * j];
+    }
+  } else {
+    int count = parse_numbers(ks, k, 6, bad, sizeof(bad));
+    if (count < 0) {
+      return fail(err, errsz, name, "stop_stiffness has '%s', which is not a number", bad);
+    }
+    if (count != 1 && count != n) {
+      return fail(err, errsz, name, "stop_stiffness has %d numbers; give 1 (every coordinate) or %d (one per "
+                  "coordinate %s) [N m/rad, N/m], or drop it to derive the stiffness from K", count, n, units);
+    }
+    for (int i = 1; i < n && count == 1; i++) k[i] = k[0];
+    for (int i = 0; i < n; i++) {
+      if (!isfinite(k[i]) || k[i] < 0 || k[i] > MJFX_MAX_MATRIX_ENTRY) {
+        return fail(err, errsz, name, "stop_stiffness of %s is %g; give a finite number >= 0 (at most %g)",
+                    coord[i], k[i], MJFX_MAX_MATRIX_ENTRY);
+      }
+    }
+  }
+  for (int i = 0; i < n; i++) {
+    int j = planar ? PLANAR_INDEX[i] : i, limited = isfinite(lim[0][i]) || isfinite(lim[1][i]);
+    if (limited && !(k[i] > 0)) {
+      if (derived) {
+        return fail(err, errsz, name, "the stop on %s needs a stiffness: K[%d, %d] is 0, so none can be derived from "
+                    "it (%g x K_ii); give stop_stiffness", coord[i], i, i, MJFX_STOP_STIFFNESS_FACTOR);
+      }
+      return fail(err, errsz, name, "stop_stiffness of %s is 0, so its stop would do nothing; give it a positive "
+                  "stiffness or drop the limit", coord[i]);
+    }
+    e->stop_lo[j] = lim[0][i], e->stop_hi[j] = lim[1][i], e->stop_k[j] = limited ? k[i] : 0.0;
+  }
+  e->stops = 1;
+  return 0;
+}
+
 //------------------------------------------------------------------------------ JSON
 
 typedef struct {
@@ -574,6 +682,7 @@ int mjfx_parse_config(const char* name, const char* const* values, mjfxParsed* o
     return fail(err, errsz, name, "source must be a JSON object such as {\"formula\": \"...\"} (standard JSON: "
                 "double quotes, no NaN); got '%.60s'", skip_space(values[A_SOURCE]));
   }
+  if (parse_stops(name, values, planar, e->K, e, err, errsz)) return -1;
   e->terms_lo = e->terms_hi = e->terms_top = 0;
   if (parse_terms(name, values, e->method, e->K, out, err, errsz)) return -1;
   e->terms_hi = out->nterms;

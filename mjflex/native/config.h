@@ -11,7 +11,7 @@
 #include "elements.h"
 
 #define MJFX_PLUGIN_NAME "mjflex.flexure"
-#define MJFX_NATTRIBUTE 14
+#define MJFX_NATTRIBUTE 17
 extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 
 // Validation constants (mjflex.mj.schema, mjflex.core.validation, mjflex.core.polynomial).
@@ -22,6 +22,8 @@ extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 #define MJFX_COINCIDENCE_ANGLE 1e-5
 #define MJFX_REST_STRESS_RTOL 1e-12
 #define MJFX_MAX_TERMS 100000
+// derived stiffness of an end stop: this times K_ii (mjflex.core.stops.STIFFNESS_FACTOR)
+#define MJFX_STOP_STIFFNESS_FACTOR 100.0
 
 // A parsed element: its table row and its own terms (exps: MJFX_TERM_COLUMNS per row), and what the
 // plugin's visualize callback needs: strain per radian and the colour scale's full scale (0: not given).

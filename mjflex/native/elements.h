@@ -11,7 +11,7 @@
 // what mjfx_evaluate does (bits)
 #define MJFX_APPLY 1    // add the generalized forces to qfrc
 #define MJFX_WRENCH 2   // out6[e] = wrench on body B [moment about frame b; force], world axes
-#define MJFX_ENERGY 4   // out1[e] = elastic energy
+#define MJFX_ENERGY 4   // out1[e] = elastic energy (the end stops' included)
 #define MJFX_POWER 8    // out1[e] = dissipated power
 #define MJFX_COORDS 16  // out6[e] = finite twist of frame b relative to frame a
 
@@ -27,6 +27,7 @@ typedef struct mjfxElement_ {
   int chain_a0, chain_a1, chain_b0, chain_b1;  // ranges into the chain of dofs that move each body
   int terms_lo, terms_hi, terms_top;           // rows of the terms' tables, largest exponent
   int kstruct, bstruct;                        // MJFX_FULL / MJFX_DIAGONAL / MJFX_ZERO of K and B
+  int stops;                                   // the element has end stops (stop_lo, stop_hi, stop_k)
   double qa[4];        // site a's orientation in body A (the model's site_quat)
   double qb[4];        // site b's orientation in body B, times the rest offset's inverse (mjfx_element_prepare)
   double p0[3];        // rest offset: position of frame b seen from frame a at qpos0
@@ -40,6 +41,11 @@ typedef struct mjfxElement_ {
   double K[36];        // stiffness in the element frame, row-major (planar: embedded)
   double B[36];        // damping, same layout (zero without damping)
   double R0[9];        // rest offset: orientation of frame b seen from frame a at qpos0 (row-major)
+  // read when the element has end stops (mjflex.core.stops): limits of the stop coordinates
+  // [rx, ry, rz, x, y, z] (-inf / +inf: none; planar elements on rz, x, y) and their stiffness
+  double stop_lo[6];
+  double stop_hi[6];
+  double stop_k[6];
 } mjfxElement;
 
 // What an evaluation found for divergence reporting: the first element whose wrench is not

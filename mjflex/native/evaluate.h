@@ -27,13 +27,21 @@
 #define KIND_TERMS 128
 #define KIND_FREE_A 256
 #define KIND_FREE_B 512
+#define KIND_STOPS 1024
 
 // the kind of an element (its method, or the twist's for the twist coordinates query)
 EV_INLINE int kind_of(const mjfxElement* e, int spring_on, int damper_on, int coords) {
   return (coords ? MJFX_TWIST : e->method) | (spring_on ? e->kstruct : MJFX_ZERO) << 1 | e->bstruct << 3 |
          (damper_on & e->viscous) << 5 |
          e->offset << 6 | (spring_on & (e->terms_hi > e->terms_lo)) << 7 | (e->free_a >= 0) << 8 |
-         (e->free_b >= 0) << 9;
+         (e->free_b >= 0) << 9 | (spring_on & !coords & e->stops) << 10;
+}
+
+// the end stops' limits and stiffness of each lane (when the kind has stops)
+EV_INLINE void lanes_stops(const mjfxElement* const e[MJFX_LANES], int kind, mjfxLanes* x) {
+  x->has_stops = (kind & KIND_STOPS) != 0;
+  if (!x->has_stops) return;
+  for (int l = 0; l < MJFX_LANES; l++) x->lo[l] = e[l]->stop_lo, x->hi[l] = e[l]->stop_hi, x->ks[l] = e[l]->stop_k;
 }
 
 // A group's results, one column per lane: the wrench on body B (moment about pb, world axes), pb,
@@ -123,6 +131,7 @@ EV_INLINE void group_wrench(const mjModel* m, const mjData* d, const mjfxElement
   x.method = method, x.kstruct = (kind >> 1) & 3, x.bstruct = (kind >> 3) & 3;
   x.viscous = (kind & KIND_VISCOUS) != 0;
   x.has_terms = (kind & KIND_TERMS) != 0;
+  lanes_stops(e, kind, &x);
   mjfxTerms terms[MJFX_LANES];
   for (int l = 0; l < MJFX_LANES; l++) {
     x.K[l] = e[l]->K, x.B[l] = e[l]->B, x.Kd[l] = e[l]->kdiag, x.Bd[l] = e[l]->bdiag;
@@ -188,6 +197,7 @@ EV_NOINLINE void group_queries(const mjData* d, const mjfxElement* const e[MJFX_
   Local local;
   group_pose(d, e, kind & KIND_OFFSET, &x, Rb, &pb, &local);
   x.method = kind & KIND_METHOD, x.kstruct = (kind >> 1) & 3, x.has_terms = (kind & KIND_TERMS) != 0;
+  lanes_stops(e, kind, &x);
   for (int l = 0; l < MJFX_LANES; l++) {
     x.K[l] = e[l]->K, x.Kd[l] = e[l]->kdiag;
     terms[l].exps = exps + MJFX_TERM_COLUMNS * e[l]->terms_lo, terms[l].coefs = coefs + e[l]->terms_lo;

@@ -225,7 +225,10 @@ typedef struct {
   const double* Kd[MJFX_LANES];  // their diagonals, 6 each (read when diagonal)
   const double* Bd[MJFX_LANES];
   const mjfxTerms* terms[MJFX_LANES];  // read when has_terms
-  int method, kstruct, bstruct, viscous, has_terms;
+  const double* lo[MJFX_LANES];  // end stops, 6 each (read when has_stops): lower and upper limits, stiffness
+  const double* hi[MJFX_LANES];
+  const double* ks[MJFX_LANES];
+  int method, kstruct, bstruct, viscous, has_terms, has_stops;
 } mjfxLanes;
 
 // The coordinates and what the maps need.
@@ -236,23 +239,31 @@ typedef struct {
   mjfxVec w, s_d;       // dual quaternion: sigma, s'
 } mjfxCoords;
 
+// The rotation vector (principal log, angle alpha in [0, pi]) of q, w >= 0: tau = (alpha / n) q_v, and
+// the twist maps' c(alpha), g(alpha) (mjfx_angle_coefs).
+MJFX_HOT mjfxV3 mjfx_rotation_vector(const mjfxVec q[4], mjfxVec* c, mjfxVec* g) {
+  mjfxV3 qv = v3(q[1], q[2], q[3]);
+  mjfxVec n2 = v3_dot(qv, qv), s = n2;
+  int small = 1;
+  *c = *g = n2;
+  for (int l = 0; l < MJFX_LANES; l++) small &= mjfx_angle_small(MJFX_LANE(n2, l), MJFX_LANE(q[0], l));
+  if (small) {
+    MJFX_ANGLE_SERIES(mjfxVec, n2, q[0], s, *c, *g);
+  } else {
+    for (int l = 0; l < MJFX_LANES; l++) {
+      double sl, cl, gl;
+      mjfx_angle_coefs(MJFX_LANE(n2, l), MJFX_LANE(q[0], l), &sl, &cl, &gl);
+      MJFX_LANE(s, l) = sl, MJFX_LANE(*c, l) = cl, MJFX_LANE(*g, l) = gl;
+    }
+  }
+  return v3_scale(s, qv);
+}
+
 MJFX_HOT void mjfx_coords(int method, const mjfxVec q[4], mjfxV3 p, mjfxCoords* k) {
   mjfxV3 qv = v3(q[1], q[2], q[3]);
   if (method == MJFX_TWIST) {
-    // rotation vector (principal log, angle in [0, pi]) of q, w >= 0: tau = (alpha / n) q_v
-    mjfxVec n2 = v3_dot(qv, qv), s = n2, c = n2, g = n2;
-    int small = 1;
-    for (int l = 0; l < MJFX_LANES; l++) small &= mjfx_angle_small(MJFX_LANE(n2, l), MJFX_LANE(q[0], l));
-    if (small) {
-      MJFX_ANGLE_SERIES(mjfxVec, n2, q[0], s, c, g);
-    } else {
-      for (int l = 0; l < MJFX_LANES; l++) {
-        double sl, cl, gl;
-        mjfx_angle_coefs(MJFX_LANE(n2, l), MJFX_LANE(q[0], l), &sl, &cl, &gl);
-        MJFX_LANE(s, l) = sl, MJFX_LANE(c, l) = cl, MJFX_LANE(g, l) = gl;
-      }
-    }
-    mjfxV3 tau = v3_scale(s, qv);
+    mjfxVec c, g;
+    mjfxV3 tau = mjfx_rotation_vector(q, &c, &g);
     mjfxVec a2 = v3_dot(tau, tau);
     k->e1 = tau;
     k->k0 = 1.0 - c * a2;
@@ -328,6 +339,57 @@ MJFX_HOT void mjfx_coords_lane(int method, const mjfxCoords* k, int l, double z[
   v3_lane(k->e2, l, z + 5);
 }
 
+//------------------------------------------------------------------------------ end stops
+
+// End stops (mjflex.core.stops derives all of this): one-sided limits [lo_i, hi_i] (-inf / +inf: none)
+// on the stop coordinates z = [tau; p] (the rotation vector of R_ab and p_ab, for both methods), energy
+// U = sum_i k_i / 2 (max(z_i - hi_i, 0)^2 + max(lo_i - z_i, 0)^2), gradient
+// G_i = k_i (max(z_i - hi_i, 0) - max(lo_i - z_i, 0)), and wrench on B (about b's origin, b axes)
+// m = -P(tau) G_tau (P = J_r^-T, eq. 44), f = -R_ab^T G_p. An element without stops never gets here
+// (its group's kind has no stops), so it pays nothing for them.
+
+// k_i (over^2 + under^2) of coordinate i of each lane at z, and its derivative G_i into grad
+MJFX_HOT mjfxVec mjfx_stop_axis(const mjfxLanes* in, int i, mjfxVec z, mjfxVec* grad) {
+  mjfxVec zero = mjfx_all(0.0), k = MJFX_GATHER(in->ks, i);
+  mjfxVec over = mjfx_max(z - MJFX_GATHER(in->hi, i), zero), under = mjfx_max(MJFX_GATHER(in->lo, i) - z, zero);
+  *grad = k * (over - under);
+  return k * (over * over + under * under);
+}
+
+// The stops' energy at [tau; p] and its gradient (g1: rotation, g2: position)
+MJFX_HOT mjfxVec mjfx_stop_energy(const mjfxLanes* in, mjfxV3 tau, mjfxV3 p, mjfxV3* g1, mjfxV3* g2) {
+  mjfxVec z[6] = {tau.x, tau.y, tau.z, p.x, p.y, p.z}, g[6], u = mjfx_all(0.0);
+  for (int i = 0; i < 6; i++) u = u + mjfx_stop_axis(in, i, z[i], g + i);
+  *g1 = v3(g[0], g[1], g[2]), *g2 = v3(g[3], g[4], g[5]);
+  return 0.5 * u;
+}
+
+// tau and what P(tau) x = k0 x - tau x x / 2 + (tau . x) u0 needs: the twist's own (k), else computed
+MJFX_HOT mjfxV3 mjfx_stop_rotation(const mjfxLanes* in, const mjfxCoords* k, mjfxVec* k0, mjfxV3* u0) {
+  if (in->method == MJFX_TWIST) {
+    *k0 = k->k0, *u0 = k->u0;
+    return k->e1;
+  }
+  mjfxVec c, g;
+  mjfxV3 tau = mjfx_rotation_vector(in->q, &c, &g);
+  *k0 = 1.0 - c * v3_dot(tau, tau), *u0 = v3_scale(c, tau);
+  return tau;
+}
+
+// add the stops' wrench on B to (m, f) (b axes); returns their energy
+MJFX_HOT mjfxVec mjfx_stop_wrench(const mjfxLanes* in, const mjfxCoords* k, mjfxV3* m, mjfxV3* f) {
+  mjfxVec k0;
+  mjfxV3 u0, g1, g2;
+  mjfxV3 tau = mjfx_stop_rotation(in, k, &k0, &u0);
+  mjfxVec u = mjfx_stop_energy(in, tau, in->p, &g1, &g2);
+  mjfxV3 pg = v3_add(v3_sub(v3_scale(k0, g1), v3_scale(mjfx_all(0.5), v3_cross(tau, g1))), v3_scale(v3_dot(tau, g1), u0));
+  *m = v3_sub(*m, pg);
+  *f = v3_sub(*f, q4_apply(in->q, g2, 1));
+  return u;
+}
+
+//------------------------------------------------------------------------------ the element
+
 // Wrench of each lane's element on its body B: moment about the origin of frame b and force, frame
 // b axes; the dissipated power (0 unless viscous).
 MJFX_HOT void mjfx_kernel(const mjfxLanes* in, mjfxV3* m, mjfxV3* f, mjfxVec* power) {
@@ -379,10 +441,11 @@ MJFX_HOT void mjfx_kernel(const mjfxLanes* in, mjfxV3* m, mjfxV3* f, mjfxVec* po
   mjfxVec sc = mjfx_all(scale);
   *m = v3_scale(sc, mb);
   *f = v3_scale(sc, fb);
+  if (in->has_stops) mjfx_stop_wrench(in, &k, m, f);
   *power = pwr;
 }
 
-// Elastic energy of each lane's element (K and the terms).
+// Elastic energy of each lane's element (K, the terms and the end stops).
 MJFX_HOT mjfxVec mjfx_kernel_potential(const mjfxLanes* in) {
   mjfxCoords k;
   int method = in->method;
@@ -397,6 +460,12 @@ MJFX_HOT mjfxVec mjfx_kernel_potential(const mjfxLanes* in) {
       mjfx_coords_lane(method, &k, l, z);
       MJFX_LANE(u, l) += mjfx_terms_eval(method, z, in->terms[l], NULL, 0);
     }
+  }
+  if (in->has_stops) {
+    mjfxVec k0;
+    mjfxV3 u0, g1, g2;
+    mjfxV3 tau = mjfx_stop_rotation(in, &k, &k0, &u0);
+    u = u + mjfx_stop_energy(in, tau, in->p, &g1, &g2);
   }
   return u;
 }

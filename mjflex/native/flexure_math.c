@@ -232,6 +232,7 @@ double mjfx_terms_eval(int method, const double* z, const mjfxTerms* t, double* 
 // an input in every lane (diag: room for the diagonals of K and B)
 static void lanes_of(const mjfxInput* in, mjfxLanes* x, double diag[12]) {
   const double *q = in->q, *p = in->p;
+  memset(x, 0, sizeof(*x));
   for (int i = 0; i < 4; i++) x->q[i] = mjfx_all(q[i]);
   x->p = v3(mjfx_all(p[0]), mjfx_all(p[1]), mjfx_all(p[2]));
   x->viscous = in->viscous && in->B && in->w && in->v;
