@@ -4,7 +4,8 @@ Four vertebrae L5 (on the fixed sacrum) to L2, and a torso welded on L2. Each ve
 neighbour by three hinges at its base: flexion about y, lateral bending about x, axial rotation about z, with
 ranges in degrees (the compiler converts them), springs, dampers and armature from a default class. Joint
 equalities tie L4, L3 and L2 to L5 level by level (L5 drives), as public musculoskeletal models do. A motor and a
-position servo act on L3, sensors read L3 and L4, a fixed tendon sums the flexion of L4 and L5, and a keyframe
+position servo (its control range inherited from the joint's range) act on L3, sensors read L3 and L4 (one of them
+L3's limit) and the tendon, a fixed tendon sums the flexion of L4 and L5, and a keyframe
 bends the spine (consistent with the equalities) and sets it moving.
 """
 
@@ -50,6 +51,7 @@ def spine_xml(*, tendon=True, quadratic=False, torso_mass=2.0, joint_damping=0.2
         if tendon
         else ""
     )
+    tendon_sensor = '<tendonpos name="flex45_length" tendon="flex45"/>' if tendon else ""
     return f"""<mujoco model="spine">
   <compiler angle="degree"/>
   <option timestep="5e-4" integrator="RK4"/>
@@ -67,7 +69,7 @@ def spine_xml(*, tendon=True, quadratic=False, torso_mass=2.0, joint_damping=0.2
   {fixed}
   <actuator>
     <motor name="L3_flexor" joint="L3_flex" gear="2"/>
-    <position name="L3_bender" joint="L3_bend" kp="50"/>
+    <position name="L3_bender" joint="L3_bend" kp="50" inheritrange="1"/>
     <motor name="L4_flexor" joint="L4_flex"/>
   </actuator>
   <sensor>
@@ -75,6 +77,7 @@ def spine_xml(*, tendon=True, quadratic=False, torso_mass=2.0, joint_damping=0.2
     <framequat name="L5_orientation" objtype="site" objname="L5_top"/>
     <jointvel name="L3_rot_rate" joint="L3_rot"/>
     <jointpos name="L4_flex_angle" joint="L4_flex"/>
+    <jointlimitpos name="L3_flex_limit" joint="L3_flex"/>{tendon_sensor}
   </sensor>
   <keyframe>{key_xml()}</keyframe>
 </mujoco>"""

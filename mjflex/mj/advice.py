@@ -30,6 +30,10 @@ import scipy.linalg
 from .linearize import check_constraints, jacobians, loads, mass_matrix, null_space, state
 
 _EULER_LIKE = ("Euler", "implicit", "implicitfast")
+_I = mujoco.mjtIntegrator
+#: MuJoCo's integrators by their MJCF names (``discrete`` steps the forces like Euler).
+_INTEGRATORS = {int(_I.mjINT_EULER): "Euler", int(_I.mjINT_RK4): "RK4", int(_I.mjINT_IMPLICIT): "implicit",
+                int(_I.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
 #: Safety factor of the recommendation (the measured example in the docs: a loaded spine).
 SAFETY = 0.5
 
@@ -206,8 +210,7 @@ def step_advice(model, flex=None, *, integrator=None, keyframe=None, qpos=None, 
     check_constraints(constraints)
     if not 0.0 < safety <= 1.0:
         raise ValueError(f"safety={safety!r}: the recommendation's fraction of the limit, in (0, 1]")
-    names = {int(v): k[6:] for k, v in mujoco.mjtIntegrator.__members__.items()}
-    integrator = names[int(model.opt.integrator)] if integrator is None else integrator
+    integrator = _INTEGRATORS.get(int(model.opt.integrator), "Euler") if integrator is None else integrator
     if integrator not in ("RK4", *_EULER_LIKE):
         raise ValueError(f"integrator={integrator!r}: use one of {('RK4', *_EULER_LIKE)} (MuJoCo's names)")
     flex = Flexures(model) if flex is None else flex

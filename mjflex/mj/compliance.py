@@ -27,6 +27,7 @@ from .convert import element_record, spec_elements, write_record
 from .damping import DIRECTIONS, checked_ratios, damping_from_ratios
 from .keyframes import KeyframeEdit
 from .provider import Flexures
+from .stops import Stops
 
 _GROUPS = {"all": DIRECTIONS, "rotations": DIRECTIONS[:3], "translations": DIRECTIONS[3:]}
 _SLIDE, _HINGE, _BALL = mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL
@@ -308,7 +309,7 @@ def _kept(pair, wanted):
 def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, frame=None,
                    directions="all", name=None, method="twist", collide=(), joint_attributes=None, keyframe=None,
                    others="locked", actuator_stiffness=False, constraints="ignore", kind="plugin",
-                   replace_joints=False, equalities="auto", strict=False) -> Compliance:  # fmt: skip
+                   replace_joints=False, equalities="auto", stops=None, strict=False) -> Compliance:  # fmt: skip
     """Make a body of ``spec`` compliant relative to its parent, in place: its weld, or its joints with
     ``replace_joints=True``, become a flexure element; returns what was done.
 
@@ -326,7 +327,8 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
 
     With ``replace_joints=True`` the body's joints (to its parent) are removed instead of refused,
     and what named them is carried over (:mod:`mjflex.mj.replace` has the rules): their ranges
-    become the element's stops (``Compliance.replaced.lower`` / ``upper``), equality constraints
+    become the element's stops (:class:`mjflex.Stops`, with the derived stiffness; also in
+    ``Compliance.replaced.lower`` / ``upper``), equality constraints
     are removed or rewritten (``equalities``), joint actuators become site transmissions between
     the element's sites, joint sensors are removed and reported, fixed tendons that sum the joints
     are refused, and each keyframe's new joint values are solved from the body's pose and velocity
@@ -390,6 +392,9 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         ``replace_joints``): ``"auto"`` removes those that drive a replaced joint, re-roots the
         linear couplings a replaced joint drove on its first follower, and refuses non-linear ones;
         ``"remove"`` removes them all; ``"refuse"`` refuses any.
+    stops : Stops or bool, optional
+        The element's end stops (:class:`mjflex.Stops`). Default (None): with ``replace_joints``,
+        the replaced joints' ranges (where they have any), without it none; False: none.
     strict : bool
         Refuse (ValueError) what is only warned about otherwise: a damping ratio above 1.
 
@@ -464,23 +469,20 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, target.name)
     R_WB, p_WB = data.xmat[ib].reshape(3, 3), data.xpos[ib]
     R_BE = R_WB.T @ R_WE
-    stops = replace.stops_from_ranges(rigid, plan.joints, R_BE) if plan is not None else None
+    ranges = replace.stops_from_ranges(rigid, plan.joints, R_BE) if plan is not None else None
+    stops = _element_stops(stops, ranges)
+    added = replace.missing_directions(rigid, target.name, R_BE, dirs) if plan is not None else dirs
     saved, joints, excludes, element, replacement = keyframes.stash_keys(spec), [], [], None, None
-    old_joints = list(target.joints)
     try:
-        if plan is not None:  # the joints go first (a body holds at most six dofs)
-            replacement = replace.begin(spec, plan, old_joints)
-        joints = _add_joints(target, name, dirs, R_BE, R_WB.T @ (p_WE - p_WB), joint_attributes)
         if plan is not None:
-            replace.park_actuators(spec, plan, joints[-1].name)
+            replacement = replace.apply(spec, plan, rigid, ranges)
+        joints = _add_joints(target, name, added, R_BE, R_WB.T @ (p_WE - p_WB), joint_attributes)
         place = {"site": frame} if isinstance(frame, str) else {"pos": p_WE, "quat": _quaternion(R_WE)}
         parent_name = "world" if parent.name in ("", "world") else parent.name
         with joints_checked(False):  # the element replaces the weld (or the joints): not in parallel with them
             add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
-                        kind=kind, **place)  # fmt: skip
+                        kind=kind, stops=stops, **place)  # fmt: skip
         element = name
-        if plan is not None:
-            replace.finish(spec, replacement, plan, rigid, name, R_BE, stops)
         compliant = compile_spec(spec, "make a body compliant")
         exposed = [
             tuple(_contacts.body_name(compliant, b) for b in p) for p in _contacts.exposed_pairs(rigid, compliant)
@@ -494,20 +496,17 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
                 )
             if not _kept(pair, wanted):
                 excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
-        if replacement is None:
-            edits = keyframes.grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
-        else:
-            edits = keyframes.mapped_keys(spec, saved, rigid, compliant, ib, joints, replacement)
+        edits = keyframes.grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
         if ratios is not None:
             B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints)
             write_record(spec, name, dataclasses.replace(element_record(spec, name), B=B6))
         _warn_kept(spec, name)
     except BaseException:
         keyframes.stash_keys(spec)  # MjSpec checks the keyframes' sizes when joints go
-        if replacement is not None:
-            replace.undo(spec, replacement)
         for obj in (*excludes, *joints):
             spec.delete(obj)
+        if replacement is not None:
+            replace.undo(spec, replacement)
         if element is not None and any(e.name == element for e in spec_elements(spec)):
             remove_flexure(spec, element)
         keyframes.restore_keys(spec, saved)
@@ -515,6 +514,20 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     kept = tuple(p for p in exposed if _kept(p, wanted))
     return Compliance(name, target.name, parent_name, dirs, tuple(j.name for j in joints), frame, K6, B6, ratios,
                       tuple((e.bodyname1, e.bodyname2) for e in excludes), kept, edits, replacement)  # fmt: skip
+
+
+def _element_stops(stops, ranges):
+    """The ``stops=`` for the element: the user's, none (False), or the replaced joints' ranges (None)."""
+    if stops is False:
+        return None
+    if stops is None:
+        if ranges is None or not (np.isfinite(ranges[0]).any() or np.isfinite(ranges[1]).any()):
+            return None
+        return Stops(lower=ranges[0].tolist(), upper=ranges[1].tolist())
+    if not isinstance(stops, Stops):
+        raise TypeError(f"stops must be a mjflex.Stops, False (none) or None (the replaced joints' ranges); got "
+                        f"{type(stops).__name__}")  # fmt: skip
+    return stops
 
 
 def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
@@ -576,9 +589,6 @@ def make_rigid(spec, compliance: Compliance) -> None:
     if missing:
         raise ValueError(f"the spec has no joint(s) {missing} of {compliance.element!r}: is it compliant (the same "
                          "spec make_compliant edited), or was make_rigid called already?")  # fmt: skip
-    if compliance.replaced is not None:
-        _put_joints_back(spec, compliance)
-        return
     model = compile_spec(spec, "make a body rigid again")
     qadr, vadr = keyframes.addresses(model, compliance.joints)
     shrunk = [
@@ -590,29 +600,11 @@ def make_rigid(spec, compliance: Compliance) -> None:
     ]
     for j in compliance.joints:
         spec.delete(spec.joint(j))
+    if compliance.replaced is not None:
+        replace.undo(spec, compliance.replaced)
     keyframes.restore_keys(spec, shrunk)
     remove_flexure(spec, compliance.element)
     _delete_excludes(spec, compliance.excludes)
-
-
-def _put_joints_back(spec, compliance):
-    """:func:`make_rigid` of a replacement: the joints and what named them back, keyframes mapped back."""
-    replacement = compliance.replaced
-    model = compile_spec(spec, "put the replaced joints back")
-    current = keyframes.stash_keys(spec)
-    replace.undo(spec, replacement)
-    for j in compliance.joints:
-        spec.delete(spec.joint(j))
-    remove_flexure(spec, compliance.element)
-    _delete_excludes(spec, compliance.excludes)
-    rigid = compile_spec(spec, "put the replaced joints back")
-    before, after = replacement.saved.get("keys_before", []), replacement.saved.get("keys_after", [])
-    unchanged = [
-        before[i] if i < len(after) and all(np.array_equal(x, y) for x, y in zip(now, after[i], strict=True)) else None
-        for i, now in enumerate(current)
-    ]
-    body = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, compliance.body)
-    keyframes.map_keys(spec, current, model, rigid, body, wanted=unchanged)
 
 
 def _delete_excludes(spec, pairs):

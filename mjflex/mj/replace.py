@@ -2,52 +2,50 @@
 
 Most models have joints where the compliance belongs: a vertebra's three hinges tied to the next
 level by equality constraints, a robot's series-elastic joint, a bushing modelled as a hinge.
-Replacing them removes the body's joints to its parent (a body's joints in MuJoCo are always
-between it and its parent), lets :func:`mjflex.make_compliant` give the body the free motion the
-element needs, and carries over what named the joints:
+Replacing them hands the body's motion relative to its parent (a body's joints in MuJoCo are
+always to its parent) to the element: the joints stop being a joint model (no range, spring,
+damper, armature or friction loss: the element's stiffness, damping and stops take over) and
+become *coordinates* of the motion the element needs; :func:`mjflex.make_compliant` adds the
+missing ones (slides along the element axes, hinges about the element axes the joints do not
+turn about, at the joints' anchor) so that the body moves in all of the element's directions.
+Every joint keeps its name, axis, anchor and reference, so everything that names it keeps its
+meaning, exactly:
 
+* **Actuators** keep their joint transmission: a motor applies the same torque about the same
+  axis between the same bodies, a servo holds the same angle. Only an inherited control range
+  (``inheritrange``, from the joint's range, which goes) becomes the explicit range it compiled to.
+  (A site transmission between the element's sites with ``refsite`` would measure the element's
+  rotation vector, but MuJoCo's moment arm for it is the angular velocity, not the rotation
+  vector's gradient: at a loaded, bent element a servo on it is not conservative, and its
+  flutter diverges at any time step. A joint transmission has neither problem.)
+* **Sensors** (``jointpos``, ``jointvel``, ``ballquat``, ...) read the same coordinate; fixed
+  **tendons** sum the same coordinates; **keyframes** keep every value and get the rest values of
+  the added joints (the body is where it was).
+* **Equality constraints** of type ``joint``: one that drives a replaced joint (``joint1``; or
+  one between two replaced joints) is removed, since the element now determines that motion (left
+  in, it would override the element). One in which a replaced joint drives another joint
+  (``joint2``: a spine's driving level) is kept as it is: the follower follows the same coordinate,
+  now moved by the element. ``equalities="remove"`` removes every joint equality that names a
+  replaced joint; ``equalities="refuse"`` refuses (naming them) so that the user decides.
+* Sensors that read a joint's **limit** (``jointlimitpos``, ``jointlimitvel``, ``jointlimitfrc``)
+  have none left to read: they are removed and reported.
 * **Ranges** become the element's stops, in element coordinates (rotation-vector components of
-  frame b relative to frame a, then the position of b's origin in a): a limited hinge or slide whose
-  axis lies along an element axis gives that coordinate ``[lo - ref, hi - ref]`` (its sign flipped
-  for an axis against the element's; ``ref`` is the joint's value at ``qpos0``, where the element is
-  unstressed). A hinge's angle equals the rotation-vector component exactly for rotation about its
-  axis alone, and to second order in the other components otherwise. A ball joint's range is a
-  cone, ``|rotation| <= range[1]``; it becomes the circumscribed box ``[-range[1], range[1]]`` on
-  the three rotations: exact along each element axis, up to ``sqrt(3)`` times the angle along a
-  diagonal. The range of a joint whose axis is not along an element axis is not carried (the
-  report says so; align the element frame with the joint, which is the default).
-* **Equality constraints** of type ``joint``: one that drives a replaced joint (``joint1``) is
-  removed: the element now determines that joint's motion. One in which a replaced joint drives
-  kept joints (``joint2``, a spine's driving level) is rewritten when the couplings are linear:
-  the first follower becomes the driver of the others (``q_k = a_k + c_k q_d`` and
-  ``q_r = a_r + c_r q_d`` give ``q_k = a_k - c_k a_r / c_r + (c_k / c_r) q_r``, in MuJoCo's
-  deviations from ``qpos0``), so the remaining levels stay coupled among themselves; a non-linear
-  driver's followers are refused with their names (``equalities="remove"`` drops them instead).
-  ``equalities="refuse"`` refuses whenever an equality names a replaced joint.
-* **Actuators** on a replaced joint (transmission ``joint`` or ``jointinparent``) become site
-  transmissions between the element's sites (``site = element/b``, ``refsite = element/a``) with
-  the gear along the joint's axis in the element frame (rotation components for a hinge or a
-  ball joint, translation components for a slide): the same torque or force between the two
-  bodies, and a length that is the element's rotation (translation) along that axis, so a
-  position servo holds the same angle (an affine gain or bias is shifted by ``gear * ref``). An
-  inherited control range becomes the explicit range it compiled to.
-* **Sensors** of a replaced joint (``jointpos``, ``jointvel``, ``ballquat``, ``ballangvel``,
-  ``jointlimit*``, ``jointactuatorfrc``) have no joint to read and no sensor of the same size reads
-  the element's coordinate: they are removed and reported (the element's displacement is
-  :meth:`mjflex.Flexures.displacements`; a ``framequat`` sensor of site ``element/b`` with
-  ``refsite`` ``element/a`` reads its rotation in a model).
-* **Fixed tendons** that sum a replaced joint's position are refused with their names: no
-  coordinate of the element means the same. Edit the tendon first.
-* **Keyframes**: the new joints' values are solved from each keyframe's pose of the body relative
-  to its parent (the body is where it was, to round-off), and their velocities from the relative
-  velocity.
-* Joint properties that the element does not carry (stiffness, damping, armature, friction loss, a
-  spring reference other than ``ref``) are listed in the report's notes: give them in ``K`` and
-  ``B``.
+  frame b relative to frame a, then the position of b's origin in a): a limited hinge or slide
+  whose axis lies along an element axis gives that coordinate ``[lo - ref, hi - ref]`` (its sign
+  flipped for an axis against the element's; ``ref`` is the joint's value at ``qpos0``, where the
+  element is unstressed). A hinge's angle equals the rotation-vector component exactly for
+  rotation about its axis alone, and to second order in the other components otherwise. A ball
+  joint's range is a cone, ``|rotation| <= range[1]``; it becomes the circumscribed box
+  ``[-range[1], range[1]]`` on the three rotations: exact along each element axis, up to
+  ``sqrt(3)`` times the angle along a diagonal. A range beyond ``pi`` from the rest, or of a
+  joint whose axis is not along an element axis, is not carried (the report says so; align the
+  element frame with the joint, which is the default).
+* Joint properties that the element does not carry (stiffness, damping, armature, friction loss)
+  are listed in the report's notes: give them in ``K`` and ``B``.
 
-:func:`mjflex.make_rigid` restores all of it: the joints with their attributes and classes, the
-equalities and sensors in their places (so the compiled model's ids are the original ones), the
-actuators' transmissions and the keyframes.
+:func:`mjflex.make_rigid` restores all of it: the joints' attributes, the removed equalities and
+sensors in their places (so the compiled model's ids are the original ones), the actuators'
+ranges and the keyframes.
 """
 
 import math
@@ -56,17 +54,16 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from . import keyframes
-
 _T = mujoco.mjtJoint
 _HINGE, _SLIDE, _BALL, _FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
 _KIND = {_HINGE: "hinge", _SLIDE: "slide", _BALL: "ball", _FREE: "free"}
 _S = mujoco.mjtSensor
-JOINT_SENSORS = {
-    int(s)
-    for s in (_S.mjSENS_JOINTPOS, _S.mjSENS_JOINTVEL, _S.mjSENS_BALLQUAT, _S.mjSENS_BALLANGVEL,
-              _S.mjSENS_JOINTLIMITPOS, _S.mjSENS_JOINTLIMITVEL, _S.mjSENS_JOINTLIMITFRC, _S.mjSENS_JOINTACTFRC)
-}  # fmt: skip
+#: Sensors that read a joint's limit: none is left once the range becomes the element's stops.
+LIMIT_SENSORS = {int(_S.mjSENS_JOINTLIMITPOS), int(_S.mjSENS_JOINTLIMITVEL), int(_S.mjSENS_JOINTLIMITFRC)}
+#: What makes a joint a joint model (the element takes over): reset to MuJoCo's built-in values on the replaced
+#: joints. Their name, type, axis, anchor, reference and actuation settings stay.
+STRIPPED = ("armature", "damping", "frictionloss", "limited", "margin", "range", "solimp_friction", "solimp_limit",
+            "solref_friction", "solref_limit", "springdamper", "springref", "springyield", "stiffness")  # fmt: skip
 _JOINT_TRN = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
 EQUALITY_CHOICES = ("auto", "remove", "refuse")
 #: Attributes never copied when a spec element is snapshotted and re-created.
@@ -80,8 +77,8 @@ class Edit:
     """One change :func:`mjflex.make_compliant` made to something that named a replaced joint.
 
     ``kind``: ``"equality"``, ``"actuator"`` or ``"sensor"``; ``name``: its name (``"#i"``, its
-    index, when unnamed); ``action``: ``"removed"``, ``"rewritten"`` or ``"carried"``;
-    ``detail``: what and why, in words.
+    index, when unnamed); ``action``: ``"removed"``, ``"kept"`` or ``"changed"``; ``detail``:
+    what and why, in words.
     """
 
     kind: str
@@ -94,10 +91,36 @@ class Edit:
 class Replacement:
     """What ``replace_joints=True`` did (the ``replaced`` attribute of :class:`mjflex.Compliance`).
 
-    ``joints``: the joints removed, in order. ``lower``, ``upper`` (6,): the stops their ranges
-    give, element coordinates ``[rx, ry, rz, x, y, z]`` [rad, m] (``-inf``/``inf``: none).
-    ``edits``: the equalities, actuators and sensors changed (:class:`Edit`). ``notes``: what was
-    not carried (joint springs, dampers, ranges off the element axes...), in words.
+    Attributes
+    ----------
+    joints : tuple of str
+        The replaced joints, in order: now the element's coordinates (no range, spring, damper,
+        armature or friction loss), with their names, axes and anchors.
+    lower, upper : ndarray, shape (6,)
+        The stops their ranges give, element coordinates ``[rx, ry, rz, x, y, z]`` [rad, m]
+        (``-inf`` / ``inf``: none); the element has them unless ``stops=`` said otherwise.
+    edits : tuple of Edit
+        The equalities, sensors and actuators removed, kept or changed, with the reason.
+    notes : tuple of str
+        What was not carried (joint springs, dampers, ranges off the element axes...), in words.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="base"><geom size="0.05"/><body name="arm" pos="0 0 0.1">'
+    ...     '<joint name="elbow" axis="0 1 0" range="-1 0.5" damping="0.1"/>'
+    ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></body></worldbody>'
+    ...     '<actuator><motor joint="elbow"/></actuator></mujoco>'
+    ... )
+    >>> c = mjflex.make_compliant(spec, "arm", [50, 5, 50, 1e5, 1e5, 1e5], replace_joints=True)
+    >>> c.replaced.joints, c.replaced.lower[1], c.replaced.upper[1]  # the elbow's range: stops on ry
+    (('elbow',), -1.0, 0.5)
+    >>> c.joints  # added: the other rotations and the translations the element needs
+    ('arm_compliance/rx', 'arm_compliance/rz', 'arm_compliance/x', 'arm_compliance/y', 'arm_compliance/z')
+    >>> c.replaced.notes
+    ('hinge elbow: damping 0.1 (give it in B or damping_ratio)',)
     """
 
     joints: tuple[str, ...]
@@ -184,9 +207,9 @@ class Plan:
 
     body: str
     joints: list  # (name, rigid joint id)
-    equalities: dict  # index -> ("remove", reason) or ("rewrite", name2, polycoef, reason)
-    sensors: list  # indices
-    actuators: list  # (index, rigid joint id)
+    equalities: dict  # index -> ("remove" | "keep", reason)
+    sensors: list  # indices of limit sensors to remove
+    actuators: list  # indices of actuators whose inherited range becomes explicit
 
 
 def _label(obj, i, kind):
@@ -194,45 +217,21 @@ def _label(obj, i, kind):
 
 
 def make_plan(spec, rigid, body, equalities="auto") -> Plan:
-    """Check what names the body's joints; raise ValueError naming what cannot be carried."""
+    """Check what names the body's joints; raise ValueError when ``equalities="refuse"`` meets one."""
     if equalities not in EQUALITY_CHOICES:
         raise ValueError(f"equalities={equalities!r}: use one of {EQUALITY_CHOICES}")
     ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body.name)
     ids = list(range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib]))
     joints = [(mujoco.mj_id2name(rigid, mujoco.mjtObj.mjOBJ_JOINT, j) or "", j) for j in ids]
     names = {n for n, _ in joints if n}
-    _refuse_tendons(spec, body, names)
     return Plan(body.name, joints, _equality_plan(spec, body, names, equalities),
-                [i for i, s in enumerate(spec.sensors) if int(s.type) in JOINT_SENSORS and s.objname in names],
-                [(i, dict(joints)[a.target]) for i, a in enumerate(spec.actuators)
-                 if int(a.trntype) in _JOINT_TRN and a.target in names])  # fmt: skip
-
-
-def _refuse_tendons(spec, body, names):
-    found = []
-    for i, tendon in enumerate(spec.tendons):
-        try:
-            wraps = list(tendon.path)
-        except TypeError:
-            continue
-        named = [w.target.name for w in wraps
-                 if int(w.type) == int(mujoco.mjtWrap.mjWRAP_JOINT) and w.target.name in names]  # fmt: skip
-        if named:
-            found.append(f"{_label(tendon, i, 'tendon')} (sums {', '.join(named)})")
-    if found:
-        raise ValueError(
-            f"body {body.name!r}: fixed tendon(s) {'; '.join(found)} sum the positions of joints that "
-            "replace_joints would remove, and no coordinate of the element means the same. Remove those joints from "
-            "the tendons (or the tendons, with what uses them) first, or replace other joints"
-        )
-
-
-def _polycoef(eq):
-    return np.asarray(eq.data[:5], dtype=float)
+                [i for i, s in enumerate(spec.sensors) if int(s.type) in LIMIT_SENSORS and s.objname in names],
+                [i for i, a in enumerate(spec.actuators)
+                 if int(a.trntype) in _JOINT_TRN and a.target in names and a.inheritrange > 0])  # fmt: skip
 
 
 def _equality_plan(spec, body, names, choice):
-    plan, refused, drivers = {}, [], {}
+    plan, refused = {}, []
     for i, eq in enumerate(spec.equalities):
         if int(eq.type) != int(mujoco.mjtEq.mjEQ_JOINT):
             continue
@@ -242,40 +241,19 @@ def _equality_plan(spec, body, names, choice):
         label = _label(eq, i, "equality")
         if choice == "refuse":
             refused.append(f"{label} ({eq.name1} = f({eq.name2 or 'constant'}))")
-        elif r1 or choice == "remove":
-            why = (
-                f"the element now determines the motion of {eq.name1}"
-                if r1
-                else f"removed on request (equalities='remove'): {eq.name1} no longer follows {eq.name2}"
-            )
-            plan[i] = ("remove", why)
+        elif r1:
+            plan[i] = ("remove", f"the element now determines the motion of {eq.name1}" + (
+                f" (and of {eq.name2})" if r2 else ""))  # fmt: skip
+        elif choice == "remove":
+            plan[i] = ("remove", f"removed on request (equalities='remove'): {eq.name1} no longer follows {eq.name2}")
         else:
-            drivers.setdefault(eq.name2, []).append(i)
-    for driver, followers in drivers.items():
-        eqs = [spec.equalities[i] for i in followers]
-        coefs = [_polycoef(e) for e in eqs]
-        if any(np.any(c[2:] != 0) for c in coefs) or not any(c[1] != 0 for c in coefs):
-            refused += [f"{_label(e, i, 'equality')} ({e.name1} = poly({driver}), coefficients {c.tolist()})"
-                        for i, e, c in zip(followers, eqs, coefs, strict=True)]  # fmt: skip
-            continue
-        root = next(k for k, c in enumerate(coefs) if c[1] != 0)
-        a_r, c_r = coefs[root][0], coefs[root][1]
-        new_root = eqs[root].name1
-        for k, (i, e, c) in enumerate(zip(followers, eqs, coefs, strict=True)):
-            if k == root:
-                plan[i] = ("remove", f"{new_root} drives the levels {driver} drove (it is replaced by the element)")
-            else:
-                poly = [c[0] - c[1] * a_r / c_r, c[1] / c_r, 0.0, 0.0, 0.0]
-                plan[i] = ("rewrite", new_root, poly,
-                           f"{e.name1} followed {driver} (replaced); it now follows {new_root}, which followed "
-                           f"{driver} too: {e.name1} = {poly[0]:.6g} + {poly[1]:.6g} {new_root}")  # fmt: skip
+            plan[i] = ("keep", f"{eq.name1} follows {eq.name2} as before: the same coordinate, moved by the element")
     if refused:
         raise ValueError(
             f"body {body.name!r}: equality constraint(s) {'; '.join(refused)} name joints that replace_joints would "
-            "remove and cannot be rewritten to keep their meaning"
-            + (" (equalities='refuse')" if choice == "refuse" else " (a non-linear coupling to a replaced driver)")
-            + ". Choose: equalities='remove' drops them (the joints they coupled move on their own), or edit them "
-            "first (e.g. make another joint the driver)"
+            "hand to the element (equalities='refuse'). Choose: equalities='auto' removes those that drive a "
+            "replaced joint (the element determines its motion) and keeps those a replaced joint drives; "
+            "equalities='remove' removes them all; or edit them first"
         )
     return plan
 
@@ -334,6 +312,7 @@ def stops_from_ranges(rigid, joints, R_BE) -> tuple[np.ndarray, np.ndarray, list
             continue
         lo, hi = (float(v) for v in rigid.jnt_range[j])
         if kind == _BALL:
+            hi = min(hi, math.pi)  # a rotation-vector component never leaves [-pi, pi]
             lower[:3], upper[:3] = np.maximum(lower[:3], -hi), np.minimum(upper[:3], hi)
             notes.append(f"ball joint {label}'s cone range {math.degrees(hi):.4g} deg became stops of +-"
                          f"{math.degrees(hi):.4g} deg on rx, ry, rz (the circumscribed box: exact along each element "
@@ -350,6 +329,10 @@ def stops_from_ranges(rigid, joints, R_BE) -> tuple[np.ndarray, np.ndarray, list
             continue
         ref = float(rigid.qpos0[rigid.jnt_qposadr[j]])
         bounds = sorted(np.sign(axis[k]) * (v - ref) for v in (lo, hi))
+        if kind == _HINGE and max(abs(b) for b in bounds) > math.pi:
+            notes.append(f"hinge {label}: the side of its range beyond pi from its rest ({np.round(bounds, 4)} rad) "
+                         "was not carried: a rotation-vector component never leaves [-pi, pi]")  # fmt: skip
+            bounds = [b if abs(b) <= math.pi else math.copysign(math.inf, b) for b in bounds]
         c = k if kind == _HINGE else 3 + k
         lower[c], upper[c] = max(lower[c], bounds[0]), min(upper[c], bounds[1])
     return lower, upper, notes
@@ -359,7 +342,7 @@ def dropped_properties(rigid, joints) -> list[str]:
     """Notes on joint properties the element does not carry (give them in K and B)."""
     notes = []
     for name, j in joints:
-        label, dofs = name or f"joint #{j}", keyframes.dofs_of(rigid, j)
+        label, dofs = name or f"joint #{j}", _dofs(rigid, j)
         found = []
         if rigid.jnt_stiffness[j]:
             found.append(f"stiffness {rigid.jnt_stiffness[j]:.6g} (give it in K)")
@@ -377,132 +360,114 @@ def dropped_properties(rigid, joints) -> list[str]:
     return notes
 
 
+def _dofs(model, j):
+    n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[int(model.jnt_type[j])]
+    return slice(model.jnt_dofadr[j], model.jnt_dofadr[j] + n)
+
+
 # ------------------------------------------------------------------ apply and undo
 
 
-def begin(spec, plan: Plan, old_joints) -> Replacement:
-    """Remove ``old_joints`` (the body's joints) and rewrite or remove the equalities and sensors that name them.
+def apply(spec, plan: Plan, rigid, stops) -> Replacement:
+    """Strip the body's joints of their joint model and carry over what named them (snapshots for :func:`undo`).
 
-    Everything is snapshotted first, for :func:`undo`. The actuators follow in :func:`park_actuators` and
-    :func:`finish` (they need joints, then the element's sites, to compile).
+    ``stops``: ``(lower, upper, notes)`` of :func:`stops_from_ranges`.
     """
+    body = spec.body(plan.body)
     saved = {
         "body": plan.body,
-        "joints": [snapshot(j) for j in old_joints],
+        "joints": [snapshot(j) for j in body.joints],
         "equalities": [snapshot(e) for e in spec.equalities],
         "sensors": [snapshot(s) for s in spec.sensors],
-        "actuators": {i: snapshot(spec.actuators[i]) for i, _ in plan.actuators},
-        "rewritten": {i for i, step in plan.equalities.items() if step[0] == "rewrite"},
+        "actuators": {i: snapshot(spec.actuators[i]) for i in plan.actuators},
     }
     edits, wanted = [], []
     for i, eq in enumerate(spec.equalities):
         step = plan.equalities.get(i)
-        if step is None:
+        if step is None or step[0] == "keep":
             wanted.append(snapshot(eq))
-        elif step[0] == "remove":
-            edits.append(Edit("equality", _label(eq, i, "equality"), "removed", step[1]))
-        else:
-            s = snapshot(eq)
-            s["name2"] = step[1]
-            s["data"] = np.concatenate([step[2], np.asarray(eq.data[5:], dtype=float)])
-            wanted.append(s)
-            edits.append(Edit("equality", _label(eq, i, "equality"), "rewritten", step[3]))
+        if step is not None:
+            edits.append(Edit("equality", _label(eq, i, "equality"), "removed" if step[0] == "remove" else "kept",
+                              step[1]))  # fmt: skip
     removed = set(plan.sensors)
     for i in plan.sensors:
         s = spec.sensors[i]
         edits.append(Edit("sensor", _label(s, i, "sensor"), "removed",
-                          f"{mujoco.mjtSensor(int(s.type)).name[7:].lower()} of {s.objname}: no joint to read; read "
-                          "the element with Flexures.displacements, or a framequat sensor of its site b with refsite "
-                          "its site a"))  # fmt: skip
+                          f"{mujoco.mjtSensor(int(s.type)).name[7:].lower()} of {s.objname}: the joint has no limit "
+                          "left to read (its range is the element's stop)"))  # fmt: skip
+    for i in plan.actuators:
+        act = spec.actuators[i]
+        act.inheritrange = 0.0
+        act.ctrlrange = rigid.actuator_ctrlrange[i].tolist()  # actuator ids are their places in the spec
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        edits.append(Edit("actuator", _label(act, i, "actuator"), "changed",
+                          f"its control range inherited from {act.target}'s range is now explicit: "
+                          f"{np.round(rigid.actuator_ctrlrange[i], 9).tolist()}"))  # fmt: skip
     saved["kept_sensors"] = [i for i in range(len(saved["sensors"])) if i not in removed]
     saved["kept_equalities"] = [i for i in range(len(saved["equalities"]))
                                 if plan.equalities.get(i, ("",))[0] != "remove"]  # fmt: skip
     _rebuild_tail(spec, "equalities", wanted)
     _rebuild_tail(spec, "sensors", [s for i, s in enumerate(saved["sensors"]) if i not in removed])
-    for joint in old_joints:
-        spec.delete(joint)
-    return Replacement(tuple(n or f"#{j}" for n, j in plan.joints), np.full(6, -np.inf), np.full(6, np.inf),
-                       tuple(edits), (), saved)  # fmt: skip
-
-
-def park_actuators(spec, plan: Plan, joint: str) -> None:
-    """Point the replaced joints' actuators at ``joint`` (a new joint) for the compilations before :func:`finish`."""
-    for i, _ in plan.actuators:
-        spec.actuators[i].target = joint
-
-
-def finish(spec, replacement: Replacement, plan: Plan, rigid, element, R_BE, stops) -> None:
-    """Carry the actuators onto the element's sites (they exist now); record the stops and the notes.
-
-    ``stops``: ``(lower, upper, notes)`` of :func:`stops_from_ranges`.
-    """
-    edits = [_carry_actuator(spec.actuators[i], i, rigid, jid, element, R_BE) for i, jid in plan.actuators]
+    blank = mujoco.MjSpec().worldbody.add_body().add_joint()
+    for joint in body.joints:
+        for attr in STRIPPED:  # set on the joint, they override its class's values (also in a saved file)
+            setattr(joint, attr, getattr(blank, attr))
     lower, upper, notes = stops
-    replacement.lower, replacement.upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-    replacement.edits = (*replacement.edits, *edits)
-    replacement.notes = (*notes, *dropped_properties(rigid, plan.joints))
+    return Replacement(tuple(n or f"#{j}" for n, j in plan.joints), np.asarray(lower, dtype=float),
+                       np.asarray(upper, dtype=float), tuple(edits),
+                       (*notes, *dropped_properties(rigid, plan.joints)), saved)  # fmt: skip
 
 
-def _carry_actuator(act, i, rigid, jid, element, R_BE) -> Edit:
-    """A joint actuator becomes a site transmission between the element's sites, gear along the joint axis."""
-    kind, g = int(rigid.jnt_type[jid]), np.asarray(act.gear, dtype=float)
-    if kind == _FREE:
-        raise ValueError(f"actuator {_label(act, i, 'actuator')} drives a free joint, which has no axis to carry")
-    in_parent = int(act.trntype) == int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)
-    gear = np.zeros(6)
-    if kind == _BALL:
-        R = R_BE.T if not in_parent else R_BE.T @ _body_rotation(rigid, jid).T
-        gear[3:] = R @ g[:3]
-    else:
-        axis = R_BE.T @ rigid.jnt_axis[jid]
-        gear[(3 if kind == _HINGE else 0) : (6 if kind == _HINGE else 3)] = g[0] * axis
-    ia = i  # actuator ids are their places in the spec
-    offset = g[0] * float(rigid.qpos0[rigid.jnt_qposadr[jid]]) if kind != _BALL else 0.0
-    if offset and int(act.biastype) == int(mujoco.mjtBias.mjBIAS_AFFINE):
-        act.biasprm = [act.biasprm[0] + act.biasprm[1] * offset, *act.biasprm[1:]]
-    if offset and int(act.gaintype) == int(mujoco.mjtGain.mjGAIN_AFFINE):
-        act.gainprm = [act.gainprm[0] + act.gainprm[1] * offset, *act.gainprm[1:]]
-    if act.inheritrange > 0:
-        act.inheritrange = 0.0
-        act.ctrlrange = rigid.actuator_ctrlrange[ia].tolist()
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    if np.any(rigid.actuator_lengthrange[ia]):
-        act.lengthrange = (rigid.actuator_lengthrange[ia] - offset).tolist()
-    joint = mujoco.mj_id2name(rigid, mujoco.mjtObj.mjOBJ_JOINT, jid) or f"#{jid}"
-    act.trntype, act.target, act.refsite = mujoco.mjtTrn.mjTRN_SITE, f"{element}/b", f"{element}/a"
-    act.gear = gear.tolist()
-    return Edit("actuator", _label(act, i, "actuator"), "carried",
-                f"{_KIND[kind]} {joint} -> site transmission {element}/b relative to {element}/a, gear "
-                f"{np.round(gear, 9).tolist()} (element frame)")  # fmt: skip
+def missing_directions(rigid, body_name, R_BE, directions) -> tuple[str, ...]:
+    """The element directions of ``directions`` that need a joint added: those the body's joints do not move it in.
+
+    A direction counts as moved in when it lies in the span of the joints' axes (hinges and a ball
+    for rotations, slides for translations; a free joint moves in all), so a joint off the
+    element's axes still takes its share and the body never gets more than six dofs.
+    """
+    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
+    spans = {"r": [], "t": []}
+    for j in range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib]):
+        kind = int(rigid.jnt_type[j])
+        if kind == _FREE:
+            return ()
+        if kind == _BALL:
+            spans["r"] += list(np.eye(3))
+        else:
+            spans["r" if kind == _HINGE else "t"].append(R_BE.T @ rigid.jnt_axis[j])
+    added = []
+    for d in directions:
+        span = spans["r" if d.startswith("r") else "t"]
+        axis = np.eye(3)["xyz".index(d[-1])]
+        if _rank([*span, axis]) > _rank(span):
+            span.append(axis)
+            added.append(d)
+    return tuple(added)
 
 
-def _body_rotation(model, jid):
-    """``R_PB`` at ``qpos0`` of the joint's body in its parent (for gears given in the parent's frame)."""
-    q = model.body_quat[model.jnt_bodyid[jid]]
-    R = np.empty(9)
-    mujoco.mju_quat2Mat(R, q)
-    return R.reshape(3, 3)
+def _rank(vectors) -> int:
+    return int(np.linalg.matrix_rank(np.array(vectors), tol=1e-6)) if len(vectors) else 0
 
 
 def undo(spec, replacement: Replacement) -> None:
-    """Put back the joints, equalities, sensors and actuators (keyframes and the element are the caller's)."""
+    """Put back the joints' attributes, the equalities, sensors and actuator ranges (the caller removes the added
+    joints, the element and the keyframe entries)."""
     saved = replacement.saved
     body = spec.body(saved["body"])
-    for s in saved["joints"]:
-        _recreate(spec, lambda d=None, b=body: b.add_joint(d) if d is not None else b.add_joint(), s)
+    for joint, s in zip(list(body.joints), saved["joints"], strict=False):
+        _restore_attributes(joint, s)
     for i, s in saved["actuators"].items():
         _restore_attributes(spec.actuators[i], s)
-    _rebuild_tail(spec, "equalities", _merged(spec.equalities, saved["equalities"], saved["kept_equalities"],
-                                              saved["rewritten"]))  # fmt: skip
-    _rebuild_tail(spec, "sensors", _merged(spec.sensors, saved["sensors"], saved["kept_sensors"], set()))
+    _rebuild_tail(spec, "equalities", _merged(spec.equalities, saved["equalities"], saved["kept_equalities"]))
+    _rebuild_tail(spec, "sensors", _merged(spec.sensors, saved["sensors"], saved["kept_sensors"]))
 
 
-def _merged(current, originals, kept, rewritten):
-    """The originals in their places: removed and rewritten ones as they were, the others as they are now (the user
-    may have edited them since), and elements added since after them."""
+def _merged(current, originals, kept):
+    """The originals in their places: the removed ones as they were, the kept ones as they are now (the user may
+    have edited them since), and elements added since after them."""
     current = [snapshot(x) for x in current]
     out = list(originals)
     for k, i in enumerate(kept):
-        if k < len(current) and i not in rewritten:
+        if k < len(current):
             out[i] = current[k]
     return out + current[len(kept) :]
