@@ -325,16 +325,17 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     deflection) at their qpos and qvel addresses. A kept pair that touches at ``qpos0`` or a
     keyframe is reported by a warning.
 
-    With ``replace_joints=True`` the body's joints (to its parent) are removed instead of refused,
-    and what named them is carried over (:mod:`mjflex.mj.replace` has the rules): their ranges
-    become the element's stops (:class:`mjflex.Stops`, with the derived stiffness; also in
-    ``Compliance.replaced.lower`` / ``upper``), equality constraints
-    are removed or rewritten (``equalities``), joint actuators become site transmissions between
-    the element's sites, joint sensors are removed and reported, fixed tendons that sum the joints
-    are refused, and each keyframe's new joint values are solved from the body's pose and velocity
-    in it. Without ``site`` or ``pos``, the element frame is the joints' own: the anchor of the
-    first hinge (or ball), axes along the hinge and slide axes. :func:`make_rigid` puts the joints
-    back.
+    With ``replace_joints=True`` the body's joints (to its parent) are handed to the element
+    instead of refused (:mod:`mjflex.mj.replace` has the rules): they lose their joint model
+    (range, spring, damper, armature, friction loss) and stay as the element's coordinates, with
+    their names, axes and anchors, so the actuators, sensors, tendons and keyframes that name them
+    keep their meaning exactly; the body gets joints for the element directions they do not cover
+    (slides, hinges about the element axes). Their ranges become the element's stops
+    (:class:`mjflex.Stops`, with the derived stiffness; also in ``Compliance.replaced.lower`` /
+    ``upper``); an equality that drives a replaced joint is removed (the element determines that
+    motion now), one a replaced joint drives is kept (``equalities``); limit sensors are removed.
+    Without ``site`` or ``pos``, the element frame is the joints' own: the anchor of the first
+    hinge (or ball), axes along the hinge and slide axes. :func:`make_rigid` puts it all back.
 
     Parameters
     ----------
@@ -389,9 +390,9 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         joints.
     equalities : {"auto", "remove", "refuse"}
         What happens to joint equality constraints that name a replaced joint (with
-        ``replace_joints``): ``"auto"`` removes those that drive a replaced joint, re-roots the
-        linear couplings a replaced joint drove on its first follower, and refuses non-linear ones;
-        ``"remove"`` removes them all; ``"refuse"`` refuses any.
+        ``replace_joints``): ``"auto"`` removes those that drive a replaced joint (``joint1``)
+        and keeps those in which it drives another (``joint2``); ``"remove"`` removes them all;
+        ``"refuse"`` refuses (ValueError naming them).
     stops : Stops or bool, optional
         The element's end stops (:class:`mjflex.Stops`). Default (None): with ``replace_joints``,
         the replaced joints' ranges (where they have any), without it none; False: none.
@@ -410,8 +411,8 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         The world or an unknown body (with close names), a body with joints (without
         ``replace_joints``) or a mocap body, a site of another body, no direction, a ratio <= 0
         or NaN, both ``B`` and ``damping_ratio``, a name taken; with ``replace_joints``, an
-        equality or a fixed tendon that cannot be carried over (named, with the choices). The
-        spec is left as it was.
+        equality under ``equalities="refuse"`` (named, with the choices). The spec is left as it
+        was.
 
     Examples
     --------

@@ -80,9 +80,3 @@ def joint_span(model, joint, which):
     j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
     n = {_SLIDE: (1, 1), _HINGE: (1, 1), _BALL: (4, 3)}[int(model.jnt_type[j])]
     return (model.jnt_qposadr[j], n[0]) if which == "q" else (model.jnt_dofadr[j], n[1])
-
-
-def dofs_of(model, j):
-    """The dof slice of joint ``j``."""
-    n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[int(model.jnt_type[j])]
-    return slice(model.jnt_dofadr[j], model.jnt_dofadr[j] + n)

@@ -14,14 +14,20 @@ class LikelyMistakeWarning(UserWarning):
 
     Examples
     --------
+    ``damping_ratio=10`` meant as 10 %:
+
     >>> import warnings
+    >>> import mujoco
     >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     _ = mjflex.damping_from_ratios  # a ratio of 10 to damping_from_ratios or make_compliant warns
-    ...     mjflex.mj.notices.warn_likely_mistake("example", stacklevel=1)
-    >>> caught[0].category.__name__
-    'LikelyMistakeWarning'
+    ...     B = mjflex.damping_from_ratios(spec.compile(), "mount", 10)
+    >>> print(caught[0].category.__name__, str(caught[0].message)[:70])
+    LikelyMistakeWarning damping_ratio = [10.0, 10.0, 10.0, 10.0, 10.0, 10.0]: a ratio above 1
     """
 
 

@@ -109,16 +109,16 @@ class Replacement:
     >>> import mujoco
     >>> import mjflex
     >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><worldbody><body name="base"><geom size="0.05"/><body name="arm" pos="0 0 0.1">'
-    ...     '<joint name="elbow" axis="0 1 0" range="-1 0.5" damping="0.1"/>'
+    ...     '<mujoco><compiler angle="radian"/><worldbody><body name="base"><geom size="0.05"/>'
+    ...     '<body name="arm" pos="0 0 0.1"><joint name="elbow" axis="0 1 0" range="-1 0.5" damping="0.1"/>'
     ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></body></worldbody>'
     ...     '<actuator><motor joint="elbow"/></actuator></mujoco>'
     ... )
     >>> c = mjflex.make_compliant(spec, "arm", [50, 5, 50, 1e5, 1e5, 1e5], replace_joints=True)
-    >>> c.replaced.joints, c.replaced.lower[1], c.replaced.upper[1]  # the elbow's range: stops on ry
-    (('elbow',), -1.0, 0.5)
-    >>> c.joints  # added: the other rotations and the translations the element needs
-    ('arm_compliance/rx', 'arm_compliance/rz', 'arm_compliance/x', 'arm_compliance/y', 'arm_compliance/z')
+    >>> print(c.replaced.joints, c.replaced.lower[1], c.replaced.upper[1])  # the elbow's range: stops on ry
+    ('elbow',) -1.0 0.5
+    >>> c.joints  # added: the translations and the other rotations the element needs
+    ('arm_compliance/x', 'arm_compliance/y', 'arm_compliance/z', 'arm_compliance/rx', 'arm_compliance/rz')
     >>> c.replaced.notes
     ('hinge elbow: damping 0.1 (give it in B or damping_ratio)',)
     """
