@@ -24,9 +24,11 @@ KEY_ANGLES, KEY_RATES = (-0.08, 0.05, 0.02), (0.3, -0.2, 0.1)
 HEIGHT = 0.035  # m between vertebrae
 
 
-def spine_xml(*, tendon=True, quadratic=False, torso_mass=2.0, joint_damping=0.2, stiffness=20.0) -> str:
+def spine_xml(*, tendon=True, quadratic=False, torso_mass=2.0, joint_damping=0.2, stiffness=20.0,
+              solref=None) -> str:  # fmt: skip
     """The model's MJCF. ``tendon``: the fixed tendon over L4 and L5's flexion; ``quadratic``: L2's rotation
-    follows L5's with a quadratic term too."""
+    follows L5's with a quadratic term too; ``solref``: the equalities' time constant and damping ratio, with an
+    impedance of 0.9999 (MuJoCo's default, 20 ms and 0.9-0.95, is soft at the disc's frequencies)."""
     bodies = ""
     for level in LEVELS:
         joints = "".join(
@@ -43,7 +45,8 @@ def spine_xml(*, tendon=True, quadratic=False, torso_mass=2.0, joint_damping=0.2
         for (h, _, _), c in zip(HINGES, coefs, strict=True):
             quad = 0.1 if quadratic and level == "L2" and h == "rot" else 0.0
             equalities += (
-                f'<joint name="{level}_{h}_follows" joint1="{level}_{h}" joint2="L5_{h}" polycoef="0 {c} {quad} 0 0"/>'
+                f'<joint name="{level}_{h}_follows" joint1="{level}_{h}" joint2="L5_{h}" polycoef="0 {c} {quad} 0 0"'
+                + (f' solref="{solref[0]} {solref[1]}" solimp="0.9999 0.9999 0.001"/>' if solref else "/>")
             )
     fixed = (
         '<tendon><fixed name="flex45"><joint joint="L4_flex" coef="1"/><joint joint="L5_flex" coef="1"/></fixed>'

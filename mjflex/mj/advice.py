@@ -21,6 +21,7 @@ that state, and a run that bends further (or is loaded harder) reaches higher fr
 Check a recommendation with a run that does not diverge.
 """
 
+import warnings
 from dataclasses import dataclass
 
 import mujoco
@@ -147,6 +148,21 @@ def _damping_matrix(model, flex, base, integrator, step=1e-6):
     return 0.5 * (C + C.T)
 
 
+def _warn_unstable(lam, n):
+    """A warning when the state is not a stable equilibrium: modes of negative stiffness grow at any step."""
+    negative = lam < -1e-9 * max(np.abs(lam).max(initial=0.0), 1e-300)
+    if negative.any():
+        rate = np.sqrt(-lam[negative].min())
+        warnings.warn(
+            f"mjflex.step_advice: {int(negative.sum())} of {n} modes have negative stiffness at this state (the "
+            f"fastest grows at {rate:.3g} 1/s): it is not a stable equilibrium, so a run from it leaves it at any "
+            "time step. Check the state (static_equilibrium can find a saddle; an element loaded hard across a soft "
+            "direction can buckle); the advice covers the stable modes only",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
 def step_advice(model, flex=None, *, integrator=None, keyframe=None, qpos=None, xfrc_applied=None, qfrc_applied=None,
                 gravity=True, actuator_stiffness=True, joint_springs=True, constraints="project", safety=SAFETY,
                 step=1e-6) -> StepAdvice:  # fmt: skip
@@ -222,6 +238,7 @@ def step_advice(model, flex=None, *, integrator=None, keyframe=None, qpos=None, 
     Kr, Mr = N.T @ (0.5 * (K + K.T)) @ N, N.T @ M @ N
     lam, psi = scipy.linalg.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
     phi = N @ psi
+    _warn_unstable(lam, psi.shape[0])
     C = _damping_matrix(model, flex, base, integrator, step)
     omega = np.sqrt(np.maximum(lam, 0.0))
     limits = np.full(len(lam), np.inf)
