@@ -156,7 +156,7 @@ def test_the_advised_limit_is_the_measured_stable_step(integrator):
 def test_a_state_that_is_not_a_stable_equilibrium_is_said():
     """Keyframe "home" holds j3 at 0.8 rad: the servo bends the element 0.75 rad against 226 N m, across its soft
     bending axes; the loaded element buckles (negative stiffness), which step_advice says."""
-    spec, model, flex, _ = _servo_held_arm("Euler")
+    _, model, flex, _ = _servo_held_arm("Euler")
     qpos = mjflex.static_equilibrium(model, flex, keyframe="home")
     with pytest.warns(UserWarning, match=r"1 of 8 modes have negative stiffness at this state .*not a stable"):
         mjflex.step_advice(model, flex, keyframe="home", qpos=qpos)
