@@ -14,7 +14,7 @@ from . import _native, naming, schema
 from . import stops as _stops
 from .notices import warn_likely_mistake
 
-SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
+SITE_SIZE = 0.002  # m, radius of the element's sites (visual only; round ellipsoids, see add_flexure)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
 #: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
 #: on one site in ``SHAPE_SITE_GROUP``, which they show by default (so does the engine plugin's
@@ -348,10 +348,11 @@ def add_flexure(
     for b, site_name in zip(bodies, site_names, strict=True):
         i = 0 if b is spec.worldbody else body_names.index(b.name)
         R_WB, p_WB = xmat[i], xpos[i]
-        # all three sizes and the type: a saved file read back gives them no class defaults (the body's childclass)
+        # a round ellipsoid: MuJoCo writes all three of its sizes to a file (a sphere's one only, and a file read back
+        # fills the others from the body's childclass), and the type is explicit (not the childclass's)
         sites.append(b.add_site(
             name=site_name, pos=R_WB.T @ (p_WE - p_WB), quat=_quaternion(R_WB.T @ R_WE),
-            size=[SITE_SIZE] * 3, type=mujoco.mjtGeom.mjGEOM_SPHERE, group=SITE_GROUP,
+            size=[SITE_SIZE] * 3, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, group=SITE_GROUP,
         ))  # fmt: skip
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
