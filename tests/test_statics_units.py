@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 import scipy.optimize
+import scipy.spatial.transform
 
 import mjflex
 from mjflex import units
@@ -53,6 +54,8 @@ def test_the_exact_deflection_is_the_energy_minimum_at_large_deflection(method):
     np.testing.assert_allclose(d.p, p, rtol=1e-6, atol=1e-8 * np.abs(p).max())  # the reference root: ~1e-9
     np.testing.assert_allclose(d.R, R, atol=1e-7)
     np.testing.assert_allclose(d.twist, mjflex.twist_from_transform(d.R, d.p), atol=1e-12)
+    rotation = scipy.spatial.transform.Rotation.from_matrix(d.R).as_rotvec()  # the stops' coordinates
+    np.testing.assert_allclose(d.coordinates, [*rotation, *d.p], atol=1e-12)
     assert d.residual < 1e-9 * np.abs(force).max()
     linear = mjflex.static_deflection(K_LEAF, np.concatenate([np.zeros(3), force]), method=method, exact=False)
     assert np.abs(linear.coordinates - d.coordinates).max() > 0.01  # the linear answer is visibly off here
