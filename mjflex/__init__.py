@@ -46,7 +46,10 @@ Conventions (used everywhere in the package)
   ``W`` is the world frame; lower-case ``a``, ``b`` are the two frames of an element.
 
 Importing mjflex has no side effects on the environment: ``MUJOCO_GL`` is chosen only when
-mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`).
+mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`). It puts a
+log handler in front of MuJoCo's, which passes every message on unchanged and raises
+:class:`mjflex.DivergenceWarning` beside mjflex's divergence reports (:mod:`mjflex.mj.divergence`;
+``mjflex.divergence_warnings(False)`` takes it out).
 """
 
 from . import core, geometry, mj

@@ -1,6 +1,7 @@
 """MuJoCo layer: flexure elements in MJCF (text records or engine-plugin instances), model building with MjSpec
-(compliant parts in existing models: :func:`make_compliant`), the passive-force provider, divergence reports
-(:mod:`mjflex.mj.divergence`), linearization (:func:`normal_modes`, damping from ratios), and the cheaper or
+(compliant parts in existing models, welded or on joints: :func:`make_compliant`, :mod:`mjflex.mj.replace`), the
+passive-force provider, divergence reports (:mod:`mjflex.mj.divergence`), linearization at an operating pose
+(:func:`static_equilibrium`, :func:`normal_modes`, damping from ratios, :func:`step_advice`), and the cheaper or
 MuJoCo-native variants of a model (:func:`reduce`, :mod:`mjflex.mj.native`)."""
 
 from .advice import StepAdvice, step_advice
