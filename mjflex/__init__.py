@@ -54,12 +54,12 @@ log handler in front of MuJoCo's, which passes every message on unchanged and ra
 
 from . import core, geometry, mj
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
-from .core import units
+from .core import units  # noqa: F401  (mjflex.units: conversions to SI)
 from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 
 __version__ = "0.1.0"
 
-__all__ = ["geometry", "units", *core.__all__, *mj.__all__]
+__all__ = ["geometry", *core.__all__, *mj.__all__]  # mjflex.units is a module of constants (reference: modules)
 
 _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
     "study": ("study", "study"),

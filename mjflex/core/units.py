@@ -4,6 +4,11 @@ mjflex works in SI (N m/rad, N/m, N m s/rad, N s/m). Papers and data sheets give
 each name below is the SI value of one such unit, so ``2.5 * units.N_m_per_deg`` is 2.5 N m/deg in
 N m/rad, and ``K[0] / units.N_m_per_deg`` reads a stiffness back in N m/deg.
 
+* angles and lengths: ``rad``, ``deg``; ``m``, ``cm``, ``mm``
+* rotational stiffness: ``N_m_per_rad``, ``N_m_per_deg``, ``N_mm_per_rad``, ``N_mm_per_deg``
+* translational stiffness: ``N_per_m``, ``N_per_mm``, ``N_per_um``
+* rotational damping: ``N_m_s_per_rad``, ``N_m_s_per_deg``; translational damping: ``N_s_per_m``, ``N_s_per_mm``
+
 Examples
 --------
 A lumbar disc from the literature (rotations in N m/deg, translations in N/mm), and its damping:

@@ -228,6 +228,10 @@ def add_flexure(
         pose, which holds at any configuration of a robot, not only at ``qpos0``. Its name is
         stored in the record (``"site"``), and :class:`mjflex.Flexures` reports an element whose
         frame no longer coincides with it.
+    frame : str or mujoco.MjsBody
+        The frame ``pos`` and ``quat`` are given in: ``"world"`` (default) or a body of the spec
+        (its name or ``MjsBody``; its frame at the reference configuration ``qpos0``), e.g.
+        ``frame=body_a`` for a frame fixed in body A. :func:`mjflex.make_compliant` takes the same.
     K : array_like, shape (6, 6) or (6,)
         Stiffness in the element frame about its origin, ``[rotation; translation]`` rows
         (``N m/rad``, ``N/rad``, ``N/m``); a 6-vector is the diagonal. 3x3 / 3-vector: planar

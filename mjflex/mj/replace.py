@@ -103,6 +103,9 @@ class Replacement:
         The equalities, sensors and actuators removed, kept or changed, with the reason.
     notes : tuple of str
         What was not carried (joint springs, dampers, ranges off the element axes...), in words.
+    saved : dict
+        What :func:`mjflex.make_rigid` puts back: snapshots of the joints' attributes and of the
+        equalities, sensors and actuators as they were (not for reading).
 
     Examples
     --------
