@@ -46,16 +46,20 @@ Conventions (used everywhere in the package)
   ``W`` is the world frame; lower-case ``a``, ``b`` are the two frames of an element.
 
 Importing mjflex has no side effects on the environment: ``MUJOCO_GL`` is chosen only when
-mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`).
+mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`). It puts a
+log handler in front of MuJoCo's, which passes every message on unchanged and raises
+:class:`mjflex.DivergenceWarning` beside mjflex's divergence reports (:mod:`mjflex.mj.divergence`;
+``mjflex.divergence_warnings(False)`` takes it out).
 """
 
 from . import core, geometry, mj
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
+from .core import units  # noqa: F401  (mjflex.units: conversions to SI)
 from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
 
 __version__ = "0.1.0"
 
-__all__ = ["geometry", *core.__all__, *mj.__all__]
+__all__ = ["geometry", *core.__all__, *mj.__all__]  # mjflex.units is a module of constants (reference: modules)
 
 _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
     "study": ("study", "study"),

@@ -20,7 +20,7 @@ from tests.robots import body_id, decay_ratio, free_vibration, pusher_path, solv
 
 BODY, PARENT = "r_forearm_link", "r_forearm_roll_link"
 K = np.array([400.0, 500.0, 300.0, 2e5, 3e5, 4e5])
-FRAME = dict(pos=[0.02, 0.0, 0.0], quat=[0.7071068, 0.0, 0.7071068, 0.0])  # z along the forearm, in the parent
+FRAME = dict(pos=[0.02, 0.0, 0.0], quat=[0.7071068, 0.0, 0.7071068, 0.0], frame="parent")  # z along the forearm
 
 
 def _pusher():

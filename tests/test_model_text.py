@@ -42,7 +42,11 @@ CHANGES = [
     ("number", ("0.039684191511083815", "0.039684191551083815", 1), "leaf_p0_L1_base] text: number 15"),  # 1e-9
     ("name", ('name="leaf_p0_L1_base/b"', 'name="leaf_p0_L1_base/c"', 1), "text differs beyond its numbers"),
     ("digit-in-name", ('name="leaf_p0_L1_base/b"', 'name="leaf_p0_L2_base/b"', 1), "text differs beyond its"),
-    ("attribute-order", ('size="0.002" pos="0.1355 0 0.09"', 'pos="0.1355 0 0.09" size="0.002"', 1), "attributes"),
+    (
+        "attribute-order",
+        ('size="0.002 0.002 0.002" pos="0.1355 0 0.09"', 'pos="0.1355 0 0.09" size="0.002 0.002 0.002"', 1),
+        "attributes",
+    ),
     ("attribute-added", ('group="5"/>', 'group="5" rgba="1 0 0 1"/>', 1), "attributes"),
     ("attribute-number", ('pos="0.1355 0 0.09"', 'pos="0.1355 0 0.0900001"', 1), "[leaf_p0_L1_base/b]@pos: number 2"),
     ("list-length", ('pos="0.1355 0 0.09"', 'pos="0.1355 0 0.09 0"', 1), "text differs beyond its numbers"),

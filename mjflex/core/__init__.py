@@ -4,6 +4,7 @@ Pure numerical code (numpy, with numba-compiled kernels); it never imports mujoc
 See the :mod:`mjflex` package docstring for the conventions.
 """
 
+from . import units  # noqa: F401  (mjflex.units: conversions to SI)
 from .elements import (
     dissipation_power,
     planar_dissipation_power,
@@ -14,6 +15,7 @@ from .elements import (
 )
 from .identification import FitWarning, PotentialFit, fit_potential, potential_in_frame
 from .polynomial import PolynomialTerms, polynomial_basis, workless_generalized_forces
+from .statics import Deflection, static_deflection
 from .stiffness import adjoint_from_transform, centre_of_stiffness, stiffness_in_frame
 from .stops import (
     derived_stop_stiffness,
@@ -31,6 +33,7 @@ from .transforms import (
 )
 
 __all__ = [
+    "Deflection",
     "FitWarning",
     "PolynomialTerms",
     "PotentialFit",
@@ -48,6 +51,7 @@ __all__ = [
     "polynomial_basis",
     "potential",
     "potential_in_frame",
+    "static_deflection",
     "stiffness_in_frame",
     "stop_coordinates",
     "stop_potential",

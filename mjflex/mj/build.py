@@ -2,7 +2,6 @@
 
 import contextlib
 import ctypes
-import difflib
 from dataclasses import dataclass
 
 import mujoco
@@ -11,10 +10,11 @@ import numpy as np
 from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
-from . import _native, schema
+from . import _native, naming, schema
 from . import stops as _stops
+from .notices import warn_likely_mistake
 
-SITE_SIZE = 0.002  # m, radius of the element's sites (visual only)
+SITE_SIZE = 0.002  # m, radius of the element's sites (visual only; round ellipsoids, see add_flexure)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
 #: ``SITE_GROUP``, which MuJoCo's viewers hide by default; a model may draw an element as a shape
 #: on one site in ``SHAPE_SITE_GROUP``, which they show by default (so does the engine plugin's
@@ -92,8 +92,8 @@ def _body(spec, body, role):
         )
     found = spec.worldbody if body == "world" else spec.body(body)
     if found is None:
-        names = [b.name for b in spec.bodies if b.name]
-        raise ValueError(f"{role} {body!r} is not a body of the spec (bodies: {names[:10]}...); 'world' grounds")
+        raise ValueError(f"{role} {body!r} is not a body of the spec ('world' grounds)"
+                         + naming.suggestion(body, [b.name for b in spec.bodies], "bodies"))  # fmt: skip
     return found
 
 
@@ -123,9 +123,16 @@ def compile_spec(spec, why="place flexures in world coordinates") -> mujoco.MjMo
         with python_callback_lifted():
             return spec.compile()
     except ValueError as exc:
-        raise ValueError(
-            f"the spec must compile to {why} ({exc}); add the bodies' geoms or inertias before the flexures"
-        ) from None
+        text = str(exc)
+        hint = "; add the bodies' geoms or inertias before the flexures" if _about_inertia(text) else ""
+        raise ValueError(f"the spec must compile to {why} ({text.strip()}){hint}") from None
+
+
+def _about_inertia(message) -> bool:
+    """Whether a compile error is about a body's mass or inertia (MuJoCo's "mass and inertia of moving bodies must
+    be larger than mjMINVAL", a zero inertia, ...), the only case where adding geoms or inertias first helps."""
+    text = message.lower()
+    return "inertia" in text or "mass" in text
 
 
 def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -188,14 +195,14 @@ def _site(spec, site):
         site = site.name
     found = spec.site(site)
     if found is None:
-        close = difflib.get_close_matches(site, [s.name for s in spec.sites if s.name], n=3)
-        raise ValueError(f"site {site!r} is not a site of the spec" + (f"; did you mean {close}?" if close else ""))
+        raise ValueError(f"site {site!r} is not a site of the spec"
+                         + naming.suggestion(site, [s.name for s in spec.sites], "sites"))  # fmt: skip
     return found
 
 
 def add_flexure(
-    spec, name, body_a, body_b, *, pos=None, quat=None, site=None, K, B=None, method="twist", terms=None,
-    stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
+    spec, name, body_a, body_b, *, pos=None, quat=None, site=None, frame="world", K, B=None, method="twist",
+    terms=None, stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
     exclude_contact=True, kind="plugin", strain_scale=None, stops=None,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
@@ -210,16 +217,21 @@ def add_flexure(
     body_a, body_b : str or mujoco.MjsBody
         The two bodies; ``"world"`` grounds the other one.
     pos : array_like, shape (3,)
-        Origin of the element frame in world coordinates at the reference configuration [m].
+        Origin of the element frame in the frame ``frame`` (the world by default) at the
+        reference configuration [m].
     quat : array_like, shape (4,), optional
-        Orientation of the element frame in world coordinates, w-first (normalized like MJCF);
-        default: the world's axes.
+        Orientation of the element frame in the frame ``frame``, w-first (normalized like MJCF);
+        default: that frame's axes.
     site : str or mujoco.MjsSite, optional
         Instead of ``pos`` and ``quat``: a site of body A or body B (e.g. a robot's
         ``"wrist_site"``) whose frame is the element frame; both element sites are placed at its
         pose, which holds at any configuration of a robot, not only at ``qpos0``. Its name is
         stored in the record (``"site"``), and :class:`mjflex.Flexures` reports an element whose
         frame no longer coincides with it.
+    frame : str or mujoco.MjsBody
+        The frame ``pos`` and ``quat`` are given in: ``"world"`` (default) or a body of the spec
+        (its name or ``MjsBody``; its frame at the reference configuration ``qpos0``), e.g.
+        ``frame=body_a`` for a frame fixed in body A. :func:`mjflex.make_compliant` takes the same.
     K : array_like, shape (6, 6) or (6,)
         Stiffness in the element frame about its origin, ``[rotation; translation]`` rows
         (``N m/rad``, ``N/rad``, ``N/m``); a 6-vector is the diagonal. 3x3 / 3-vector: planar
@@ -317,7 +329,10 @@ def add_flexure(
     bodies = _body(spec, body_a, "body_a"), _body(spec, body_b, "body_b")
     if bodies[0] is bodies[1]:
         raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
-    p_WE, R_WE, frame_site = _element_frame(spec, name, bodies, pos, quat, site)
+    xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
+    p_WE, R_WE, frame_site = _element_frame(spec, name, bodies, pos, quat, site, (xpos, xmat, body_names), frame)
+    if _JOINTS_CHECKED["on"]:
+        _warn_joined(spec, name, bodies)
     if stiffness_frame is not None:
         if K.shape != (6, 6):
             raise ValueError("stiffness_frame is supported for spatial (6x6) elements only")
@@ -333,14 +348,15 @@ def add_flexure(
                                   *_checked_terms(terms, method, K, name), site=frame_site,
                                   strain_scale=strain_scale, stops=_stops.checked(stops, K, name))  # fmt: skip
     text_data = _record_text(record)
-    xpos, xmat, body_names = poses if poses is not None else reference_body_poses(spec)
     sites = []
     for b, site_name in zip(bodies, site_names, strict=True):
         i = 0 if b is spec.worldbody else body_names.index(b.name)
         R_WB, p_WB = xmat[i], xpos[i]
+        # a round ellipsoid: MuJoCo writes all three of its sizes to a file (a sphere's one only, and a file read back
+        # fills the others from the body's childclass), and the type is explicit (not the childclass's)
         sites.append(b.add_site(
             name=site_name, pos=R_WB.T @ (p_WE - p_WB), quat=_quaternion(R_WB.T @ R_WE),
-            size=[SITE_SIZE, 0, 0], group=SITE_GROUP,
+            size=[SITE_SIZE] * 3, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID, group=SITE_GROUP,
         ))  # fmt: skip
     if exclude_contact and all(b is not spec.worldbody for b in bodies):
         exclude_contacts(spec, *bodies)
@@ -354,13 +370,16 @@ def add_flexure(
     return FlexureHandle(name, sites[0], sites[1], text)
 
 
-def _element_frame(spec, name, bodies, pos, quat, site):
-    """``(p_WE, R_WE, site name or None)``: the element frame at ``qpos0`` from ``pos``/``quat`` or ``site``."""
+def _element_frame(spec, name, bodies, pos, quat, site, poses, frame="world"):
+    """``(p_WE, R_WE, site name or None)``: the element frame at ``qpos0`` from ``pos``/``quat`` (in ``frame``)
+    or ``site``."""
     if site is None:
         if pos is None:
             raise ValueError(f"flexure {name!r}: give the element frame, pos=... (and quat=...) or site=...")
         q = (1.0, 0.0, 0.0, 0.0) if quat is None else quat
-        return validation.as_array(pos, "pos", (3,)), _rotation(_unit_quat(q, "quat")), None
+        R_WF, p_WF = _frame_pose(spec, name, frame, poses)
+        p, R = validation.as_array(pos, "pos", (3,)), _rotation(_unit_quat(q, "quat"))
+        return p_WF + R_WF @ p, R_WF @ R, None
     if pos is not None or quat is not None:
         raise ValueError(f"flexure {name!r}: give either site=... or pos=/quat=, not both")
     found = _site(spec, site)
@@ -373,6 +392,71 @@ def _element_frame(spec, name, bodies, pos, quat, site):
         )
     p_WE, R_WE = site_pose(spec, found)
     return p_WE, R_WE, found.name
+
+
+def _frame_pose(spec, name, frame, poses):
+    """``(R_WF, p_WF)`` at ``qpos0`` of ``frame``: ``"world"`` or a body (name or ``MjsBody``)."""
+    if isinstance(frame, str) and frame == "world":
+        return np.eye(3), np.zeros(3)
+    body = _body(spec, frame, f"flexure {name!r}: frame")
+    xpos, xmat, names = poses
+    i = 0 if body is spec.worldbody or body.name == "world" else names.index(body.name)
+    return xmat[i], xpos[i]
+
+
+#: Whether add_flexure warns about bodies that joints already join (make_compliant adds its element as it replaces
+#: a weld or the joints, and says so itself).
+_JOINTS_CHECKED = {"on": True}
+
+
+@contextlib.contextmanager
+def joints_checked(on: bool):
+    """Within the block, :func:`add_flexure` checks (``on``) or not the joints between the element's bodies."""
+    before = _JOINTS_CHECKED["on"]
+    _JOINTS_CHECKED["on"] = on
+    try:
+        yield
+    finally:
+        _JOINTS_CHECKED["on"] = before
+
+
+_DOFS = {int(mujoco.mjtJoint.mjJNT_HINGE): 1, int(mujoco.mjtJoint.mjJNT_SLIDE): 1, int(mujoco.mjtJoint.mjJNT_BALL): 3,
+         int(mujoco.mjtJoint.mjJNT_FREE): 6}  # fmt: skip
+
+
+def _warn_joined(spec, name, bodies):
+    """A :class:`LikelyMistakeWarning` when one body is the other's parent and the child's joints leave it fewer
+    than six degrees of freedom: the element then acts in parallel with the joints (or never deflects)."""
+    a, b = bodies
+    label = [("world" if x is spec.worldbody else x.name) for x in bodies]
+    child = None
+    for parent, kid in ((a, b), (b, a)):
+        if kid is not spec.worldbody and kid.parent is not None and _named(kid.parent) == _named(parent):
+            child = (parent, kid)
+    if child is None:
+        return
+    parent, kid = child
+    joints = list(kid.joints)
+    dofs = sum(_DOFS[int(j.type)] for j in joints)
+    if dofs >= 6:
+        return
+    if not joints:
+        message = (f"flexure {name!r}: body {kid.name!r} is welded to its parent {_named(parent)!r} (it has no joint): "
+                   "the element never deflects and adds nothing. Give the body its degrees of freedom "
+                   f"(mjflex.make_compliant(spec, {kid.name!r}, K) turns the weld into this element)")  # fmt: skip
+    else:
+        listed = ", ".join(f"{j.name or '(unnamed)'} ({mujoco.mjtJoint(int(j.type)).name[6:].lower()})" for j in joints)
+        message = (
+            f"flexure {name!r} joins {label[0]!r} and {label[1]!r}, which joint(s) {listed} already join: the element "
+            f"acts in parallel with them, along the {dofs} degree(s) of freedom they allow (the others stay rigid). "
+            f"To replace the joints by the element: mjflex.make_compliant(spec, {kid.name!r}, K, "
+            "replace_joints=True); to keep both on purpose, silence mjflex.LikelyMistakeWarning"
+        )
+    warn_likely_mistake(message, stacklevel=3)
+
+
+def _named(body) -> str:
+    return body.name or "world"
 
 
 def remove_flexure(spec, name) -> None:
@@ -551,10 +635,8 @@ def add_flexure_in_body_frame(spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0
     >>> handle.site_b.pos.tolist()  # in body B's frame: 5 cm above its origin
     [0.0, 0.0, 0.05]
     """
+    if "frame" in kwargs:
+        raise TypeError("add_flexure_in_body_frame gives the frame in body A's frame; for another, use add_flexure's "
+                        "frame=")  # fmt: skip
     poses = poses if poses is not None else reference_body_poses(spec)
-    xpos, xmat, names = poses
-    b = _body(spec, body_a, "body_a")
-    i = 0 if b is spec.worldbody else names.index(b.name)
-    R_AE = _rotation(_unit_quat(quat, "quat"))
-    p_WE = xpos[i] + xmat[i] @ validation.as_array(pos, "pos", (3,))
-    return add_flexure(spec, name, body_a, body_b, pos=p_WE, quat=_quaternion(xmat[i] @ R_AE), poses=poses, **kwargs)
+    return add_flexure(spec, name, body_a, body_b, pos=pos, quat=quat, frame=body_a, poses=poses, **kwargs)

@@ -14,18 +14,20 @@ gripper's mount with the link before the wrist, which it touches in every pose o
 Those pairs get ``<exclude>`` elements, except the ones the user asks to keep (``collide``).
 """
 
-import difflib
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
-from . import _contacts
-from .build import _quaternion, _rotation, _unit_quat, add_flexure, compile_spec, remove_flexure
-from .convert import spec_elements
+from . import _contacts, keyframes, naming, replace
+from .build import _quaternion, _rotation, _unit_quat, add_flexure, compile_spec, joints_checked, remove_flexure
+from .convert import element_record, spec_elements, write_record
 from .damping import DIRECTIONS, checked_ratios, damping_from_ratios
+from .keyframes import KeyframeEdit
 from .provider import Flexures
+from .stops import Stops
 
 _GROUPS = {"all": DIRECTIONS, "rotations": DIRECTIONS[:3], "translations": DIRECTIONS[3:]}
 _SLIDE, _HINGE, _BALL = mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL
@@ -34,16 +36,6 @@ _SLIDE, _HINGE, _BALL = mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_HINGE
 _CLEAN = ("actfrclimited", "actfrcrange", "actgravcomp", "armature", "damping", "frictionloss", "group", "limited",
           "margin", "range", "ref", "solimp_friction", "solimp_limit", "solref_friction", "solref_limit",
           "springdamper", "springref", "springyield", "stiffness")  # fmt: skip
-
-
-@dataclass
-class KeyframeEdit:
-    """What :func:`make_compliant` inserted into one keyframe: the new joints' rest values."""
-
-    key: str | int  # the keyframe's name, or its index when unnamed
-    qpos_addresses: tuple[int, ...]  # in the compliant model's qpos
-    qpos_values: tuple[float, ...]
-    qvel_addresses: tuple[int, ...]  # zeros inserted in qvel (empty when the keyframe gives no qvel)
 
 
 @dataclass
@@ -72,7 +64,12 @@ class Compliance:
     kept : tuple of (str, str)
         Pairs the weld had filtered that were left colliding (``collide``).
     keyframes : tuple of KeyframeEdit
-        The rest values inserted into each keyframe.
+        The values inserted into each keyframe: the new joints' rest values, or with
+        ``replace_joints`` the values that put the body where the keyframe had it.
+    replaced : Replacement or None
+        With ``replace_joints``: the joints removed, the stops their ranges give (``lower``,
+        ``upper``), the equalities, actuators and sensors changed (``edits``) and what was not
+        carried (``notes``); :mod:`mjflex.mj.replace`. None otherwise.
 
     Examples
     --------
@@ -102,12 +99,19 @@ class Compliance:
     excludes: tuple[tuple[str, str], ...] = ()
     kept: tuple[tuple[str, str], ...] = ()
     keyframes: tuple[KeyframeEdit, ...] = field(default_factory=tuple)
+    replaced: "replace.Replacement | None" = None
 
     def __repr__(self):
+        replaced = ""
+        if self.replaced is not None:
+            r = self.replaced
+            replaced = (f", replaced={list(r.joints)} (stops: {'yes' if r.has_stops else 'none'}, "
+                        f"{len(r.edits)} edits, {len(r.notes)} notes)")  # fmt: skip
         return (
             f"Compliance(body={self.body!r} on {self.parent!r}, element={self.element!r}, "
             f"directions={''.join(f'{d} ' for d in self.directions).strip()!r}, joints={list(self.joints)}, "
-            f"excludes={list(self.excludes)}, kept={list(self.kept)}, keyframes edited={len(self.keyframes)})"
+            f"excludes={list(self.excludes)}, kept={list(self.kept)}, keyframes edited={len(self.keyframes)}"
+            f"{replaced})"
         )
 
 
@@ -157,8 +161,8 @@ def _find_body(spec, body):
     else:
         raise TypeError(f"body must be a body's name or an MjsBody; got {type(body).__name__}")
     if found is None:
-        close = difflib.get_close_matches(body, [b.name for b in spec.bodies if b.name], n=3)
-        raise ValueError(f"body {body!r} is not in the spec" + (f"; did you mean {close}?" if close else ""))
+        raise ValueError(f"body {body!r} is not in the spec"
+                         + naming.suggestion(body, [b.name for b in spec.bodies], "bodies"))  # fmt: skip
     if found.name == "world" or found.parent is None:
         raise ValueError("the world body has no parent to be compliant against; name the body to make compliant "
                          "(e.g. a robot's hand or its mount)")  # fmt: skip
@@ -167,48 +171,83 @@ def _find_body(spec, body):
     return found
 
 
-def _check_body(spec, body):
+def _check_body(spec, body, replace_joints=False):
     joints = [j.name or f"#{i}" for i, j in enumerate(body.joints)]
-    if joints:
+    if joints and not replace_joints:
         raise ValueError(
             f"body {body.name!r} already has joints ({', '.join(joints)}): make_compliant turns the weld between a "
-            "body and its parent into an element, and a joint's motion would deflect the element. Make a welded "
-            "body compliant (e.g. the hand rather than the wrist link), or add a body between the joint and the part"
+            "body and its parent into an element, and a joint's motion would deflect the element. Pass "
+            "replace_joints=True to replace these joints by the element (their ranges become its stops, equalities "
+            "and actuators that name them are carried over), make a welded body compliant (e.g. the hand rather than "
+            "the wrist link), or add a body between the joint and the part"
         )
     if body.mocap:
         raise ValueError(f"body {body.name!r} is a mocap body, which cannot have joints; make a child of it compliant")
 
 
-def _element_pose(spec, model, body, parent, site, pos, quat):
-    """World pose ``(p_WE, R_WE)`` of the element frame at ``qpos0``, and the frame as reported."""
+def _frame_argument(frame, pos, quat):
+    """The frame that ``pos``/``quat`` are given in: ``frame``, or the parent's with a FutureWarning when unsaid."""
+    if frame is None and (pos is not None or quat is not None):
+        warnings.warn(
+            "make_compliant(pos=..., quat=...) without frame= gives the element frame in the parent body's frame, "
+            "while add_flexure's pos= is in the world frame; this default is deprecated. Pass frame='parent' to keep "
+            "it, or frame='world' (or a body's name) for the frame you mean; without frame=, a future release will "
+            "read pos= in the world frame, as add_flexure does",
+            FutureWarning,
+            stacklevel=3,
+        )
+        return "parent"
+    return frame
+
+
+def _frame_pose(spec, model, data, body, parent, frame):
+    """``(R_WF, p_WF)`` at ``qpos0`` of the frame that ``pos``/``quat`` are given in."""
+    if isinstance(frame, mujoco.MjsBody):
+        frame = "world" if frame is spec.worldbody else frame.name
+    if not isinstance(frame, str):
+        raise TypeError(f"frame must be 'parent', 'body', 'world' or a body's name; got {frame!r}")
+    name = {"parent": parent.name or "world", "body": body.name}.get(frame, frame)
+    i = 0 if name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+    if i < 0:
+        raise ValueError(f"frame={frame!r} is neither 'parent', 'body', 'world' nor a body of the spec"
+                         + naming.suggestion(frame, [b.name for b in spec.bodies if b.name]))  # fmt: skip
+    return data.xmat[i].reshape(3, 3), data.xpos[i]
+
+
+def _element_pose(spec, model, body, parent, site, pos, quat, frame=None):
+    """World pose ``(p_WE, R_WE)`` of the element frame at ``qpos0``, and the frame as reported (a site's
+    name, or ``(pos, quat)`` in the parent's frame)."""
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     if site is not None:
         if pos is not None or quat is not None:
-            raise ValueError("give the element frame as site=... or as pos=/quat= (in the parent's frame), not both")
+            raise ValueError("give the element frame as site=... or as pos=/quat= (with frame=), not both")
         name = site if isinstance(site, str) else getattr(site, "name", None)
         found = spec.site(name) if isinstance(name, str) else None
         if found is None:
-            close = difflib.get_close_matches(str(name), [s.name for s in spec.sites if s.name], n=3)
-            raise ValueError(f"site {name!r} is not in the spec" + (f"; did you mean {close}?" if close else ""))
+            raise ValueError(f"site {name!r} is not in the spec"
+                             + naming.suggestion(str(name), [s.name for s in spec.sites if s.name]))  # fmt: skip
         if found.parent.name not in (body.name, parent.name):
             raise ValueError(
                 f"site {name!r} belongs to body {found.parent.name or 'world'!r}, not to {body.name!r} or its parent "
                 f"{parent.name or 'world'!r}: the element frame must move with one of the two bodies; use a site of "
-                "either, or give pos=/quat= in the parent's frame"
+                "either, or give pos=/quat= (with frame=)"
             )
         i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
         return data.site_xpos[i].copy(), data.site_xmat[i].reshape(3, 3).copy(), name
     i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)
     if pos is None and quat is None:  # the body's own frame
         return data.xpos[i].copy(), data.xmat[i].reshape(3, 3).copy(), None
-    j = 0 if parent.name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, parent.name)
-    R_WP, p_WP = data.xmat[j].reshape(3, 3), data.xpos[j]
+    R_WF, p_WF = _frame_pose(spec, model, data, body, parent, frame)
     p = np.zeros(3) if pos is None else np.asarray(pos, dtype=float)
     q = _unit_quat((1.0, 0.0, 0.0, 0.0) if quat is None else quat, "quat")
     if p.shape != (3,) or not np.isfinite(p).all():
-        raise ValueError(f"pos must be 3 finite numbers (the element origin in the parent's frame); got {pos!r}")
-    return p_WP + R_WP @ p, R_WP @ _rotation(q), (tuple(p.tolist()), tuple(q.tolist()))
+        raise ValueError(f"pos must be 3 finite numbers (the element origin in frame {frame!r}); got {pos!r}")
+    p_WE, R_WE = p_WF + R_WF @ p, R_WF @ _rotation(q)
+    j = 0 if parent.name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, parent.name)
+    R_WP, p_WP = data.xmat[j].reshape(3, 3), data.xpos[j]
+    p_PE, q_PE = R_WP.T @ (p_WE - p_WP), _quaternion(R_WP.T @ R_WE)
+    return p_WE, R_WE, (tuple(p_PE.tolist()), tuple(q_PE.tolist()))
 
 
 def _add_joints(body, element, directions, R_BE, p_BE, attributes):
@@ -247,57 +286,6 @@ def _joint_attributes(attributes):
     return attributes
 
 
-def _stash_keys(spec):
-    """Empty the keyframes' qpos/qvel (so that the spec compiles while joints change); their old values."""
-    saved = []
-    for key in spec.keys:
-        saved.append((np.array(key.qpos, dtype=float), np.array(key.qvel, dtype=float)))
-        key.qpos, key.qvel = [], []
-    return saved
-
-
-def _restore_keys(spec, saved):
-    for key, (qpos, qvel) in zip(spec.keys, saved, strict=True):
-        key.qpos, key.qvel = qpos.tolist(), qvel.tolist()
-
-
-def _grow_keys(spec, saved, model, joints, rigid_nq, rigid_nv):
-    """Insert the new joints' rest values (``qpos0``; zero velocity) into every keyframe that gives qpos/qvel."""
-    qadr = sorted(int(a) + k for j in joints for a, n in [_joint_span(model, j, "q")] for k in range(n))
-    vadr = sorted(int(a) + k for j in joints for a, n in [_joint_span(model, j, "v")] for k in range(n))
-    edits = []
-    for i, (key, (qpos, qvel)) in enumerate(zip(spec.keys, saved, strict=True)):
-        new_q, new_v = qpos, qvel
-        if qpos.size:
-            if qpos.size != rigid_nq:
-                raise ValueError(f"keyframe {key.name or i!r} has {qpos.size} qpos values, the model nq={rigid_nq}")
-            new_q = _insert(qpos, qadr, model.qpos0[qadr], model.nq)
-        if qvel.size:
-            if qvel.size != rigid_nv:
-                raise ValueError(f"keyframe {key.name or i!r} has {qvel.size} qvel values, the model nv={rigid_nv}")
-            new_v = _insert(qvel, vadr, np.zeros(len(vadr)), model.nv)
-        key.qpos, key.qvel = new_q.tolist(), new_v.tolist()
-        if qpos.size or qvel.size:
-            edits.append(KeyframeEdit(key.name or i, tuple(qadr) if qpos.size else (),
-                                      tuple(model.qpos0[qadr].tolist()) if qpos.size else (),
-                                      tuple(vadr) if qvel.size else ()))  # fmt: skip
-    return tuple(edits)
-
-
-def _insert(old, addresses, values, size):
-    out = np.empty(size)
-    mask = np.ones(size, dtype=bool)
-    mask[addresses] = False
-    out[mask], out[addresses] = old, values
-    return out
-
-
-def _joint_span(model, joint, which):
-    j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
-    n = {int(_SLIDE): (1, 1), int(_HINGE): (1, 1), int(_BALL): (4, 3)}[int(model.jnt_type[j])]
-    return (model.jnt_qposadr[j], n[0]) if which == "q" else (model.jnt_dofadr[j], n[1])
-
-
 def _pairs(spec, collide):
     """``collide`` as a set of frozensets of body names ('*' for any body); raises on unknown bodies."""
     out = set()
@@ -307,7 +295,8 @@ def _pairs(spec, collide):
             raise ValueError(f"collide: {item!r} is neither a body name nor a pair of body names")
         for name in pair:
             if name not in ("*", "world") and spec.body(name) is None:
-                raise ValueError(f"collide: {name!r} is not a body of the spec")
+                raise ValueError(f"collide: {name!r} is not a body of the spec"
+                                 + naming.suggestion(name, [b.name for b in spec.bodies], "bodies"))  # fmt: skip
         out.add(frozenset(pair))
     return out
 
@@ -317,47 +306,68 @@ def _kept(pair, wanted):
     return frozenset((a, b)) in wanted or frozenset((a, "*")) in wanted or frozenset((b, "*")) in wanted
 
 
-def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, directions="all",
-                   name=None, method="twist", collide=(), joint_attributes=None, keyframe=None, others="locked",
-                   actuator_stiffness=False, kind="plugin") -> Compliance:  # fmt: skip
-    """Make a welded body of ``spec`` compliant relative to its parent, in place; returns what was done.
+def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, frame=None,
+                   directions="all", name=None, method="twist", collide=(), joint_attributes=None, keyframe=None,
+                   others="locked", actuator_stiffness=False, constraints="ignore", kind="plugin",
+                   replace_joints=False, equalities="auto", stops=None, strict=False) -> Compliance:  # fmt: skip
+    """Make a body of ``spec`` compliant relative to its parent, in place: its weld, or its joints with
+    ``replace_joints=True``, become a flexure element; returns what was done.
 
-    The body (a robot's hand, a sensor, a tool; any body of any model, attached or not) gets the
-    degrees of freedom of the chosen ``directions`` of the element frame (three slides and a ball
-    joint for all six), with MuJoCo's built-in joint settings whatever the body's ``childclass``
-    or the model's defaults say (no armature, range, damping, friction loss or spring unless
-    ``joint_attributes`` asks), and a flexure element between it and its parent, written by
-    :func:`mjflex.add_flexure` (of the form ``kind``: a plugin instance by default). The body
-    pairs that MuJoCo filtered in the rigid model and would collide now (the body with its
-    grandparent's weld group, and so on; :mod:`mjflex.mj._contacts`) get ``<exclude>``
+    The body (a robot's hand, a sensor, a tool, a vertebra; any body of any model, attached or
+    not) gets the degrees of freedom of the chosen ``directions`` of the element frame (three
+    slides and a ball joint for all six), with MuJoCo's built-in joint settings whatever the
+    body's ``childclass`` or the model's defaults say (no armature, range, damping, friction loss
+    or spring unless ``joint_attributes`` asks), and a flexure element between it and its parent,
+    written by :func:`mjflex.add_flexure` (of the form ``kind``: a plugin instance by default).
+    The body pairs that MuJoCo filtered in the rigid model and would collide now (the body with
+    its grandparent's weld group, and so on; :mod:`mjflex.mj._contacts`) get ``<exclude>``
     elements, except those in ``collide``; every keyframe gets the new joints' rest values (zero
     deflection) at their qpos and qvel addresses. A kept pair that touches at ``qpos0`` or a
     keyframe is reported by a warning.
+
+    With ``replace_joints=True`` the body's joints (to its parent) are handed to the element
+    instead of refused (:mod:`mjflex.mj.replace` has the rules): they lose their joint model
+    (range, spring, damper, armature, friction loss) and stay as the element's coordinates, with
+    their names, axes and anchors, so the actuators, sensors, tendons and keyframes that name them
+    keep their meaning exactly; the body gets joints for the element directions they do not cover
+    (slides, hinges about the element axes). Their ranges become the element's stops
+    (:class:`mjflex.Stops`, with the derived stiffness; also in ``Compliance.replaced.lower`` /
+    ``upper``); an equality that drives a replaced joint is removed (the element determines that
+    motion now), one a replaced joint drives is kept (``equalities``); limit sensors are removed.
+    Without ``site`` or ``pos``, the element frame is the joints' own: the anchor of the first
+    hinge (or ball), axes along the hinge and slide axes. :func:`make_rigid` puts it all back.
 
     Parameters
     ----------
     spec : mujoco.MjSpec
         The model; it must compile before and after.
     body : str or mujoco.MjsBody
-        The body to make compliant: welded to its parent (no joints), not the world. Names are
-        the spec's, prefixes of ``MjSpec.attach`` included (``"left/hand"``).
+        The body to make compliant: welded to its parent (no joints, unless ``replace_joints``),
+        not the world. Names are the spec's, prefixes of ``MjSpec.attach`` included
+        (``"left/hand"``).
     K : array_like, shape (6, 6) or (6,), or (n, n) / (n,) for n directions
         Stiffness in the element frame, rows ``[rx, ry, rz, x, y, z]`` (N m/rad, N/m); a vector
-        is the diagonal. Given for the chosen directions only, it is zero in the others (which
-        the joints do not move).
+        is the diagonal (:mod:`mjflex.units` converts N m/deg and N/mm). Given for the chosen
+        directions only, it is zero in the others (which the joints do not move).
     B : array_like, optional
         Damping, same layout as ``K``. Or:
     damping_ratio : float or array_like, optional
-        Damping ratios (> 0, e.g. 0.01), one for all or one per chosen direction:
-        ``B`` is computed by :func:`mjflex.damping_from_ratios` at ``keyframe`` with ``others``
-        and ``actuator_stiffness`` (default: the other joints locked, i.e. the inertia of the
-        body and all it carries about the element frame).
+        Damping ratios (fractions of critical: 0.01 is 1 %), one for all or one per chosen
+        direction: ``B`` is computed by :func:`mjflex.damping_from_ratios` at ``keyframe`` with
+        ``others``, ``actuator_stiffness`` and ``constraints`` (default: the other joints locked,
+        i.e. the inertia of the body and all it carries about the element frame). A ratio above 1
+        (overdamped; ``10`` meant as 10 % is ``0.1``) is warned about, or refused under ``strict``.
     site : str or mujoco.MjsSite, optional
         A site of the body or of its parent whose frame is the element frame (e.g. a robot's
         ``"attachment_site"``). Or:
     pos, quat : array_like, optional
-        The element frame in the parent body's frame (m; w-first). Default (neither site nor
-        pose): the body's own frame.
+        The element frame's origin [m] and orientation (w-first) in the frame ``frame``. Default
+        (neither site nor pose): the body's own frame, or the replaced joints' frame.
+    frame : str or mujoco.MjsBody, optional
+        What ``pos``/``quat`` are given in: ``"parent"`` (the body's parent), ``"body"``,
+        ``"world"`` or any body of the spec (its frame at ``qpos0``). Without it, ``pos``/``quat``
+        are read in the parent's frame with a FutureWarning: a future release reads them in the
+        world frame, as :func:`mjflex.add_flexure` does.
     directions : str or sequence of str
         ``"all"`` (default), ``"rotations"``, ``"translations"`` or names of
         ``("rx", "ry", "rz", "x", "y", "z")``: the element-frame directions the body may move in.
@@ -370,23 +380,39 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         although the weld had filtered them.
     joint_attributes : dict, optional
         Attributes set on every added joint (e.g. ``{"armature": 1e-4}``).
-    keyframe, others, actuator_stiffness
+    keyframe, others, actuator_stiffness, constraints
         The linearization used for ``damping_ratio`` (:func:`mjflex.damping_from_ratios`).
     kind : {"plugin", "record"}
         How the element is written (:func:`mjflex.add_flexure`): an ``mjflex.flexure`` plugin
         instance (default; the model runs in any MuJoCo program) or a text record.
+    replace_joints : bool
+        Replace the body's joints by the element (see above) instead of refusing a body with
+        joints.
+    equalities : {"auto", "remove", "refuse"}
+        What happens to joint equality constraints that name a replaced joint (with
+        ``replace_joints``): ``"auto"`` removes those that drive a replaced joint (``joint1``)
+        and keeps those in which it drives another (``joint2``); ``"remove"`` removes them all;
+        ``"refuse"`` refuses (ValueError naming them).
+    stops : Stops or bool, optional
+        The element's end stops (:class:`mjflex.Stops`). Default (None): with ``replace_joints``,
+        the replaced joints' ranges (where they have any), without it none; False: none.
+    strict : bool
+        Refuse (ValueError) what is only warned about otherwise: a damping ratio above 1.
 
     Returns
     -------
     Compliance
-        Its joints, element, excludes and keyframe edits; :func:`make_rigid` takes it to undo.
+        Its joints, element, excludes and keyframe edits, and with ``replace_joints`` what was
+        replaced (``replaced``); :func:`make_rigid` takes it to undo.
 
     Raises
     ------
     ValueError
-        The world or an unknown body, a body with joints or a mocap body, a site of another
-        body, no direction, a ratio <= 0 or NaN, both ``B`` and ``damping_ratio``, a name taken.
-        The spec is left as it was.
+        The world or an unknown body (with close names), a body with joints (without
+        ``replace_joints``) or a mocap body, a site of another body, no direction, a ratio <= 0
+        or NaN, both ``B`` and ``damping_ratio``, a name taken; with ``replace_joints``, an
+        equality under ``equalities="refuse"`` (named, with the choices). The spec is left as it
+        was.
 
     Examples
     --------
@@ -414,7 +440,7 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     Flexures(1 elements: tool_compliance)
     """
     target = _find_body(spec, body)
-    _check_body(spec, target)
+    _check_body(spec, target, replace_joints)
     parent = target.parent
     dirs = _directions(directions)
     name = name or f"{target.name}_compliance"
@@ -424,7 +450,7 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     B6 = None if B is None else _matrix6(B, dirs, "B")
     ratios = None
     if damping_ratio is not None:
-        given = checked_ratios(damping_ratio, len(dirs) if np.ndim(damping_ratio) else 1)
+        given = checked_ratios(damping_ratio, len(dirs) if np.ndim(damping_ratio) else 1, strict=strict, stacklevel=3)
         ratios = np.full(6, given.mean())
         ratios[[DIRECTIONS.index(d) for d in dirs]] = given if given.size == len(dirs) else given[0]
     wanted = _pairs(spec, collide)
@@ -433,18 +459,30 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     if taken:
         raise ValueError(f"joint(s) {taken} exist already: pick another name= for the element")
     rigid = compile_spec(spec, "make a body compliant")
-    p_WE, R_WE, frame = _element_pose(spec, rigid, target, parent, site, pos, quat)
+    plan = replace.make_plan(spec, rigid, target, equalities) if replace_joints and len(target.joints) else None
+    frame = _frame_argument(frame, pos, quat) if site is None else frame
+    if plan is not None and site is None and pos is None and quat is None:
+        p_WE, R_WE = replace.joint_frame(rigid, target.name)  # the joints' anchor and axes
+        pos, quat, frame = p_WE, _quaternion(R_WE), "world"
+    p_WE, R_WE, frame = _element_pose(spec, rigid, target, parent, site, pos, quat, frame)
     data = mujoco.MjData(rigid)
     mujoco.mj_kinematics(rigid, data)
     ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, target.name)
     R_WB, p_WB = data.xmat[ib].reshape(3, 3), data.xpos[ib]
-    saved, joints, excludes, element = _stash_keys(spec), [], [], None
+    R_BE = R_WB.T @ R_WE
+    ranges = replace.stops_from_ranges(rigid, plan.joints, R_BE) if plan is not None else None
+    stops = _element_stops(stops, ranges)
+    added = replace.missing_directions(rigid, target.name, R_BE, dirs) if plan is not None else dirs
+    saved, joints, excludes, element, replacement = keyframes.stash_keys(spec), [], [], None, None
     try:
-        joints = _add_joints(target, name, dirs, R_WB.T @ R_WE, R_WB.T @ (p_WE - p_WB), joint_attributes)
+        if plan is not None:
+            replacement = replace.apply(spec, plan, rigid, ranges)
+        joints = _add_joints(target, name, added, R_BE, R_WB.T @ (p_WE - p_WB), joint_attributes)
         place = {"site": frame} if isinstance(frame, str) else {"pos": p_WE, "quat": _quaternion(R_WE)}
         parent_name = "world" if parent.name in ("", "world") else parent.name
-        add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False, kind=kind,
-                    **place)  # fmt: skip
+        with joints_checked(False):  # the element replaces the weld (or the joints): not in parallel with them
+            add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
+                        kind=kind, stops=stops, **place)  # fmt: skip
         element = name
         compliant = compile_spec(spec, "make a body compliant")
         exposed = [
@@ -459,33 +497,47 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
                 )
             if not _kept(pair, wanted):
                 excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
-        edits = _grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
+        edits = keyframes.grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
         if ratios is not None:
-            B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness)
-            remove_flexure(spec, name)
-            add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
-                        kind=kind, **place)  # fmt: skip
+            B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints)
+            write_record(spec, name, dataclasses.replace(element_record(spec, name), B=B6))
         _warn_kept(spec, name)
     except BaseException:
-        _stash_keys(spec)  # MjSpec checks the keyframes' sizes when joints go
+        keyframes.stash_keys(spec)  # MjSpec checks the keyframes' sizes when joints go
         for obj in (*excludes, *joints):
             spec.delete(obj)
+        if replacement is not None:
+            replace.undo(spec, replacement)
         if element is not None and any(e.name == element for e in spec_elements(spec)):
             remove_flexure(spec, element)
-        _restore_keys(spec, saved)
+        keyframes.restore_keys(spec, saved)
         raise
     kept = tuple(p for p in exposed if _kept(p, wanted))
     return Compliance(name, target.name, parent_name, dirs, tuple(j.name for j in joints), frame, K6, B6, ratios,
-                      tuple((e.bodyname1, e.bodyname2) for e in excludes), kept, edits)  # fmt: skip
+                      tuple((e.bodyname1, e.bodyname2) for e in excludes), kept, edits, replacement)  # fmt: skip
 
 
-def _damping(spec, name, ratios, keyframe, others, actuator_stiffness):
+def _element_stops(stops, ranges):
+    """The ``stops=`` for the element: the user's, none (False), or the replaced joints' ranges (None)."""
+    if stops is False:
+        return None
+    if stops is None:
+        if ranges is None or not (np.isfinite(ranges[0]).any() or np.isfinite(ranges[1]).any()):
+            return None
+        return Stops(lower=ranges[0].tolist(), upper=ranges[1].tolist())
+    if not isinstance(stops, Stops):
+        raise TypeError(f"stops must be a mjflex.Stops, False (none) or None (the replaced joints' ranges); got "
+                        f"{type(stops).__name__}")  # fmt: skip
+    return stops
+
+
+def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
     model = compile_spec(spec, "compute the damping from ratios")
-    with warnings.catch_warnings():  # contacts are reported once, by _warn_kept
+    with warnings.catch_warnings():  # contacts are reported once, by _warn_kept; the ratios were checked
         warnings.simplefilter("ignore")
         flex = Flexures(model)
-    return damping_from_ratios(model, name, ratios, flex=flex, keyframe=keyframe, others=others,
-                               actuator_stiffness=actuator_stiffness)  # fmt: skip
+        return damping_from_ratios(model, name, ratios, flex=flex, keyframe=keyframe, others=others,
+                                   actuator_stiffness=actuator_stiffness, constraints=constraints)  # fmt: skip
 
 
 def _warn_kept(spec, name):
@@ -539,20 +591,25 @@ def make_rigid(spec, compliance: Compliance) -> None:
         raise ValueError(f"the spec has no joint(s) {missing} of {compliance.element!r}: is it compliant (the same "
                          "spec make_compliant edited), or was make_rigid called already?")  # fmt: skip
     model = compile_spec(spec, "make a body rigid again")
-    qadr = sorted(int(a) + k for j in compliance.joints for a, n in [_joint_span(model, j, "q")] for k in range(n))
-    vadr = sorted(int(a) + k for j in compliance.joints for a, n in [_joint_span(model, j, "v")] for k in range(n))
+    qadr, vadr = keyframes.addresses(model, compliance.joints)
     shrunk = [
         (
             np.delete(qpos, qadr) if qpos.size == model.nq else qpos,
             np.delete(qvel, vadr) if qvel.size == model.nv else qvel,
         )
-        for qpos, qvel in _stash_keys(spec)  # emptied while the joints go (MjSpec checks the keyframes' sizes)
+        for qpos, qvel in keyframes.stash_keys(spec)  # emptied while the joints go (MjSpec checks the keyframes' sizes)
     ]
     for j in compliance.joints:
         spec.delete(spec.joint(j))
-    _restore_keys(spec, shrunk)
+    if compliance.replaced is not None:
+        replace.undo(spec, compliance.replaced)
+    keyframes.restore_keys(spec, shrunk)
     remove_flexure(spec, compliance.element)
-    added = {frozenset(p) for p in compliance.excludes}
+    _delete_excludes(spec, compliance.excludes)
+
+
+def _delete_excludes(spec, pairs):
+    added = {frozenset(p) for p in pairs}
     for e in list(spec.excludes):
         if frozenset((e.bodyname1, e.bodyname2)) in added:
             added.discard(frozenset((e.bodyname1, e.bodyname2)))

@@ -12,7 +12,8 @@ import numpy as np
 import scipy.linalg
 
 from . import schema
-from .linearize import mass_matrix, state, stiffness_matrix
+from .linearize import check_constraints, jacobians, loads, mass_matrix, null_space, state
+from .notices import warn_likely_mistake
 from .provider import Flexures
 
 #: Names of the six directions of an element, in the order of K's rows (element frame).
@@ -20,8 +21,13 @@ DIRECTIONS = ("rx", "ry", "rz", "x", "y", "z")
 OTHERS = ("locked", "free")
 
 
-def checked_ratios(ratios, n, what="damping_ratio") -> np.ndarray:
-    """``(n,)`` damping ratios from a number or ``n`` numbers, each finite and > 0; raises ValueError."""
+def checked_ratios(ratios, n, what="damping_ratio", *, strict=False, stacklevel=2) -> np.ndarray:
+    """``(n,)`` damping ratios from a number or ``n`` numbers, each finite and > 0; raises ValueError.
+
+    A ratio above 1 (overdamped: legal, but ``10`` is usually meant as 10 %, i.e. ``0.1``) gives a
+    :class:`~mjflex.mj.notices.LikelyMistakeWarning` naming it, attributed ``stacklevel`` frames
+    up, or a ValueError with ``strict``.
+    """
     try:
         r = np.asarray(ratios, dtype=float)
     except (TypeError, ValueError):
@@ -36,6 +42,16 @@ def checked_ratios(ratios, n, what="damping_ratio") -> np.ndarray:
             f"{what} = {r.tolist()}: every ratio must be a finite number > 0 (0.01 is 1 % of critical damping); "
             "for no damping leave the ratio out"
         )
+    if np.any(r > 1):
+        big = r[r > 1]
+        message = (
+            f"{what} = {r.tolist()}: a ratio above 1 is overdamped ({big.max():.4g} times critical damping). A ratio "
+            f"is a fraction of critical damping: {big.max():.4g} % is {big.max() / 100:.4g}. An overdamped element "
+            "also needs a much smaller time step (its damping acts explicitly)"
+        )
+        if strict:
+            raise ValueError(message + "; strict=True refuses it")
+        warn_likely_mistake(message + "; pass strict=True to refuse such values", stacklevel=stacklevel)
     return r
 
 
@@ -75,7 +91,8 @@ def displacement_jacobian(model, flex, element, base, step=1e-6) -> np.ndarray:
 
 
 def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpos=None, others="locked",
-                        actuator_stiffness=False, gravity=False, step=1e-6) -> np.ndarray:  # fmt: skip
+                        actuator_stiffness=False, gravity=False, constraints="ignore", xfrc_applied=None,
+                        qfrc_applied=None, strict=False, step=1e-6) -> np.ndarray:  # fmt: skip
     """Damping matrix ``B`` of an element that gives its modes the requested damping ratios.
 
     The element's modes come from an undamped modal analysis of the model at a configuration
@@ -92,6 +109,12 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     * ``others="free"``: every dof moves, held only by what holds it in the model (elements,
       springs, and the actuators if ``actuator_stiffness``: position servos' ``kp``). For a part
       on a servo-held arm whose joints yield noticeably.
+
+    Equality constraints enter as in :func:`mjflex.normal_modes` (``constraints``): ignored,
+    as springs, or projected (``"project"``: the modes live in the null space of the
+    constraints' Jacobian restricted to the moving dofs, ``N^T K N psi = omega^2 N^T M N psi``,
+    ``phi = N psi``): for a spine whose levels equalities tie together, neither ``"locked"`` nor
+    ``"free"`` alone describes the motion; ``others="free", constraints="project"`` does.
 
     The element's modes are the ``n`` modes (``n``: the number of independent element
     directions the dofs can move) that store the largest share of their strain energy in the
@@ -130,6 +153,15 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
         What the dofs not between the element's bodies do (see above).
     actuator_stiffness, gravity : bool
         Add the actuators' stiffness, gravity's load stiffness (:func:`mjflex.normal_modes`).
+    constraints : {"ignore", "spring", "project"}
+        How equality constraints enter (see above; :mod:`mjflex.mj.linearize`).
+    xfrc_applied : array_like, shape (nbody, 6), optional
+        Dead loads ``[force; torque]`` at the bodies' centres of mass (world axes): their load
+        stiffness enters, as in :func:`mjflex.normal_modes`.
+    qfrc_applied : array_like, shape (nv,), optional
+        Generalized loads.
+    strict : bool
+        Refuse a ratio above 1 (ValueError) instead of warning about it.
     step : float
         Finite-difference step [m or rad].
 
@@ -163,12 +195,13 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     """
     if others not in OTHERS:
         raise ValueError(f"others={others!r}: use one of {OTHERS}")
+    check_constraints(constraints)
     flex = Flexures(model) if flex is None else flex
     if flex.model is not model:
         raise ValueError("flex must be the Flexures of this model (flex.model is model)")
     record = flex.records[flex.index(element)]
     Ke = schema.embed_planar(record.K) if record.planar else record.K
-    given = checked_ratios(ratios, 3 if record.planar else 6)
+    given = checked_ratios(ratios, 3 if record.planar else 6, strict=strict, stacklevel=3)
     r = given
     if record.planar:  # the other directions do not move a planar element: their weights are zero
         r = np.full(6, given.mean())
@@ -176,11 +209,15 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     base = state(model, keyframe, qpos)
     s = element_dofs(model, flex, element) if others == "locked" else np.arange(model.nv)
     J = displacement_jacobian(model, flex, element, base, step)[:, s]
-    K = stiffness_matrix(model, flex, base.qpos, step=step, joint_springs=True,
-                         actuator_stiffness=actuator_stiffness, gravity=gravity,
-                         keyframe=keyframe)[np.ix_(s, s)]  # fmt: skip
+    options = (True, constraints, actuator_stiffness, gravity, loads(model, xfrc_applied, qfrc_applied))
+    K, G = jacobians(model, flex, base, step, options)
+    K = K[np.ix_(s, s)]
     M = mass_matrix(model, base.qpos)[np.ix_(s, s)]
-    lam, phi = scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T))
+    N = null_space(G[:, s], len(s)) if constraints == "project" else np.eye(len(s))
+    Kr, Mr = N.T @ K @ N, N.T @ M @ N
+    lam, phi = scipy.linalg.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
+    phi = N @ phi
+    J = J @ N @ N.T  # the element moves only along the constrained motions
     psi = J @ phi
     strain = np.einsum("ik,ij,jk->k", psi, Ke, psi)
     elastic = lam > 1e-12 * max(lam.max(initial=0.0), 1e-300)

@@ -41,6 +41,20 @@ time: each stops the call. This matches MuJoCo, which prints each bad-state warn
 (the engine plugin) or approximate (the callback); and the callback keeps its records for at most
 64 ``MjData`` of one model at once (the least recently used is forgotten).
 
+A Python warning beside the log line
+------------------------------------
+Importing mjflex puts a log handler in front of MuJoCo's (``mju_setLogHandler``, MuJoCo 4's
+structured log): every message goes on to the handler that was there (MuJoCo's console and
+``MUJOCO_LOG.TXT``, or a legacy ``mju_user_warning`` someone set), unchanged; an mjflex divergence
+report also raises a :class:`DivergenceWarning` in Python, with the element, the model, the time
+and the step as attributes. It comes from the same report, so it follows the same rule: once per
+element and run, in both element forms, and the repeats are counted, not warned. The handler runs
+only when MuJoCo logs something (never per step), takes the GIL for that message only, and never
+lets a Python exception unwind through MuJoCo's C code (an ``"error"`` warnings filter cannot turn
+this warning into an exception there: disable MuJoCo's auto-reset for a ``mujoco.FatalError``
+instead). :func:`divergence_warnings` takes the handler out (or puts it back); it is taken out at
+interpreter exit.
+
 Times and steps
 ---------------
 Every mjflex message names a step the same way: ``the step from t = 0.001 s (step index 1,
@@ -49,11 +63,18 @@ whole time steps ``h`` from ``t = 0`` (:func:`step_phrase`). The provider, the s
 and the command line all use it.
 """
 
+import atexit
+import ctypes
+import os
+import re
+import threading
+import warnings
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
-__all__ = ["Divergence", "step_index", "step_phrase"]
+__all__ = ["Divergence", "DivergenceWarning", "divergence_warnings", "step_index", "step_phrase"]
 
 
 def step_index(t: float, h: float) -> int:
@@ -82,3 +103,132 @@ class Divergence:
     step: int
     message: str
     pending: bool = False
+
+
+class DivergenceWarning(RuntimeWarning):
+    """An mjflex element diverged: raised beside MuJoCo's log line of the report, once per element and run.
+
+    Attributes (from the report): ``element``, ``model`` (names), ``time`` [s] (the start of the
+    step), ``step`` (its index from 0); the message is the report's text.
+
+    Examples
+    --------
+    A 1e7 N/m element on a 0.5 kg block stepped at 10 ms (Euler's limit is 0.4 ms):
+
+    >>> import warnings
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco model="block"><option timestep="0.01" gravity="0 0 0"/><worldbody><body name="B"><freejoint/>'
+    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "B", pos=[0, 0, 0], K=[2e3, 2e3, 1e3, 1e7, 1e7, 1e7])
+    >>> model = spec.compile()
+    >>> data = mujoco.MjData(model)
+    >>> data.qvel[0] = 1.0
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     mujoco.mj_step(model, data, nstep=20)  # MuJoCo's log prints the report; Python gets the warning too
+    >>> found = [w.message for w in caught if w.category is mjflex.DivergenceWarning]
+    >>> len(found), found[0].element, found[0].model, found[0].step
+    (1, 'leaf', 'block', 3)
+    """
+
+    def __init__(self, message: str):
+        super().__init__(message)
+        match = _REPORT.match(message)
+        self.element = match["element"] if match else ""
+        self.model = match["model"] if match else ""
+        self.time = float(match["time"]) if match else float("nan")
+        self.step = int(match["step"]) if match else -1
+
+
+_REPORT = re.compile(
+    r"mjflex: flexure '(?P<element>.*?)' of model '(?P<model>.*?)' diverged in the step from "
+    r"t = (?P<time>\S+) s \(step index (?P<step>\d+)"
+)
+
+
+class _LogMessage(ctypes.Structure):  # mjLogMessage of mjtype.h (MuJoCo 4.0)
+    _fields_ = (
+        ("level", ctypes.c_int),
+        ("topic", ctypes.c_int),
+        ("subject", ctypes.c_char * 1024),
+        ("body", ctypes.c_char_p),
+        ("func", ctypes.c_char_p),
+        ("file", ctypes.c_char_p),
+        ("line", ctypes.c_int),
+        ("timestamp", ctypes.c_ubyte),
+    )
+
+
+_HANDLER = ctypes.CFUNCTYPE(None, ctypes.POINTER(_LogMessage))
+_LOG = {"lib": None, "ours": None, "previous": None, "lock": threading.Lock()}
+
+
+def _library():
+    if _LOG["lib"] is None:
+        folder = os.path.dirname(mujoco.__file__)
+        names = sorted(f for f in os.listdir(folder) if f.startswith(("libmujoco.so", "libmujoco.", "mujoco.dll")))
+        lib = ctypes.CDLL(os.path.join(folder, names[0]))
+        lib.mju_setLogHandler.argtypes, lib.mju_setLogHandler.restype = [ctypes.c_void_p], ctypes.c_void_p
+        _LOG["lib"] = lib
+    return _LOG["lib"]
+
+
+def _on_log(message):
+    """MuJoCo's log handler: pass the message on, then warn in Python for an mjflex divergence report."""
+    try:
+        previous = _LOG["previous"]
+        if previous is not None:
+            previous(message)
+        text = message.contents.subject.decode(errors="replace")
+        if message.contents.level >= int(mujoco.mjtLogLevel.mjLOG_WARNING) and _REPORT.match(text):
+            warnings.warn(DivergenceWarning(text), stacklevel=2)
+    except BaseException:
+        pass
+
+
+def divergence_warnings(enabled: bool = True) -> bool:
+    """Raise :class:`DivergenceWarning` beside mjflex's divergence reports (``enabled``), or stop; returns the
+    previous setting.
+
+    On by default from ``import mjflex``: a log handler in front of MuJoCo's passes every message
+    on unchanged and warns in Python for mjflex's reports (module docstring). Off puts MuJoCo's
+    previous handler back.
+
+    Parameters
+    ----------
+    enabled : bool
+        Whether the warnings are raised.
+
+    Returns
+    -------
+    bool
+        Whether they were raised before the call.
+
+    Examples
+    --------
+    >>> import mjflex
+    >>> mjflex.divergence_warnings(False)  # the log lines only, as MuJoCo prints them
+    True
+    >>> mjflex.divergence_warnings(True)
+    False
+    """
+    with _LOG["lock"]:
+        was = _LOG["ours"] is not None
+        if enabled and not was:
+            lib = _library()
+            ours = _HANDLER(_on_log)
+            previous = lib.mju_setLogHandler(ctypes.cast(ours, ctypes.c_void_p))
+            _LOG["previous"] = _HANDLER(previous) if previous else None
+            _LOG["ours"] = ours
+        elif not enabled and was:
+            previous = _LOG["previous"]
+            _library().mju_setLogHandler(ctypes.cast(previous, ctypes.c_void_p) if previous is not None else None)
+            _LOG["ours"] = None
+        return was
+
+
+divergence_warnings(True)
+atexit.register(divergence_warnings, False)  # no Python callback left in MuJoCo once the interpreter goes

@@ -1,0 +1,476 @@
+"""Joints replaced by a flexure element: the work of ``mjflex.make_compliant(..., replace_joints=True)``.
+
+Most models have joints where the compliance belongs: a vertebra's three hinges tied to the next
+level by equality constraints, a robot's series-elastic joint, a bushing modelled as a hinge.
+Replacing them hands the body's motion relative to its parent (a body's joints in MuJoCo are
+always to its parent) to the element: the joints stop being a joint model (no range, spring,
+damper, armature or friction loss: the element's stiffness, damping and stops take over) and
+become *coordinates* of the motion the element needs; :func:`mjflex.make_compliant` adds the
+missing ones (slides along the element axes, hinges about the element axes the joints do not
+turn about, at the joints' anchor) so that the body moves in all of the element's directions.
+Every joint keeps its name, axis, anchor and reference, so everything that names it keeps its
+meaning, exactly:
+
+* **Actuators** keep their joint transmission: a motor applies the same torque about the same
+  axis between the same bodies, a servo holds the same angle. Only an inherited control range
+  (``inheritrange``, from the joint's range, which goes) becomes the explicit range it compiled to.
+  (A site transmission between the element's sites with ``refsite`` would measure the element's
+  rotation vector, but MuJoCo's moment arm for it is the angular velocity, not the rotation
+  vector's gradient: at a loaded, bent element a servo on it is not conservative, and its
+  flutter diverges at any time step. A joint transmission has neither problem.)
+* **Sensors** (``jointpos``, ``jointvel``, ``ballquat``, ...) read the same coordinate; fixed
+  **tendons** sum the same coordinates; **keyframes** keep every value and get the rest values of
+  the added joints (the body is where it was).
+* **Equality constraints** of type ``joint``: one that drives a replaced joint (``joint1``; or
+  one between two replaced joints) is removed, since the element now determines that motion (left
+  in, it would override the element). One in which a replaced joint drives another joint
+  (``joint2``: a spine's driving level) is kept as it is: the follower follows the same coordinate,
+  now moved by the element. ``equalities="remove"`` removes every joint equality that names a
+  replaced joint; ``equalities="refuse"`` refuses (naming them) so that the user decides.
+* Sensors that read a joint's **limit** (``jointlimitpos``, ``jointlimitvel``, ``jointlimitfrc``)
+  have none left to read: they are removed and reported.
+* **Ranges** become the element's stops, in element coordinates (rotation-vector components of
+  frame b relative to frame a, then the position of b's origin in a): a limited hinge or slide
+  whose axis lies along an element axis gives that coordinate ``[lo - ref, hi - ref]`` (its sign
+  flipped for an axis against the element's; ``ref`` is the joint's value at ``qpos0``, where the
+  element is unstressed). A hinge's angle equals the rotation-vector component exactly for
+  rotation about its axis alone, and to second order in the other components otherwise. A ball
+  joint's range is a cone, ``|rotation| <= range[1]``; it becomes the circumscribed box
+  ``[-range[1], range[1]]`` on the three rotations: exact along each element axis, up to
+  ``sqrt(3)`` times the angle along a diagonal. A range beyond ``pi`` from the rest, or of a
+  joint whose axis is not along an element axis, is not carried (the report says so; align the
+  element frame with the joint, which is the default).
+* Joint properties that the element does not carry (stiffness, damping, armature, friction loss)
+  are listed in the report's notes: give them in ``K`` and ``B``.
+
+:func:`mjflex.make_rigid` restores all of it: the joints' attributes, the removed equalities and
+sensors in their places (so the compiled model's ids are the original ones), the actuators'
+ranges and the keyframes.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+_T = mujoco.mjtJoint
+_HINGE, _SLIDE, _BALL, _FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
+_KIND = {_HINGE: "hinge", _SLIDE: "slide", _BALL: "ball", _FREE: "free"}
+_S = mujoco.mjtSensor
+#: Sensors that read a joint's limit: none is left once the range becomes the element's stops.
+LIMIT_SENSORS = {int(_S.mjSENS_JOINTLIMITPOS), int(_S.mjSENS_JOINTLIMITVEL), int(_S.mjSENS_JOINTLIMITFRC)}
+#: What makes a joint a joint model (the element takes over): reset to MuJoCo's built-in values on the replaced
+#: joints. Their name, type, axis, anchor, reference and actuation settings stay.
+STRIPPED = ("armature", "damping", "frictionloss", "limited", "margin", "range", "solimp_friction", "solimp_limit",
+            "solref_friction", "solref_limit", "springdamper", "springref", "springyield", "stiffness")  # fmt: skip
+_JOINT_TRN = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
+EQUALITY_CHOICES = ("auto", "remove", "refuse")
+#: Attributes never copied when a spec element is snapshotted and re-created.
+_SKIP = {"id", "signature", "compiler", "info", "parent", "frame", "classname", "plugin", "default"}
+#: An axis this close to an element axis (1 - |cos|) counts as along it.
+ALIGNED = 1e-9
+
+
+@dataclass(frozen=True)
+class Edit:
+    """One change :func:`mjflex.make_compliant` made to something that named a replaced joint.
+
+    ``kind``: ``"equality"``, ``"actuator"`` or ``"sensor"``; ``name``: its name (``"#i"``, its
+    index, when unnamed); ``action``: ``"removed"``, ``"kept"`` or ``"changed"``; ``detail``:
+    what and why, in words.
+    """
+
+    kind: str
+    name: str
+    action: str
+    detail: str
+
+
+@dataclass
+class Replacement:
+    """What ``replace_joints=True`` did (the ``replaced`` attribute of :class:`mjflex.Compliance`).
+
+    Attributes
+    ----------
+    joints : tuple of str
+        The replaced joints, in order: now the element's coordinates (no range, spring, damper,
+        armature or friction loss), with their names, axes and anchors.
+    lower, upper : ndarray, shape (6,)
+        The stops their ranges give, element coordinates ``[rx, ry, rz, x, y, z]`` [rad, m]
+        (``-inf`` / ``inf``: none); the element has them unless ``stops=`` said otherwise.
+    edits : tuple of Edit
+        The equalities, sensors and actuators removed, kept or changed, with the reason.
+    notes : tuple of str
+        What was not carried (joint springs, dampers, ranges off the element axes...), in words.
+    saved : dict
+        What :func:`mjflex.make_rigid` puts back: snapshots of the joints' attributes and of the
+        equalities, sensors and actuators as they were (not for reading).
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><compiler angle="radian"/><worldbody><body name="base"><geom size="0.05"/>'
+    ...     '<body name="arm" pos="0 0 0.1"><joint name="elbow" axis="0 1 0" range="-1 0.5" damping="0.1"/>'
+    ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></body></worldbody>'
+    ...     '<actuator><motor joint="elbow"/></actuator></mujoco>'
+    ... )
+    >>> c = mjflex.make_compliant(spec, "arm", [50, 5, 50, 1e5, 1e5, 1e5], replace_joints=True)
+    >>> print(c.replaced.joints, c.replaced.lower[1], c.replaced.upper[1])  # the elbow's range: stops on ry
+    ('elbow',) -1.0 0.5
+    >>> c.joints  # added: the translations and the other rotations the element needs
+    ('arm_compliance/x', 'arm_compliance/y', 'arm_compliance/z', 'arm_compliance/rx', 'arm_compliance/rz')
+    >>> c.replaced.notes
+    ('hinge elbow: damping 0.1 (give it in B or damping_ratio)',)
+    """
+
+    joints: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    edits: tuple[Edit, ...] = ()
+    notes: tuple[str, ...] = ()
+    saved: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def has_stops(self) -> bool:
+        return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
+
+
+# ------------------------------------------------------------------ snapshots of spec elements
+
+
+def snapshot(obj) -> dict:
+    """The settable attributes of a spec element (and its default class), to re-create it."""
+    out = {}
+    for name in dir(type(obj)):
+        if name.startswith("_") or name in _SKIP or not isinstance(getattr(type(obj), name), property):
+            continue
+        value = getattr(obj, name)
+        out[name] = value.copy() if isinstance(value, np.ndarray) else value
+    out["_class"] = getattr(getattr(obj, "classname", None), "name", None)
+    return out
+
+
+def _restore_attributes(obj, saved):
+    for name, value in saved.items():
+        if name.startswith("_"):
+            continue
+        try:
+            setattr(obj, name, value)
+        except (AttributeError, TypeError):  # read-only attributes (computed by MuJoCo)
+            pass
+
+
+def _recreate(spec, adder, saved):
+    default = spec.find_default(saved["_class"]) if saved.get("_class") not in (None, "main") else None
+    obj = adder(default) if default is not None else adder()
+    _restore_attributes(obj, saved)
+    return obj
+
+
+def _rebuild_tail(spec, kind, wanted):
+    """Make ``spec``'s ``kind`` elements (``"equalities"``, ``"sensors"``) the snapshots ``wanted``, in order.
+
+    The elements that already match from the start stay; from the first difference on, all are
+    deleted and re-created in order (MjSpec appends only: an element's place is its compiled id).
+    """
+    current = list(getattr(spec, kind))
+    keep = 0
+    while keep < min(len(current), len(wanted)) and _same(snapshot(current[keep]), wanted[keep]):
+        keep += 1
+    for obj in current[keep:]:
+        spec.delete(obj)
+    adder = {"equalities": lambda d=None: spec.add_equality(d) if d is not None else spec.add_equality(),
+             "sensors": lambda d=None: spec.add_sensor()}[kind]  # fmt: skip
+    for saved in wanted[keep:]:
+        _recreate(spec, adder, saved)
+
+
+def _same(a, b) -> bool:
+    if a.keys() != b.keys():
+        return False
+    for k in a:
+        x, y = a[k], b[k]
+        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            if not np.array_equal(np.asarray(x), np.asarray(y)):
+                return False
+        elif x != y:
+            return False
+    return True
+
+
+# ------------------------------------------------------------------ the plan: checks before any change
+
+
+@dataclass
+class Plan:
+    """What will be done, checked before the spec is touched (a refusal leaves it as it was)."""
+
+    body: str
+    joints: list  # (name, rigid joint id)
+    equalities: dict  # index -> ("remove" | "keep", reason)
+    sensors: list  # indices of limit sensors to remove
+    actuators: list  # indices of actuators whose inherited range becomes explicit
+
+
+def _label(obj, i, kind):
+    return obj.name or f"{kind} #{i}"
+
+
+def make_plan(spec, rigid, body, equalities="auto") -> Plan:
+    """Check what names the body's joints; raise ValueError when ``equalities="refuse"`` meets one."""
+    if equalities not in EQUALITY_CHOICES:
+        raise ValueError(f"equalities={equalities!r}: use one of {EQUALITY_CHOICES}")
+    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body.name)
+    ids = list(range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib]))
+    joints = [(mujoco.mj_id2name(rigid, mujoco.mjtObj.mjOBJ_JOINT, j) or "", j) for j in ids]
+    names = {n for n, _ in joints if n}
+    return Plan(body.name, joints, _equality_plan(spec, body, names, equalities),
+                [i for i, s in enumerate(spec.sensors) if int(s.type) in LIMIT_SENSORS and s.objname in names],
+                [i for i, a in enumerate(spec.actuators)
+                 if int(a.trntype) in _JOINT_TRN and a.target in names and a.inheritrange > 0])  # fmt: skip
+
+
+def _equality_plan(spec, body, names, choice):
+    plan, refused = {}, []
+    for i, eq in enumerate(spec.equalities):
+        if int(eq.type) != int(mujoco.mjtEq.mjEQ_JOINT):
+            continue
+        r1, r2 = eq.name1 in names, bool(eq.name2) and eq.name2 in names
+        if not (r1 or r2):
+            continue
+        label = _label(eq, i, "equality")
+        if choice == "refuse":
+            refused.append(f"{label} ({eq.name1} = f({eq.name2 or 'constant'}))")
+        elif r1:
+            plan[i] = ("remove", f"the element now determines the motion of {eq.name1}" + (
+                f" (and of {eq.name2})" if r2 else ""))  # fmt: skip
+        elif choice == "remove":
+            plan[i] = ("remove", f"removed on request (equalities='remove'): {eq.name1} no longer follows {eq.name2}")
+        else:
+            plan[i] = ("keep", f"{eq.name1} follows {eq.name2} as before: the same coordinate, moved by the element")
+    if refused:
+        raise ValueError(
+            f"body {body.name!r}: equality constraint(s) {'; '.join(refused)} name joints that replace_joints would "
+            "hand to the element (equalities='refuse'). Choose: equalities='auto' removes those that drive a "
+            "replaced joint (the element determines its motion) and keeps those a replaced joint drives; "
+            "equalities='remove' removes them all; or edit them first"
+        )
+    return plan
+
+
+# ------------------------------------------------------------------ the element frame the joints suggest
+
+
+def joint_frame(rigid, body_name) -> tuple[np.ndarray, np.ndarray]:
+    """World pose ``(p_WE, R_WE)`` at ``qpos0`` of the element frame the body's joints suggest.
+
+    Origin: the anchor of the first hinge or ball joint (the body's origin for slides alone).
+    Axes: the body's, when every hinge and slide axis lies along one of them; else z along the
+    joints' one axis direction; else x along the first axis and y in the plane of the first two.
+    """
+    data = mujoco.MjData(rigid)
+    mujoco.mj_kinematics(rigid, data)
+    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
+    ids = range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib])
+    R_WB, p = data.xmat[ib].reshape(3, 3).copy(), data.xpos[ib].copy()
+    rotational = [j for j in ids if rigid.jnt_type[j] in (_HINGE, _BALL)]
+    if rotational:
+        p = data.xanchor[rotational[0]].copy()
+    axes = [data.xaxis[j].copy() for j in ids if rigid.jnt_type[j] in (_HINGE, _SLIDE)]
+    if all(np.abs(R_WB.T @ a).max() > 1 - ALIGNED for a in axes):
+        return p, R_WB
+    distinct = [axes[0]]
+    for a in axes[1:]:
+        if abs(abs(a @ distinct[0]) - 1) > ALIGNED:
+            distinct.append(a)
+            break
+    if len(distinct) == 1:
+        z = distinct[0] / np.linalg.norm(distinct[0])
+        x = R_WB[:, int(np.argmin(np.abs(R_WB.T @ z)))]
+        x = x - (x @ z) * z
+        x /= np.linalg.norm(x)
+        return p, np.column_stack([x, np.cross(z, x), z])
+    x = distinct[0] / np.linalg.norm(distinct[0])
+    y = distinct[1] - (distinct[1] @ x) * x
+    y /= np.linalg.norm(y)
+    return p, np.column_stack([x, y, np.cross(x, y)])
+
+
+# ------------------------------------------------------------------ ranges -> stops
+
+
+def stops_from_ranges(rigid, joints, R_BE) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """``(lower, upper, notes)``: the stops (element coordinates) that the joints' ranges give.
+
+    ``joints``: ``(name, id)`` in the rigid model; ``R_BE``: the element frame's axes in the
+    body's frame. See the module docstring for the mapping.
+    """
+    lower, upper, notes = np.full(6, -np.inf), np.full(6, np.inf), []
+    for name, j in joints:
+        kind, label = int(rigid.jnt_type[j]), name or f"joint #{j}"
+        if not rigid.jnt_limited[j]:
+            continue
+        lo, hi = (float(v) for v in rigid.jnt_range[j])
+        if kind == _BALL:
+            hi = min(hi, math.pi)  # a rotation-vector component never leaves [-pi, pi]
+            lower[:3], upper[:3] = np.maximum(lower[:3], -hi), np.minimum(upper[:3], hi)
+            notes.append(f"ball joint {label}'s cone range {math.degrees(hi):.4g} deg became stops of +-"
+                         f"{math.degrees(hi):.4g} deg on rx, ry, rz (the circumscribed box: exact along each element "
+                         "axis, up to sqrt(3) times the angle along a diagonal)")  # fmt: skip
+            continue
+        if kind not in (_HINGE, _SLIDE):
+            continue
+        axis = R_BE.T @ rigid.jnt_axis[j]
+        k = int(np.argmax(np.abs(axis)))
+        if abs(axis[k]) < 1 - 1e-6:
+            notes.append(f"the range of {_KIND[kind]} {label} was not carried: its axis {np.round(axis, 4).tolist()} "
+                         "(element frame) is not along an element axis; give stops yourself or align the element "
+                         "frame with the joint")  # fmt: skip
+            continue
+        ref = float(rigid.qpos0[rigid.jnt_qposadr[j]])
+        bounds = sorted(np.sign(axis[k]) * (v - ref) for v in (lo, hi))
+        if kind == _HINGE and max(abs(b) for b in bounds) > math.pi:
+            notes.append(f"hinge {label}: the side of its range beyond pi from its rest ({np.round(bounds, 4)} rad) "
+                         "was not carried: a rotation-vector component never leaves [-pi, pi]")  # fmt: skip
+            bounds = [b if abs(b) <= math.pi else math.copysign(math.inf, b) for b in bounds]
+        c = k if kind == _HINGE else 3 + k
+        lower[c], upper[c] = max(lower[c], bounds[0]), min(upper[c], bounds[1])
+    return lower, upper, notes
+
+
+def dropped_properties(rigid, joints) -> list[str]:
+    """Notes on joint properties the element does not carry (give them in K and B)."""
+    notes = []
+    for name, j in joints:
+        label, dofs = name or f"joint #{j}", _dofs(rigid, j)
+        found = []
+        if rigid.jnt_stiffness[j]:
+            found.append(f"stiffness {rigid.jnt_stiffness[j]:.6g} (give it in K)")
+        q = rigid.jnt_qposadr[j]
+        if rigid.jnt_stiffness[j] and rigid.jnt_type[j] in (_HINGE, _SLIDE) and rigid.qpos_spring[q] != rigid.qpos0[q]:
+            found.append(f"spring reference {rigid.qpos_spring[q]:.6g} != ref {rigid.qpos0[q]:.6g} (the element is "
+                         "unstressed at ref)")  # fmt: skip
+        for what, values, hint in (("damping", rigid.dof_damping, "give it in B or damping_ratio"),
+                                   ("armature", rigid.dof_armature, "not carried"),
+                                   ("friction loss", rigid.dof_frictionloss, "not carried")):  # fmt: skip
+            if np.any(values[dofs]):
+                found.append(f"{what} {values[dofs].max():.6g} ({hint})")
+        if found:
+            notes.append(f"{_KIND[int(rigid.jnt_type[j])]} {label}: " + ", ".join(found))
+    return notes
+
+
+def _dofs(model, j):
+    n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[int(model.jnt_type[j])]
+    return slice(model.jnt_dofadr[j], model.jnt_dofadr[j] + n)
+
+
+# ------------------------------------------------------------------ apply and undo
+
+
+def apply(spec, plan: Plan, rigid, stops) -> Replacement:
+    """Strip the body's joints of their joint model and carry over what named them (snapshots for :func:`undo`).
+
+    ``stops``: ``(lower, upper, notes)`` of :func:`stops_from_ranges`.
+    """
+    body = spec.body(plan.body)
+    saved = {
+        "body": plan.body,
+        "joints": [snapshot(j) for j in body.joints],
+        "equalities": [snapshot(e) for e in spec.equalities],
+        "sensors": [snapshot(s) for s in spec.sensors],
+        "actuators": {i: snapshot(spec.actuators[i]) for i in plan.actuators},
+    }
+    edits, wanted = [], []
+    for i, eq in enumerate(spec.equalities):
+        step = plan.equalities.get(i)
+        if step is None or step[0] == "keep":
+            wanted.append(snapshot(eq))
+        if step is not None:
+            edits.append(Edit("equality", _label(eq, i, "equality"), "removed" if step[0] == "remove" else "kept",
+                              step[1]))  # fmt: skip
+    removed = set(plan.sensors)
+    for i in plan.sensors:
+        s = spec.sensors[i]
+        edits.append(Edit("sensor", _label(s, i, "sensor"), "removed",
+                          f"{mujoco.mjtSensor(int(s.type)).name[7:].lower()} of {s.objname}: the joint has no limit "
+                          "left to read (its range is the element's stop)"))  # fmt: skip
+    for i in plan.actuators:
+        act = spec.actuators[i]
+        act.inheritrange = 0.0
+        act.ctrlrange = rigid.actuator_ctrlrange[i].tolist()  # actuator ids are their places in the spec
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        edits.append(Edit("actuator", _label(act, i, "actuator"), "changed",
+                          f"its control range inherited from {act.target}'s range is now explicit: "
+                          f"{np.round(rigid.actuator_ctrlrange[i], 9).tolist()}"))  # fmt: skip
+    saved["kept_sensors"] = [i for i in range(len(saved["sensors"])) if i not in removed]
+    saved["kept_equalities"] = [i for i in range(len(saved["equalities"]))
+                                if plan.equalities.get(i, ("",))[0] != "remove"]  # fmt: skip
+    _rebuild_tail(spec, "equalities", wanted)
+    _rebuild_tail(spec, "sensors", [s for i, s in enumerate(saved["sensors"]) if i not in removed])
+    blank = mujoco.MjSpec().worldbody.add_body().add_joint()
+    for joint in body.joints:
+        for attr in STRIPPED:  # set on the joint, they override its class's values (also in a saved file)
+            setattr(joint, attr, getattr(blank, attr))
+    lower, upper, notes = stops
+    return Replacement(tuple(n or f"#{j}" for n, j in plan.joints), np.asarray(lower, dtype=float),
+                       np.asarray(upper, dtype=float), tuple(edits),
+                       (*notes, *dropped_properties(rigid, plan.joints)), saved)  # fmt: skip
+
+
+def missing_directions(rigid, body_name, R_BE, directions) -> tuple[str, ...]:
+    """The element directions of ``directions`` that need a joint added: those the body's joints do not move it in.
+
+    A direction counts as moved in when it lies in the span of the joints' axes (hinges and a ball
+    for rotations, slides for translations; a free joint moves in all), so a joint off the
+    element's axes still takes its share and the body never gets more than six dofs.
+    """
+    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
+    spans = {"r": [], "t": []}
+    for j in range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib]):
+        kind = int(rigid.jnt_type[j])
+        if kind == _FREE:
+            return ()
+        if kind == _BALL:
+            spans["r"] += list(np.eye(3))
+        else:
+            spans["r" if kind == _HINGE else "t"].append(R_BE.T @ rigid.jnt_axis[j])
+    added = []
+    for d in directions:
+        span = spans["r" if d.startswith("r") else "t"]
+        axis = np.eye(3)["xyz".index(d[-1])]
+        if _rank([*span, axis]) > _rank(span):
+            span.append(axis)
+            added.append(d)
+    return tuple(added)
+
+
+def _rank(vectors) -> int:
+    return int(np.linalg.matrix_rank(np.array(vectors), tol=1e-6)) if len(vectors) else 0
+
+
+def undo(spec, replacement: Replacement) -> None:
+    """Put back the joints' attributes, the equalities, sensors and actuator ranges (the caller removes the added
+    joints, the element and the keyframe entries)."""
+    saved = replacement.saved
+    body = spec.body(saved["body"])
+    for joint, s in zip(list(body.joints), saved["joints"], strict=False):
+        _restore_attributes(joint, s)
+    for i, s in saved["actuators"].items():
+        _restore_attributes(spec.actuators[i], s)
+    _rebuild_tail(spec, "equalities", _merged(spec.equalities, saved["equalities"], saved["kept_equalities"]))
+    _rebuild_tail(spec, "sensors", _merged(spec.sensors, saved["sensors"], saved["kept_sensors"]))
+
+
+def _merged(current, originals, kept):
+    """The originals in their places: the removed ones as they were, the kept ones as they are now (the user may
+    have edited them since), and elements added since after them."""
+    current = [snapshot(x) for x in current]
+    out = list(originals)
+    for k, i in enumerate(kept):
+        if k < len(current):
+            out[i] = current[k]
+    return out + current[len(kept) :]

@@ -1,0 +1,162 @@
+"""Advice that holds where the model runs (issue 24 item 3): statics, modes, damping and the time step at a loaded
+state, with the actuators' stiffness and the equality constraints.
+
+References are independent of the code under test: a rod on a rotational element under gravity (its equilibrium
+angle from a scalar root of k theta = m g l cos(theta), its frequency from (k + m g l sin(theta)) / I), damping
+ratios measured by the logarithmic decrement of free vibrations, and the stable time step measured by runs on
+either side of the advised limit.
+"""
+
+import math
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+import scipy.optimize
+
+import mjflex
+from mjflex.mj.damping import displacement_jacobian
+from mjflex.mj.linearize import state
+from tests.robots import arm_spec, decay_ratio
+from tests.spine import spine_spec
+
+K_ROD = 1.0  # N m/rad about y; everything else stiff
+ROD = """<mujoco><option timestep="1e-4"/><worldbody><body name="rod"><freejoint/>
+  <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.01" mass="0.5"/></body></worldbody></mujoco>"""
+
+
+def _rod():
+    spec = mujoco.MjSpec.from_string(ROD)
+    mjflex.add_flexure(spec, "pivot", "world", "rod", pos=[0, 0, 0], K=[1e4, K_ROD, 1e4, 1e9, 1e9, 1e9])
+    model = spec.compile()
+    return model, mjflex.Flexures(model)
+
+
+def test_static_equilibrium_of_a_rod_bent_by_gravity_is_the_scalar_roots():
+    """0.5 kg at l = 0.15 m on 1 N m/rad: k theta = m g l cos(theta) gives 0.59 rad (a large deflection)."""
+    model, flex = _rod()
+    m, g, l = model.body_mass[1], -model.opt.gravity[2], model.body_ipos[1][0]
+    expected = scipy.optimize.brentq(lambda t: K_ROD * t - m * g * l * math.cos(t), 0.0, 1.5)
+    qpos = mjflex.static_equilibrium(model, flex)
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    theta = flex.displacements(data)[0][1]
+    assert expected > 0.5 and math.isclose(theta, expected, rel_tol=1e-6)  # 1e-6: the 1e9 N/m translations give
+
+
+def test_modes_at_the_operating_pose_carry_the_loads_stiffness():
+    """At the bent equilibrium gravity adds m g l sin(theta) to the rod's stiffness: the frequency sqrt((k + m g l
+    sin theta) / I) (I about the pivot), 8 % above the unloaded one; a dead load xfrc_applied equal to the weight
+    gives the same modes as gravity."""
+    model, flex = _rod()
+    m, g, l = model.body_mass[1], -model.opt.gravity[2], model.body_ipos[1][0]
+    qpos = mjflex.static_equilibrium(model, flex)
+    theta = scipy.optimize.brentq(lambda t: K_ROD * t - m * g * l * math.cos(t), 0.0, 1.5)
+    inertia = model.body_inertia[1][1] + m * l**2  # the capsule's principal axes are the body's here
+    loaded, _ = mjflex.normal_modes(model, flex, qpos=qpos, gravity=True)
+    bare, _ = mjflex.normal_modes(model, flex, qpos=qpos)
+    expected = math.sqrt((K_ROD + m * g * l * math.sin(theta)) / inertia) / (2 * math.pi)
+    assert math.isclose(loaded[0], expected, rel_tol=1e-6)
+    assert math.isclose(bare[0], math.sqrt(K_ROD / inertia) / (2 * math.pi), rel_tol=1e-6)
+    assert loaded[0] > 1.08 * bare[0]
+    xfrc = np.zeros((model.nbody, 6))
+    xfrc[1, :3] = m * model.opt.gravity
+    dead, _ = mjflex.normal_modes(model, flex, qpos=qpos, xfrc_applied=xfrc)
+    np.testing.assert_allclose(dead, loaded, rtol=1e-7)
+
+
+def _spine_with_a_damped_disc(actuator_stiffness):
+    """The spine (no joint dampers, rigid equalities, no gravity: free vibrations about qpos0) with L3 replaced by a
+    disc given 5 % in each of its modes, computed with the others free and the equalities projected."""
+    spec = spine_spec(joint_damping=0.0, solref=(1e-4, 1.0))
+    spec.option.timestep, spec.option.gravity = 1e-5, [0.0, 0.0, 0.0]
+    mjflex.make_compliant(spec, "L3", [50, 50, 30, 2e5, 2e5, 5e5], replace_joints=True, damping_ratio=0.05,
+                          others="free", constraints="project", actuator_stiffness=actuator_stiffness,
+                          stops=False)  # fmt: skip
+    model = spec.compile()
+    return model, mjflex.Flexures(model)
+
+
+def _measured_ratios(model, flex, periods=6):
+    """Damping ratios of the disc's six modes (those of the projected model that strain it most; L3's servo held),
+    by the logarithmic decrement of a free vibration started along each, read through the disc's displacement."""
+    freq, modes = mjflex.normal_modes(model, flex, joint_springs=True, constraints="project", actuator_stiffness=True)
+    psi = displacement_jacobian(model, flex, "L3_compliance", state(model)) @ modes
+    share = np.einsum("ik,ij,jk->k", psi, flex.records[0].K, psi) / (2 * np.pi * freq) ** 2
+    out = []
+    for k in np.argsort(-share)[:6]:
+        data = mujoco.MjData(model)
+        data.qvel[:] = 1e-3 * modes[:, k]
+        y = np.empty(int(periods / freq[k] / model.opt.timestep))
+        for i in range(len(y)):
+            mujoco.mj_step(model, data)
+            y[i] = flex.displacements(data)[0] @ psi[:, k]
+        out.append(decay_ratio(y)[0])
+    return np.array(out)
+
+
+def test_damping_ratios_of_a_disc_in_a_coupled_spine_are_measured():
+    """The disc's six modes move the other levels through the equalities and L3's servo holds its bending: with
+    constraints="project" and the actuators' stiffness the measured ratios are 5 % to 2 %; leaving the servo out
+    of the linearization misses the bending mode it stiffens by a fifth."""
+    measured = _measured_ratios(*_spine_with_a_damped_disc(actuator_stiffness=True))
+    np.testing.assert_allclose(measured, 0.05, rtol=0.02)  # 2 %: the decrement of 6 periods, nonlinear terms
+    blind = _measured_ratios(*_spine_with_a_damped_disc(actuator_stiffness=False))
+    assert blind.min() < 0.9 * 0.05
+
+
+#: The servo-held arm's j3 replaced by an element soft in bending and torsion: its servo (kp 5000) makes the
+#: torsion mode the stiffest. Keyframe "level": the servo's target is the element's rest (no preload).
+K_WRIST = [100.0, 300.0, 100.0, 2e4, 2e4, 2e4]
+
+
+def _servo_held_arm(integrator):
+    spec = arm_spec()
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+    spec.add_key(name="level", qpos=[0.3, -0.5, 0.0], ctrl=[0.3, -0.5, 0.0])
+    mjflex.make_compliant(spec, "link3", K_WRIST, replace_joints=True)
+    model = spec.compile()
+    flex = mjflex.Flexures(model)
+    return spec, model, flex, mjflex.static_equilibrium(model, flex, keyframe="level")
+
+
+def _diverges(spec, qpos, timestep, steps=3000):
+    """A run from ``qpos`` knocked on every dof: does it leave any bound (MuJoCo's bad-state check, 1e3)?"""
+    model = spec.compile()
+    model.opt.timestep = timestep
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("level").id)
+    data.qpos[:], data.qvel[:] = qpos, 1e-2 * np.random.default_rng(0).normal(size=model.nv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mjflex.DivergenceWarning)
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.abs(data.qvel).max() < 1e3:
+                return True
+    return False
+
+
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_the_advised_limit_is_the_measured_stable_step(integrator):
+    """Runs at 0.95 and 1.05 times the advised limit bracket the measured one; the recommendation runs; the advice
+    without the servo's stiffness (or at the unloaded reference) would have been 2.4x too long."""
+    spec, model, flex, qpos = _servo_held_arm(integrator)
+    advice = mjflex.step_advice(model, flex, keyframe="level", qpos=qpos)
+    assert advice.integrator == integrator
+    assert not _diverges(spec, qpos, 0.95 * advice.limit) and _diverges(spec, qpos, 1.05 * advice.limit)
+    assert not _diverges(spec, qpos, advice.recommended, steps=int(0.5 / advice.recommended))
+    blind = mjflex.step_advice(model, flex, keyframe="level", qpos=qpos, actuator_stiffness=False)
+    reference = mjflex.step_advice(model, flex, gravity=False, actuator_stiffness=False, joint_springs=False)
+    assert blind.limit > 2 * advice.limit and reference.limit > 2 * advice.limit
+    assert _diverges(spec, qpos, blind.recommended)  # even its "safe" half diverges
+
+
+def test_a_state_that_is_not_a_stable_equilibrium_is_said():
+    """Keyframe "home" holds j3 at 0.8 rad: the servo bends the element 0.75 rad against 226 N m, across its soft
+    bending axes; the loaded element buckles (negative stiffness), which step_advice says."""
+    _, model, flex, _ = _servo_held_arm("Euler")
+    qpos = mjflex.static_equilibrium(model, flex, keyframe="home")
+    with pytest.warns(UserWarning, match=r"1 of 8 modes have negative stiffness at this state .*not a stable"):
+        mjflex.step_advice(model, flex, keyframe="home", qpos=qpos)
