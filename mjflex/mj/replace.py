@@ -135,6 +135,7 @@ class Replacement:
 
     @property
     def has_stops(self) -> bool:
+        """Whether any replaced joint had a range, i.e. whether ``lower``/``upper`` hold a finite limit."""
         return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
 
 
