@@ -1,0 +1,299 @@
+"""mjflex on MuJoCo Warp (``mjflex.warp``), on Warp's CPU device, against the C engine in float64.
+
+Every comparison has a bound derived from float32 rounding (tests/warp_bounds.py and the
+docstrings below), not a tolerance tuned to pass. Kernels compile on first use and are cached by
+Warp (its kernel cache directory, ``WARP_CACHE_PATH`` or ``~/.cache/warp``); the models are built
+once per module and share MuJoCo Warp's compiled kernels where their sizes allow.
+"""
+
+import copy
+import ctypes
+import dataclasses
+
+import mujoco
+import mujoco_warp as mjw
+import numpy as np
+import pytest
+import warp as wp
+
+import mjflex
+import mjflex.warp as mw
+from mjflex.mj import _native
+from mjflex.warp import _kernels
+from tests import warp_bounds as wb
+from tests.warp_models import features_model, features_xml, random_state
+
+TWO_BODY = "models/two_body_plugin.xml"
+ARCADE = "models/arcade.xml"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def cpu():
+    """Every test of the module on Warp's CPU device."""
+    with wp.ScopedDevice("cpu"):
+        yield
+
+
+@pytest.fixture(scope="module")
+def features():
+    return features_model("plugin")
+
+
+@pytest.fixture(scope="module")
+def two_body():
+    return mujoco.MjModel.from_xml_path(TWO_BODY)
+
+
+def _state_data(model, qpos, qvel):
+    """A MuJoCo data at the float32 rounding of (qpos, qvel): the state MuJoCo Warp holds."""
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = qpos.astype(np.float32), qvel.astype(np.float32)
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def _worlds(model, m, states):
+    d = mjw.make_data(model, nworld=len(states))
+    d.qpos.assign(np.array([s[0] for s in states], np.float32))
+    d.qvel.assign(np.array([s[1] for s in states], np.float32))
+    mjw.forward(m, d)
+    return d
+
+
+def _warp_queries(m, d):
+    return {"wrench": mw.wrenches(m, d), "energy": mw.potential_energies(m, d), "power": mw.dissipation_powers(m, d),
+            "twist": mw.displacements(m, d), "qfrc": mw.generalized_forces(m, d)}  # fmt: skip
+
+
+# ------------------------------------------------------------------------ the element math
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_angle_functions_match_the_c_engine(precision):
+    """alpha / n, c(alpha), g(alpha) of the twist map from 1e-8 rad to pi, both branches (series below 2.2 rad).
+
+    Bound: the C engine's values are exact to a few float64 ulps (tests/test_native_kernel.py); the
+    Warp functions evaluate atan2, a 20-term Horner series (or the closed forms) in the kernels'
+    precision: about 40 roundings of quantities no larger than the result (the series' terms are
+    positive), so 64 u of the precision, relative.
+    """
+    angles = np.concatenate([np.geomspace(1e-8, 2.19, 40), [2.2, np.nextafter(2.2, 3)], np.linspace(2.21, np.pi, 20)])
+    w, n = np.cos(angles / 2), np.sin(angles / 2)
+    real = np.float64 if precision == "float64" else np.float32
+    k = _kernels.kernels(precision)
+    el = k["Elements"]()
+    series = mw.element_table(mujoco.MjModel.from_xml_path(TWO_BODY))
+    el.series_c, el.series_g = (wp.array(a.astype(real), dtype=k["real"]) for a in (series.series_c, series.series_g))
+    out = wp.zeros(len(angles), dtype=k["V3"])
+    n2_in, w_in = (wp.array((x).astype(real), dtype=k["real"]) for x in (n * n, w))
+    wp.launch(k["scalars"], dim=len(angles), inputs=[n2_in, w_in, el], outputs=[out])
+    got = out.numpy()
+    u = 2.0**-53 if precision == "float64" else 2.0**-24
+    for i in range(len(angles)):
+        ref = [ctypes.c_double() for _ in range(3)]
+        _native.lib().mjfx_angle_coefs(float(real(n[i]) ** 2), float(real(w[i])), *(ctypes.byref(r) for r in ref))
+        ref = np.array([r.value for r in ref])
+        np.testing.assert_array_less(np.abs(got[i] - ref), 64 * u * np.abs(ref) + 1e-300, err_msg=f"angle {angles[i]}")
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_forces_and_energies_match_the_c_engine_on_random_states(features, precision):
+    """Wrenches, generalized forces, energies, dissipated powers and twists of every element feature, on 12 random
+    states (relative rotations up to 2.5 rad, random velocities), MuJoCo Warp's own float32 kinematics.
+
+    Derivation of the bound (tests/warp_bounds.py): the reference is the C engine in float64 at the same
+    (float32) state. The Warp result's inputs (MuJoCo Warp's kinematics) are off by at most
+    ``8 per tree level + 12`` (kernel) roundings of ``u |row|`` each; their effect is the input
+    sensitivity ``S_in`` computed with the C engine (central differences with those perturbations): the
+    condition of the element map times ``u`` times the scale of its inputs. The element math adds at most
+    ``48 u`` of the magnitudes it combines (``|K| |xi| + |B| |V| + |result|``, times ``(1 + |xi|)^2``).
+    ``u`` is 2^-24 for the inputs always (MuJoCo Warp is float32) and 2^-24 or 2^-53 for the arithmetic.
+    Bound = (8 depth + 12) S_in + 48 u S_arith, per component; the energy adds the second-order term of
+    its own displacement error, 1/2 dxi^T |K| dxi.
+    """
+    rng = np.random.default_rng(11)
+    states = [random_state(features, rng, angle=2.5) for _ in range(12)]
+    m = mw.put_model(features, precision=precision)
+    got = _warp_queries(m, _worlds(features, m, states))
+    flex = mjflex.Flexures(features)
+    arith = wb.U64 if precision == "float64" else wb.U32
+    worst = {}
+    for i, (qpos, qvel) in enumerate(states):
+        data = _state_data(features, qpos, qvel)
+        ref, bound = wb.c_queries(flex, data), wb.bounds(features, data, flex, arith)
+        for key in ref:
+            err = np.abs(got[key][i] - ref[key])
+            assert (err <= bound[key]).all(), (key, i, np.max(err / np.maximum(bound[key], 1e-300)))
+            worst[key] = max(worst.get(key, 0.0), float(np.max(err / np.maximum(bound[key], 1e-300))))
+    print(f"largest error / bound ({precision}):", {k: f"{v:.2g}" for k, v in worst.items()})
+
+
+def test_both_forms_of_a_model_give_the_same_forces(two_body):
+    """Text records and plugin instances of one element: the same kernel inputs, the same bits."""
+    records = mujoco.MjModel.from_xml_path("models/two_body.xml")
+    rng = np.random.default_rng(3)
+    states = [random_state(two_body, rng) for _ in range(3)]
+    forms = []
+    for model in (records, two_body):
+        m = mw.put_model(model)
+        assert mw.flexures(m).kinds == (("plugin",) if model is two_body else ("record",))
+        forms.append(_warp_queries(m, _worlds(model, m, states)))
+    for key in forms[0]:
+        np.testing.assert_array_equal(forms[0][key], forms[1][key], err_msg=key)
+
+
+def test_disable_flags_switch_off_the_elastic_and_viscous_parts(features):
+    """MuJoCo's spring / damper disable flags, as the C engine reads them (same derived bound)."""
+    rng = np.random.default_rng(5)
+    states = [random_state(features, rng) for _ in range(2)]
+    for flag in (mujoco.mjtDisableBit.mjDSBL_SPRING, mujoco.mjtDisableBit.mjDSBL_DAMPER):
+        model = copy.copy(features)
+        model.opt.disableflags |= int(flag)
+        m = mw.put_model(model)
+        got = _warp_queries(m, _worlds(model, m, states))
+        flex = mjflex.Flexures(model)
+        for i, (qpos, qvel) in enumerate(states):
+            data = _state_data(model, qpos, qvel)
+            ref, bound = wb.c_queries(flex, data), wb.bounds(model, data, flex)
+            for key in ("wrench", "qfrc", "energy", "power"):
+                assert (np.abs(got[key][i] - ref[key]) <= bound[key]).all(), (flag, key)
+        if flag == mujoco.mjtDisableBit.mjDSBL_SPRING:
+            assert not got["energy"].any()
+        else:
+            assert not got["power"].any()
+
+
+# ------------------------------------------------------------------------ per-world parameters
+
+
+def test_per_world_parameters_match_models_edited_in_the_c_engine(features):
+    """Four worlds with their own K, B, enabled and viscous switches: each matches the C engine on a model whose
+    elements were edited to those values (mjflex.edit_elements / the spec), within the derived bound."""
+    from mjflex.app.sweep.recipe import edit_flexure
+
+    table = mw.element_table(copy.copy(features))
+    n = len(table.names)
+    rng = np.random.default_rng(9)
+    scale = np.array([1.0, 3.0, 0.2, 10.0])
+    K = scale[:, None, None, None] * table.K[None]
+    B = np.stack([table.B, 4 * table.B, table.B, 0 * table.B])
+    enabled = np.ones((4, n), bool)
+    enabled[2, [0, 3]] = False
+    viscous = table.viscous[None].repeat(4, 0)
+    viscous[3] = False
+    m = mw.put_model(features)
+    mw.set_parameters(m, K=K, B=B, enabled=enabled, viscous=viscous)
+    qpos, qvel = random_state(features, rng)
+    got = _warp_queries(m, _worlds(features, m, [(qpos, qvel)] * 4))
+    for w in range(4):
+        spec = mujoco.MjSpec.from_string(features_xml("plugin"))
+        for e, name in enumerate(table.names):
+            idx = np.ix_((2, 3, 4), (2, 3, 4))
+            k, b = (K[w, e][idx], B[w, e][idx]) if table.planar[e] else (K[w, e], B[w, e])
+            edit_flexure(spec, name, K=k, B=b if b.any() else [])
+        for flag, on in (("enabled", enabled[w]), ("viscous", viscous[w])):
+            for value in (True, False):
+                names = [
+                    name
+                    for e, name in enumerate(table.names)
+                    if on[e] == value and (B[w, e].any() or flag == "enabled")
+                ]
+                if names:
+                    mjflex.edit_elements(spec, names, **{flag: value})
+        model = spec.compile()
+        flex = mjflex.Flexures(model)
+        data = _state_data(model, qpos, qvel)
+        ref, bound = wb.c_queries(flex, data), wb.bounds(model, data, flex)
+        for key in ("wrench", "qfrc", "energy", "power"):
+            err = np.abs(got[key][w] - ref[key])
+            assert (err <= bound[key]).all(), (w, key, np.max(err / np.maximum(bound[key], 1e-300)))
+    assert not got["wrench"][2, [0, 3]].any() and not got["power"][3].any()
+
+
+def test_parameters_are_checked_at_the_boundary(features):
+    m = mw.put_model(features)
+    forces = mw.flexures(m)
+    n = len(forces)
+    K = forces.parameters()["K"].copy()
+    bad = K.copy()
+    bad[0, 3, 0, 0] = -1.0
+    with pytest.raises(ValueError, match=r"K of flexure 'e3'.*not positive semi-definite"):
+        mw.set_parameters(m, K=bad)
+    with pytest.raises(ValueError, match=rf"shape \({n}, 6, 6\) or \(worlds, {n}, 6, 6\)"):
+        mw.set_parameters(m, K=K[0, :3])
+    planar = K.copy()
+    planar[0, forces.index("planar"), 0, 0] = 1.0
+    with pytest.raises(ValueError, match="flexure 'planar': the element is planar"):
+        mw.set_parameters(m, K=planar)
+    with pytest.raises(TypeError, match="enabled must be booleans"):
+        mw.set_parameters(m, enabled=np.ones(n))
+    mw.set_parameters(m, K=np.repeat(K, 3, axis=0))
+    d = mjw.make_data(features, nworld=2)
+    with pytest.raises(ValueError, match="per-world K has 3 worlds but the data has 2"):
+        mw.wrenches(m, d)
+
+
+# ------------------------------------------------------------------------ the model
+
+
+def test_put_model_works_on_a_copy_and_says_what_it_did(two_body):
+    """The user's model is untouched; sleep="never" and the plugin instances are handled on the copy and listed."""
+    before = two_body.tree_sleep_policy.copy()
+    m = mw.put_model(two_body)
+    np.testing.assert_array_equal(two_body.tree_sleep_policy, before)
+    assert (before == int(mujoco.mjtSleepPolicy.mjSLEEP_NEVER)).all()
+    forces = mw.flexures(m)
+    notes = " ".join(forces.adaptations)
+    assert "mjSLEEP_NEVER of the trees of A, B set to mjSLEEP_AUTO_NEVER" in notes
+    assert "1 mjflex.flexure plugin instances" in notes
+    assert forces.names == ("hinge",) and forces.precision == "float32"
+    with pytest.raises(TypeError, match=r"make it with mjflex\.warp\.put_model"):
+        mw.flexures(mjw.put_model(mujoco.MjModel.from_xml_path("models/two_body.xml")))
+
+
+def test_mujoco_warp_itself_still_fails_on_plugin_instances(two_body):
+    """mjflex.warp.put_model works around MuJoCo Warp 4.0.0's put_model on models with non-geom plugin instances;
+    when this fails, MuJoCo Warp was fixed and the work-around (mjflex.warp._plugin_arrays_sized) can go."""
+    model = copy.copy(two_body)
+    model.tree_sleep_policy[:] = int(mujoco.mjtSleepPolicy.mjSLEEP_AUTO_NEVER)
+    with pytest.raises(RuntimeError, match="reshape"):
+        mjw.put_model(model)
+
+
+def test_features_the_kernels_lack_are_refused_by_name(two_body):
+    """An element feature the Warp kernels do not implement (here: a record field they do not know, as end stops
+    will add) is refused with the element's and the feature's names, never ignored."""
+    from mjflex.mj.schema import FlexureRecord
+    from mjflex.warp import _mjflex
+
+    @dataclasses.dataclass
+    class WithStops(FlexureRecord):
+        stops: tuple | None = None
+
+    flex = mjflex.Flexures(copy.copy(two_body))
+    fields = {f.name: getattr(flex.records[0], f.name) for f in dataclasses.fields(FlexureRecord)}
+    flex._tables.records[0] = WithStops(**fields, stops=(0.1, 0.2))
+    with pytest.raises(mw.UnsupportedElementError, match="flexure 'hinge' uses stops"):
+        _mjflex.element_table(flex.model, flex)
+    flex._tables.records[0] = WithStops(**fields)  # the default: nothing to refuse
+    assert _mjflex.element_table(flex.model, flex).names == ("hinge",)
+
+
+def test_foreign_plugin_instances_and_sleeping_at_start_are_refused(two_body, monkeypatch):
+    """A plugin instance that is not an mjflex element and not attached to a geom would be dropped silently by
+    MuJoCo Warp (plugins attached to bodies, actuators or sensors it refuses itself); no such plugin ships with
+    MuJoCo, so the model's mjflex instance is made to look foreign. Trees that start asleep are refused too."""
+    from mjflex.warp import _mjflex
+
+    with monkeypatch.context() as patch:
+        patch.setattr(_mjflex, "mjflex_instances", lambda model: [])
+        with pytest.raises(NotImplementedError, match=r"'hinge' are neither mjflex\.flexure elements nor geom plugins"):
+            mw.put_model(two_body)
+    spec = mujoco.MjSpec.from_file(TWO_BODY)
+    spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    spec.body("A").sleep = mujoco.mjtSleepPolicy.mjSLEEP_INIT
+    with (
+        pytest.raises(NotImplementedError, match="tree of body 'A' starts asleep"),
+        pytest.warns(UserWarning, match="may sleep"),
+    ):
+        mw.put_model(spec.compile())
