@@ -9,6 +9,7 @@ once per module and share MuJoCo Warp's compiled kernels where their sizes allow
 import copy
 import ctypes
 import dataclasses
+import re
 
 import mujoco
 import mujoco_warp as mjw
@@ -163,6 +164,99 @@ def test_disable_flags_switch_off_the_elastic_and_viscous_parts(features):
             assert not got["power"].any()
 
 
+# ------------------------------------------------------------------------ trajectories
+
+
+@pytest.mark.parametrize(("path", "nstep"), [(TWO_BODY, 300), (ARCADE, 100)])
+def test_trajectories_match_the_c_engine(path, nstep):
+    """The two-body model (300 steps of 2e-5 s: 1.5 swings of the stiffest mode... and the keyframe's spin) and
+    ARCADE (100 steps of 1e-5 s of the paper's run: 105 rad/s and 5 m/s), each from its keyframe and from a
+    random state, stepped by MuJoCo Warp (RK4, float32) against the C plugin (RK4, float64).
+
+    Derivation of the bound: MuJoCo Warp rounds, in every step, what it stores (qpos, qvel) and in each of
+    RK4's four stages the kinematics and the forces: 10 roundings per step, each at most u = 2^-24 of the
+    magnitudes combined, which act like perturbations of the state of that size: positions by u L (L the
+    model's size: kinematics and forces are computed from coordinates of that size), rotations by u,
+    velocities by u |v| (tests/warp_bounds.perturbation_scales). How the trajectory amplifies such
+    perturbations (its condition, stiff modes included) is measured with the C engine in float64: the run is
+    repeated with every qpos and qvel component moved by +- 10 u times its scale before each step (random
+    signs, 4 seeds). The bound, per step and per joint group (positions, rotation, linear and angular
+    velocity), is the largest deviation of those runs from the unperturbed one. Both start from the float32
+    rounding of the state.
+    """
+    model = mujoco.MjModel.from_xml_path(path)
+    rng = np.random.default_rng(2)
+    key = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, key, 0)
+    starts = [(key.qpos.copy(), key.qvel.copy()), random_state(model, rng, angle=0.05, shift=1e-4, speed=0.5)]
+    m = mw.put_model(model)
+    d = _worlds(model, m, starts)
+    got = np.empty((nstep, len(starts), model.nq + model.nv))
+    for k in range(nstep):
+        mjw.step(m, d)
+        got[k] = np.concatenate([d.qpos.numpy(), d.qvel.numpy()], axis=1)
+    assert not mw.divergences(m, d)
+    groups = wb.state_groups(model)
+    for w, (qpos, qvel) in enumerate(starts):
+        ref, bound = wb.trajectory_bound(model, qpos, qvel, nstep)
+        err = np.stack([np.abs(got[:, w] - ref)[:, g].max(1) for g in groups], 1)
+        ratio = err / np.maximum(bound, 1e-300)
+        assert (err <= bound).all(), (w, np.unravel_index(np.argmax(ratio), ratio.shape), ratio.max())
+        print(f"{path} world {w}: largest error / bound {ratio.max():.2g} over {nstep} steps")
+
+
+# ------------------------------------------------------------------------ divergence
+
+
+def test_divergence_is_reported_per_world_with_the_element_and_the_step(two_body):
+    """Worlds 1 and 3 are 1e4 times stiffer (unstable at the model's step: omega h ~ 20), world 4 has a stiffness
+    whose wrench overflows float32 at a finite state: each is reported with the element and the step, the step
+    the same as the C engine's report for that stiffness; the other worlds run on unaffected; a diverged world's
+    state is NaN from then on; a reset (time running back) starts a new run."""
+    table = mw.element_table(copy.copy(two_body))
+    scale = np.array([1.0, 1e4, 1.0, 1e4, 1.0])
+    m = mw.put_model(two_body)
+    K = scale[:, None, None, None] * table.K[None]
+    K[4, 0] = np.diag([3e38] * 3 + [1e5] * 3)
+    mw.set_parameters(m, K=K, B=scale[:, None, None, None] * table.B[None])
+    key = mujoco.MjData(two_body)
+    mujoco.mj_resetDataKeyframe(two_body, key, 0)
+    qpos = key.qpos.copy()
+    qpos[10:14] = [np.cos(1.25), 0, 0, np.sin(1.25)]  # world 4: B turned by 2.5 rad about z: K tau > 3.4e38
+    d = _worlds(two_body, m, [(key.qpos, key.qvel)] * 4 + [(qpos, key.qvel)])
+    for _ in range(10):
+        mjw.step(m, d)
+    found = {v.world: v for v in mw.divergences(m, d)}
+    assert sorted(found) == [1, 3, 4]
+    np.testing.assert_array_equal(mw.diverged(m, d), [False, True, False, True, True])
+    # the C engine on the same stiffness, auto-reset off: its report names the step
+    spec = mujoco.MjSpec.from_file(TWO_BODY)
+    from mjflex.app.sweep.recipe import edit_flexure
+
+    edit_flexure(spec, "hinge", K=1e4 * table.K[0], B=1e4 * table.B[0])
+    model = spec.compile()
+    model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    with pytest.raises(mujoco.FatalError, match=r"step index (\d+)") as c_error:
+        mujoco.mj_step(model, data, 10)
+    c_step = int(re.search(r"step index (\d+)", str(c_error.value)).group(1))
+    for w in (1, 3):
+        v = found[w]
+        assert (v.element, v.step) == ("hinge", c_step), v
+        assert f"world {w} diverged in the step from t = {c_step * 2e-5:.9g} s (step index {c_step}" in v.message
+        assert "flexure 'hinge''s force alone accelerated" in v.message
+    assert found[4].step == 0 and found[4].reason.startswith("its wrench is not finite"), found[4]
+    qpos_now, qvel_now = d.qpos.numpy(), d.qvel.numpy()
+    # (MuJoCo Warp normalizes a NaN quaternion to the identity: positions and velocities stay NaN)
+    assert np.isnan(qvel_now[[1, 3, 4]]).all() and np.isnan(qpos_now[[1, 3, 4]]).any(axis=1).all()
+    assert np.isfinite(qpos_now[[0, 2]]).all() and np.isfinite(qvel_now[[0, 2]]).all()
+    np.testing.assert_array_equal(qpos_now[0], qpos_now[2])  # the others run on as one
+    mjw.reset_data(m, d)  # every world back to qpos0 at rest, time 0: a new run
+    mjw.step(m, d)
+    assert not mw.divergences(m, d) and np.isfinite(d.qvel.numpy()).all()
+
+
 # ------------------------------------------------------------------------ per-world parameters
 
 
@@ -225,6 +319,8 @@ def test_parameters_are_checked_at_the_boundary(features):
     planar[0, forces.index("planar"), 0, 0] = 1.0
     with pytest.raises(ValueError, match="flexure 'planar': the element is planar"):
         mw.set_parameters(m, K=planar)
+    with pytest.raises(ValueError, match="beyond float32's range"):
+        mw.set_parameters(m, K=K[0] * 1e40)
     with pytest.raises(TypeError, match="enabled must be booleans"):
         mw.set_parameters(m, enabled=np.ones(n))
     mw.set_parameters(m, K=np.repeat(K, 3, axis=0))

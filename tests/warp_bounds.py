@@ -122,3 +122,74 @@ def bounds(model, data, flex, unit_arith=U32) -> dict:
     K = np.abs(flex._elements["K"][:n].reshape(n, 6, 6))
     out["energy"] += 0.5 * np.einsum("ei,eij,ej->e", out["twist"], K, out["twist"])
     return out
+
+
+#: Roundings per RK4 step of MuJoCo Warp that act like relative perturbations of the state: the stored qpos
+#: and qvel (2), and in each of the 4 stages the kinematics and the forces (8).
+N_STEP_ROUNDINGS = 10
+
+
+def state_groups(model):
+    """Index groups of ``[qpos; qvel]`` compared together: per joint its positions, rotation, velocities."""
+    groups, nq = [], model.nq
+    for j in range(model.njnt):
+        q, v, kind = int(model.jnt_qposadr[j]), nq + int(model.jnt_dofadr[j]), int(model.jnt_type[j])
+        if kind == int(mujoco.mjtJoint.mjJNT_FREE):
+            groups += [range(q, q + 3), range(q + 3, q + 7), range(v, v + 3), range(v + 3, v + 6)]
+        elif kind == int(mujoco.mjtJoint.mjJNT_BALL):
+            groups += [range(q, q + 4), range(v, v + 3)]
+        else:
+            groups += [range(q, q + 1), range(v, v + 1)]
+    return [list(g) for g in groups]
+
+
+def perturbation_scales(model, data):
+    """The size of one rounding of each ``[qpos; qvel]`` component: MuJoCo Warp computes positions, kinematics and
+    forces from coordinates of the size of the model (``L``, the largest body or site distance from the origin), so
+    positions are off by ``u L`` (not ``u |x|``: a body at the origin has forces from its neighbours' positions),
+    rotations by ``u``, velocities by ``u`` times their joint's velocity norm."""
+    L = max(np.linalg.norm(data.xpos, axis=1).max(), np.linalg.norm(data.site_xpos, axis=1).max(initial=0.0))
+    qs, vs = np.full(model.nq, L), np.zeros(model.nv)
+    for j in range(model.njnt):
+        q, v, kind = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), int(model.jnt_type[j])
+        if kind == int(mujoco.mjtJoint.mjJNT_FREE):
+            qs[q + 3 : q + 7] = 1.0
+            for a in (v, v + 3):
+                vs[a : a + 3] = np.linalg.norm(data.qvel[a : a + 3])
+        elif kind == int(mujoco.mjtJoint.mjJNT_BALL):
+            qs[q : q + 4], vs[v : v + 3] = 1.0, np.linalg.norm(data.qvel[v : v + 3])
+        else:
+            qs[q] = 1.0 if kind == int(mujoco.mjtJoint.mjJNT_HINGE) else L
+            vs[v] = abs(data.qvel[v])
+    return qs, vs
+
+
+def c_trajectory(model, qpos, qvel, nstep, *, perturb=0.0, seed=0):
+    """``[qpos; qvel]`` after each of ``nstep`` C-engine steps from (qpos, qvel) rounded to float32; with
+    ``perturb``, every component is moved by ``+- perturb u32`` times its :func:`perturbation_scales` (random
+    signs) before each step."""
+    rng = np.random.default_rng(seed)
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = np.float32(qpos), np.float32(qvel)
+    out = np.empty((nstep, model.nq + model.nv))
+    for k in range(nstep):
+        if perturb:  # before the step: its kinematics and forces see the perturbed state
+            mujoco.mj_kinematics(model, data)
+            qs, vs = perturbation_scales(model, data)
+            data.qpos[:] += perturb * U32 * qs * rng.choice([-1.0, 1.0], model.nq)
+            data.qvel[:] += perturb * U32 * vs * rng.choice([-1.0, 1.0], model.nv)
+        mujoco.mj_step(model, data)
+        out[k] = np.concatenate([data.qpos, data.qvel])
+    return out
+
+
+def trajectory_bound(model, qpos, qvel, nstep, seeds=4):
+    """``(reference, bound)``: the C trajectory and, per step and state group, the largest deviation of
+    ``seeds`` runs perturbed by ``N_STEP_ROUNDINGS u32`` per step (see tests/test_warp.py)."""
+    ref = c_trajectory(model, qpos, qvel, nstep)
+    groups = state_groups(model)
+    bound = np.zeros((nstep, len(groups)))
+    for seed in range(seeds):
+        dev = np.abs(c_trajectory(model, qpos, qvel, nstep, perturb=N_STEP_ROUNDINGS, seed=seed) - ref)
+        bound = np.maximum(bound, np.stack([dev[:, g].max(1) for g in groups], 1))
+    return ref, bound

@@ -18,6 +18,7 @@ _KIND_TEXT = {
     kn.BAD_QVEL: "MuJoCo Warp's qvel became non-finite or beyond 1e10",
 }
 _SPRING, _DAMPER = int(mujoco.mjtDisableBit.mjDSBL_SPRING), int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 _OFF_PLANE = np.ones((6, 6), bool)
 _OFF_PLANE[np.ix_(PLANAR_INDEX, PLANAR_INDEX)] = False
 
@@ -96,6 +97,9 @@ class WarpFlexures:
         self._start = wp.array(table.start, dtype=wp.int32, device=d)
         self._element = wp.array(table.element, dtype=wp.int32, device=d)
         self._code = wp.array(table.code, dtype=wp.int32, device=d)
+        for e in range(len(self)):
+            lo, hi = table.ints[e, kn.I_LO], table.ints[e, kn.I_HI]
+            self._check_range(table.coefs[lo:hi], f"a polynomial term's coefficient of flexure '{self.names[e]}'")
         self._params = k["Params"]()
         self._real = real
         self._host = {}
@@ -161,12 +165,21 @@ class WarpFlexures:
         what = "stiffness" if name == "K" else "damping"
         for e, element in enumerate(self.names):
             validation.check_psd_matrix(a[:, e], f"{name} of flexure '{element}' (per world)", 6, what=what)
+            self._check_range(a[:, e], f"{name} of flexure '{element}'")
             if self._table.planar[e] and (a[:, e][:, _OFF_PLANE] != 0).any():
                 raise ValueError(
                     f"{name} of flexure '{element}': the element is planar, so only rows/columns "
                     f"{list(PLANAR_INDEX)} ([theta_z; x; y]) may be non-zero; got out-of-plane entries"
                 )
         return np.ascontiguousarray(a)
+
+    def _check_range(self, a, what):
+        big = float(np.abs(a).max(initial=0.0))
+        if self.precision == "float32" and big > _FLOAT32_MAX:
+            raise ValueError(
+                f"{what} has an entry of {big:.3g}, beyond float32's range ({_FLOAT32_MAX:.3g}): the float32 kernels "
+                "would see infinity. Use mjflex.warp.put_model(..., precision=\"float64\"), or check the units"
+            )
 
     def parameters(self) -> dict:
         """The per-world parameters as set: ``K``, ``B`` ``(worlds or 1, n, 6, 6)``, ``enabled``, ``viscous``."""
