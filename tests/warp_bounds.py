@@ -19,6 +19,8 @@ result computed from float32 kinematics differs from it by
 import mujoco
 import numpy as np
 
+import mjflex
+
 U32 = 2.0**-24
 U64 = 2.0**-53
 #: Dependent roundings along the element math: three quaternion products (4 each), the coordinates (~10),
@@ -172,7 +174,13 @@ def c_trajectory(model, qpos, qvel, nstep, *, perturb=0.0, seed=0):
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:] = np.float32(qpos), np.float32(qvel)
     out = np.empty((nstep, model.nq + model.nv))
-    for k in range(nstep):
+    with mjflex.Flexures(model):  # text records need the provider; plugin elements are the model's own
+        _steps(model, data, out, perturb, rng)
+    return out
+
+
+def _steps(model, data, out, perturb, rng):
+    for k in range(len(out)):
         if perturb:  # before the step: its kinematics and forces see the perturbed state
             mujoco.mj_kinematics(model, data)
             qs, vs = perturbation_scales(model, data)
@@ -180,7 +188,6 @@ def c_trajectory(model, qpos, qvel, nstep, *, perturb=0.0, seed=0):
             data.qvel[:] += perturb * U32 * vs * rng.choice([-1.0, 1.0], model.nv)
         mujoco.mj_step(model, data)
         out[k] = np.concatenate([data.qpos, data.qvel])
-    return out
 
 
 def trajectory_bound(model, qpos, qvel, nstep, seeds=4):
@@ -193,3 +200,36 @@ def trajectory_bound(model, qpos, qvel, nstep, seeds=4):
         dev = np.abs(c_trajectory(model, qpos, qvel, nstep, perturb=N_STEP_ROUNDINGS, seed=seed) - ref)
         bound = np.maximum(bound, np.stack([dev[:, g].max(1) for g in groups], 1))
     return ref, bound
+
+
+def observation_bounds(model, flex, qpos, qvel, steps, observe):
+    """Per observed name, the bound of ``observe`` at each step count in ``steps`` (after that many C steps from
+    (qpos, qvel)): the observation's sensitivity to the state, each component moved by its trajectory bound
+    (:func:`trajectory_bound`, per joint group), summed (central differences, first order)."""
+    ref, bound = trajectory_bound(model, qpos, qvel, max(steps))
+    groups = state_groups(model)
+    out = []
+    data = mujoco.MjData(model)
+    nq = model.nq
+
+    def seen(x):
+        data.qpos[:], data.qvel[:] = x[:nq], x[nq:]
+        mujoco.mj_forward(model, data)
+        values = observe(model, flex, data).items()
+        return {k: np.asarray(v[1] if isinstance(v, tuple) else v, float) for k, v in values}
+
+    for k in steps:
+        b = np.zeros(ref.shape[1])
+        for g, idx in enumerate(groups):
+            b[idx] = bound[k - 1, g]
+        total = {name: np.zeros_like(v) for name, v in seen(ref[k - 1]).items()}
+        for j in np.flatnonzero(b):
+            x = ref[k - 1].copy()
+            x[j] += b[j]
+            up = seen(x)
+            x[j] -= 2 * b[j]
+            down = seen(x)
+            for name in total:
+                total[name] += 0.5 * np.abs(up[name] - down[name])
+        out.append(total)
+    return out

@@ -256,6 +256,8 @@ def sweep(
         "threads": plan.threads, "chunks": chunks, "registry_parts": stats["parts"],
         "wall_time_s": time.perf_counter() - start, "mujoco_version": mujoco.__version__,
     }  # fmt: skip
+    if on_warp:
+        attrs["warp_batches"] = stats["warp_batches"]  # MuJoCo Warp batches the variants were grouped into
     ds = assemble(g, outcomes, schema, times, attrs)
     line = summary_line(ds)
     if line:

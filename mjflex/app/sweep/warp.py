@@ -5,9 +5,9 @@ its variants are grouped: variants that differ only in what MuJoCo Warp can vary
 share one MuJoCo Warp model and step together as its worlds. What can vary: the elements' K, B
 and switches (:func:`mjflex.warp.set_parameters`), and any model array that MuJoCo Warp keeps per
 world (masses, inertias, body poses, joint stiffness, geom sizes, ...: the fields it declares
-batched, whose values it takes as they are from the ``MjModel``). Variants that differ in
-anything else, or in their options or sizes, form groups of their own; each group is one MuJoCo
-Warp batch.
+batched, whose values it takes as they are from the ``MjModel``), and model arrays MuJoCo Warp
+does not have (so does not read). Variants that differ in anything else, or in their options or
+sizes, form groups of their own; each group is one MuJoCo Warp batch.
 
 Initial states are each variant's own (keyframe or ``qpos0``), observed as they are; later
 observations load the world's float32 state into a ``mujoco.MjData`` of the variant's own model
@@ -75,8 +75,9 @@ class _Group:
             if np.array_equal(value, ref[name]):
                 continue
             field = getattr(mjw_model, name, None)
-            spec = _batched_spec(name)
-            if field is None or spec is None or not _taken_as_is(field, ref[name]):
+            if field is None:  # MuJoCo Warp has no such field (dof_M0, ...): its stepping does not read it
+                continue
+            if _batched_spec(name) is None or not _taken_as_is(field, ref[name]):
                 first = self.ref.outcome.index
                 return f"its model differs from variant {first}'s in {name}, which MuJoCo Warp cannot vary per world"
             self.batched.add(name)
@@ -183,7 +184,7 @@ def _groups(sims, mw):
     return out
 
 
-def run_part(plan, rows, progress, stepping):
+def run_part(plan, rows, progress, stepping, stats):
     """Build, group, step and observe the variants ``rows`` (a list of ``(index, params)``); their outcomes."""
     import mujoco_warp as mjw
     import warp as wp
@@ -200,6 +201,7 @@ def run_part(plan, rows, progress, stepping):
             try:
                 _run_group(plan, group, progress, wp, mjw, mw)
                 stepping.add(WARP)
+                stats["batches"] += 1
             except Exception as exc:  # MuJoCo Warp refused the model: every variant of the group failed
                 message = f"MuJoCo Warp could not run the variant: {engine._exc_text(exc)}"
                 for s in group.sims:
@@ -210,7 +212,7 @@ def run_part(plan, rows, progress, stepping):
 
 def run_chunk(plan, rows, progress=None, part_size=PART_SIZE):
     """All variants ``rows`` on MuJoCo Warp, in parts of ``part_size`` (see :func:`engine.run_chunk`)."""
-    outcomes, parts, stepping = [], 0, set()
+    outcomes, parts, stepping, stats = [], 0, set(), {"batches": 0}
     for start in range(0, len(rows), part_size):
         part = rows[start : start + part_size]
         ticks = [0.0]
@@ -219,8 +221,8 @@ def run_chunk(plan, rows, progress=None, part_size=PART_SIZE):
             ticks[0] += n
             progress(n)
 
-        outcomes += run_part(plan, part, tick if progress else None, stepping)
+        outcomes += run_part(plan, part, tick if progress else None, stepping, stats)
         if progress:
             progress(len(part) * (1 if plan.samples is None else plan.samples - 1) - ticks[0])
         parts += 1
-    return outcomes, {"parts": parts, "stepping": stepping}
+    return outcomes, {"parts": parts, "stepping": stepping, "warp_batches": stats["batches"]}
