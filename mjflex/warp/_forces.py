@@ -178,7 +178,7 @@ class WarpFlexures:
         if self.precision == "float32" and big > _FLOAT32_MAX:
             raise ValueError(
                 f"{what} has an entry of {big:.3g}, beyond float32's range ({_FLOAT32_MAX:.3g}): the float32 kernels "
-                "would see infinity. Use mjflex.warp.put_model(..., precision=\"float64\"), or check the units"
+                'would see infinity. Use mjflex.warp.put_model(..., precision="float64"), or check the units'
             )
 
     def parameters(self) -> dict:
