@@ -393,3 +393,33 @@ def test_foreign_plugin_instances_and_sleeping_at_start_are_refused(two_body, mo
         pytest.warns(UserWarning, match="may sleep"),
     ):
         mw.put_model(spec.compile())
+
+
+# ------------------------------------------------------------------------ the benchmark script
+
+
+def test_benchmark_script_writes_its_table_json_and_log(tmp_path):
+    """scripts/bench_warp.py at the smallest sizes (the documented figures come from it, on an idle machine and on a
+    GPU): one timed size per case with its spread and its ratio to rollout, the next size skipped for the time
+    budget and said so, the device and the command recorded."""
+    import json
+    import os
+    import sys
+
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
+    import bench_warp
+
+    bench_warp.main(["--out", str(tmp_path), "--models", "two_body", "--worlds", "2,64", "--repeat", "2", "--target",
+                     "0.01", "--threads", "1", "--budget", "1", "--no-check"])  # fmt: skip
+    with open(tmp_path / "bench_warp_cpu.json") as f:
+        payload = json.load(f)
+    model = payload["models"]["two_body"]
+    row = model["worlds"]["2"]
+    assert set(row) >= {"warp", "warp_bare", "rollout", "batch"} and row["rollout"]["ratio_median"] == 1.0
+    for case in ("warp", "warp_bare", "rollout", "batch"):
+        assert row[case]["world_steps_per_s_median"] > 0 and row[case]["repeats"] == 2
+        assert row[case]["world_steps_per_s_min"] <= row[case]["world_steps_per_s_max"]
+    assert row["diverged_worlds"] == {"warp": 0} and "64" in model["skipped"] and "budget" in model["skipped"]["64"]
+    assert payload["device"]["is_cuda"] is False and {"command", "date", "machine"} <= set(payload)
+    log = (tmp_path / "bench_warp_cpu.log").read_text()
+    assert "two_body       2 worlds: rollout" in log and "skipped" in log

@@ -58,7 +58,7 @@ class Watch:
     accel: wp.array(dtype=wp.float32)
 
 
-@wp.kernel(module="unique")
+@wp.kernel(module="unique", enable_backward=False)
 def watch_kernel(
     time: wp.array(dtype=wp.float32),
     timestep: wp.array(dtype=wp.float32),
@@ -368,7 +368,7 @@ def build(real):
             return V8(e1[0], e1[1], e1[2], e2[0], e2[1], e2[2], real(0.0), real(0.0))
         return V8(w, e1[0], e1[1], e1[2], s_d, e2[0], e2[1], e2[2])
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False)
     def wrench_kernel(
         el: Elements,
         par: Params,
@@ -473,7 +473,7 @@ def build(real):
         else:
             out.mom_a[w, e] = mo + wp.cross(pb - vec_in(subtree_com[w, el.ints[e, I_ROOT_A]]), f)
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False)
     def gather_kernel(
         start: wp.array(dtype=wp.int32),
         element: wp.array(dtype=wp.int32),
@@ -517,7 +517,7 @@ def build(real):
                 total = total + real(wp.nan)
         qfrc[w, j] = qfrc[w, j] + wp.float32(total)
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False)
     def potential_kernel(
         el: Elements,
         par: Params,
@@ -552,7 +552,7 @@ def build(real):
         t1, t2, _c0, _c1, _c2, _c3, _c4, _c5 = coords(TWIST, q, p, el)
         twist[w, e] = V6(t1[0], t1[1], t1[2], t2[0], t2[1], t2[2])
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False)
     def scalars_kernel(n2: wp.array(dtype=real), qw: wp.array(dtype=real), el: Elements, out: wp.array(dtype=V3)):
         """(alpha / n, c, g) of quaternions given by |vector part|^2 and w (for tests against the C engine)."""
         i = wp.tid()
