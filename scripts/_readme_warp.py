@@ -114,7 +114,7 @@ def block_warp_float32(results):
     k0, k1 = r["stiffness_range"]
     return (
         f"ARCADE (elastic modes {sig(lo, 3)} Hz … {sig(hi, 3)} Hz, diagonal stiffness {sig(k0)} … {sig(k1, 3)} "
-        "in N m/rad and N/m), on Warp's CPU device against the C engine in float64; {command_note(r)}.\n\n"
+        f"in N m/rad and N/m), on Warp's CPU device against the C engine in float64; {command_note(r)}.\n\n"
         f"Element wrenches at states moved from rest ({len(f)} amplitudes, 8 states each, all 48 elements):\n\n"
         f"{forces}\n"
         f"Energy over {e['steps']} RK4 steps of {e['timestep_s'] * 1e6:g} µs, undamped (kinetic + elastic, "
