@@ -41,22 +41,21 @@ from _bench import spread_of, timing_row, write_json
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MODELS = {"arcade": "models/arcade.xml", "two_body": "models/two_body_plugin.xml"}
 CASES = ("rollout", "warp", "warp_bare", "batch")  # the first is the baseline of the ratios
+MIN_LEFT_S = 20.0  # a size is not started with less of the budget left
 
 
 class Log:
-    """Print and keep every line for the log file."""
+    """Print every line and append it to the log file at once (a run stopped by a time limit keeps its log)."""
 
     def __init__(self, path):
-        self.path, self.lines = path, []
+        self.path = path
+        open(path, "w").close()
 
     def __call__(self, *parts):
         line = " ".join(str(p) for p in parts)
         print(line, flush=True)
-        self.lines.append(line)
-
-    def write(self):
-        with open(self.path, "w") as f:
-            f.write("\n".join(self.lines) + "\n")
+        with open(self.path, "a") as f:
+            f.write(line + "\n")
 
 
 def device_info(wp, device):
@@ -208,11 +207,17 @@ class Cases:
         return {name: len(mw.divergences(getattr(self, name)["m"], getattr(self, name)["d"])) for name in ("warp",)}
 
 
-def bench_model(name, wp, mjw, mw, args, device, log, deadline):
+def bench_model(name, wp, mjw, mw, args, device, log, deadline, save):
     model = mujoco.MjModel.from_xml_path(os.path.join(ROOT, MODELS[name]))
     rows, skipped, per_world_step = {}, {}, None
+    out = {"path": MODELS[name], "nbody": model.nbody, "nv": model.nv, "timestep_s": float(model.opt.timestep),
+           "integrator": "RK4", "worlds": rows, "skipped": skipped}  # fmt: skip
     for n in args.worlds:
         left = deadline - time.perf_counter()
+        if left < MIN_LEFT_S:
+            skipped[str(n)] = f"{left:.0f} s of the budget left"
+            log(f"{name}, {n} worlds: skipped ({skipped[str(n)]})")
+            continue
         if per_world_step is not None:
             estimate = args.repeat * sum(max(args.target, n * t) for t in per_world_step.values()) * 1.5 + 5
             if estimate > left:
@@ -250,8 +255,8 @@ def bench_model(name, wp, mjw, mw, args, device, log, deadline):
         row["cuda_graph"] = {c: cases.warp_graph(c) for c in ("warp", "warp_bare")} if device.is_cuda else None
         rows[str(n)] = row
         log(_table_line(name, n, row))
-    return {"path": MODELS[name], "nbody": model.nbody, "nv": model.nv, "timestep_s": float(model.opt.timestep),
-            "integrator": "RK4", "worlds": rows, "skipped": skipped}  # fmt: skip
+        save(name, out)
+    return out
 
 
 def _table_line(name, n, row):
@@ -297,18 +302,19 @@ def main(argv=None):
                "target_s": args.target, "budget_s": args.budget, "cases": list(CASES), "models": {}}  # fmt: skip
     log(f"mjflex on MuJoCo Warp, device {device.alias} ({device.name}); C baselines on {args.threads} threads of "
         f"{os.cpu_count()} CPUs; load average {os.getloadavg()[0]:.1f}")  # fmt: skip
-    try:
-        with wp.ScopedDevice(device):
-            payload["check"] = {} if args.no_check else correctness_check(log)
-            log(
-                "world-steps per second, median of the repeats (throughput relative to rollout's in the same repeat: "
-                "median, min-max):"
-            )
-            for name in models:
-                payload["models"][name] = bench_model(name, wp, mjw, mw, args, device, log, deadline)
-    finally:
-        log.write()
-        write_json(os.path.join(args.out, f"bench_warp_{kind}.json"), payload)
+    path = os.path.join(args.out, f"bench_warp_{kind}.json")
+
+    def save(name, rows):  # after every size: a run stopped by a time limit keeps what it measured
+        payload["models"][name] = rows
+        write_json(path, payload)
+
+    with wp.ScopedDevice(device):
+        payload["check"] = {} if args.no_check else correctness_check(log)
+        write_json(path, payload)
+        log("world-steps per second, median of the repeats (throughput relative to rollout's in the same repeat: "
+            "median, min-max):")  # fmt: skip
+        for name in models:
+            save(name, bench_model(name, wp, mjw, mw, args, device, log, deadline, save))
 
 
 if __name__ == "__main__":

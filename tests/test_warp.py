@@ -409,8 +409,8 @@ def test_benchmark_script_writes_its_table_json_and_log(tmp_path):
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
     import bench_warp
 
-    bench_warp.main(["--out", str(tmp_path), "--models", "two_body", "--worlds", "2,64", "--repeat", "2", "--target",
-                     "0.01", "--threads", "1", "--budget", "1", "--no-check"])  # fmt: skip
+    bench_warp.main(["--out", str(tmp_path), "--models", "two_body", "--worlds", "2,8192", "--repeat", "2", "--target",
+                     "0.01", "--threads", "1", "--budget", "24", "--no-check"])  # fmt: skip
     with open(tmp_path / "bench_warp_cpu.json") as f:
         payload = json.load(f)
     model = payload["models"]["two_body"]
@@ -419,7 +419,7 @@ def test_benchmark_script_writes_its_table_json_and_log(tmp_path):
     for case in ("warp", "warp_bare", "rollout", "batch"):
         assert row[case]["world_steps_per_s_median"] > 0 and row[case]["repeats"] == 2
         assert row[case]["world_steps_per_s_min"] <= row[case]["world_steps_per_s_max"]
-    assert row["diverged_worlds"] == {"warp": 0} and "64" in model["skipped"] and "budget" in model["skipped"]["64"]
+    assert row["diverged_worlds"] == {"warp": 0} and "8192" in model["skipped"] and "budget" in model["skipped"]["8192"]
     assert payload["device"]["is_cuda"] is False and {"command", "date", "machine"} <= set(payload)
     log = (tmp_path / "bench_warp_cpu.log").read_text()
     assert "two_body       2 worlds: rollout" in log and "skipped" in log
