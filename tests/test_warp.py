@@ -383,7 +383,7 @@ def test_foreign_plugin_instances_and_sleeping_at_start_are_refused(two_body, mo
 
     with monkeypatch.context() as patch:
         patch.setattr(_mjflex, "mjflex_instances", lambda model: [])
-        with pytest.raises(NotImplementedError, match=r"'hinge' are neither mjflex\.flexure elements nor geom plugins"):
+        with pytest.raises(NotImplementedError, match=r"'hinge' are neither mjflex\.flexure elements nor attached"):
             mw.put_model(two_body)
     spec = mujoco.MjSpec.from_file(TWO_BODY)
     spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)

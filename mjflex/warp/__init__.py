@@ -164,14 +164,16 @@ def _name(model, objtype, i, fallback):
 
 def _check_plugins(model, table) -> list[str]:
     ours = set(_mjflex.mjflex_instances(model))
-    geom = {int(p) for p in model.geom_plugin if p >= 0}
-    others = [i for i in range(model.nplugin) if i not in ours and i not in geom]
+    # geom plugins MuJoCo Warp runs; those of bodies, actuators and sensors it refuses itself, with its own message
+    attached = {int(p) for a in (model.geom_plugin, model.body_plugin, model.actuator_plugin, model.sensor_plugin)
+                for p in a if p >= 0}  # fmt: skip
+    others = [i for i in range(model.nplugin) if i not in ours and i not in attached]
     if others:
         names = ", ".join(repr(_name(model, mujoco.mjtObj.mjOBJ_PLUGIN, i, "instance")) for i in others[:5])
         raise NotImplementedError(
-            f"mjflex.warp.put_model: plugin instance(s) {names} are neither mjflex.flexure elements nor geom plugins; "
-            "MuJoCo Warp would drop them silently (their forces or effects would be lost). Remove them for MuJoCo "
-            "Warp, or simulate the model with MuJoCo"
+            f"mjflex.warp.put_model: plugin instance(s) {names} are neither mjflex.flexure elements nor attached to "
+            "a geom, body, actuator or sensor; MuJoCo Warp would drop them silently (their forces or effects would be "
+            "lost). Remove them for MuJoCo Warp, or simulate the model with MuJoCo"
         )
     if not ours:
         return []
