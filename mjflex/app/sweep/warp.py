@@ -154,12 +154,15 @@ def _run_group(plan, group, progress, wp, mjw, mw):
 def _flag_diverged(sims, alive, divergences, d, h):
     for div in divergences:
         if alive[div.world]:
-            sims[div.world].diverge(div.message, div.element, div.step * h)
+            sim = sims[div.world]
+            message = div.message.replace(f"world {div.world} ", f"world {div.world} (variant {sim.outcome.index}) ", 1)
+            sim.diverge(message, div.element, div.step * h)
             alive[div.world] = False
     finite = np.isfinite(d.qpos.numpy()).all(1) & np.isfinite(d.qvel.numpy()).all(1)
     for i in np.flatnonzero(alive & ~finite):
-        sims[i].diverge(f"mjflex.warp: world {int(i)}'s state became non-finite (no flexure was found violent)", "",
-                        math.nan)  # fmt: skip
+        index = sims[i].outcome.index
+        sims[i].diverge(f"mjflex.warp: world {int(i)} (variant {index})'s state became non-finite (no flexure was "
+                        "found violent)", "", math.nan)  # fmt: skip
         alive[i] = False
 
 
