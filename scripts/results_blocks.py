@@ -62,6 +62,7 @@ from _readme_speed import (
     row_reduce_arcade,
     row_study_arcade,
 )
+from _readme_warp import WARP_BENCH, block_warp_bench, block_warp_float32
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 RESULTS = os.path.join(ROOT, "docs", "results")
@@ -631,6 +632,8 @@ BLOCKS = {
     "demo": (["demo"], block_demo),
     "step-cost": (["bench_step", "bench_step_2lanes"], block_step_cost),
     "plugin-overhead": (["bench_step"], inline_plugin_overhead),
+    "warp-float32": (["warp_float32"], block_warp_float32),
+    "warp-bench": (WARP_BENCH, block_warp_bench),  # only the throughput JSON recorded so far (GPU: where measured)
 }
 
 

@@ -314,8 +314,11 @@ def _sweep_parser(sub):
                     help="Rayleigh damping B = beta K of every flexure [s], comma-separated")  # fmt: skip
     sw.add_argument("--duration", type=float, default=0.03, help="simulated time per variant [s]")
     sw.add_argument("--samples", type=positive_int, default=61, help="observations from 0 to duration")
-    sw.add_argument("--executor", choices=["batch", "pool", "dask"], default="batch",
-                    help="batch: Batch threads here; pool: spawn process pool; dask: local cluster")  # fmt: skip
+    sw.add_argument("--executor", choices=["batch", "pool", "dask", "warp"], default="batch",
+                    help="batch: Batch threads here; pool: spawn process pool; dask: local cluster; warp: MuJoCo "
+                    'Warp, the variants as its worlds (float32; pip install "mjflex[warp]")')  # fmt: skip
+    sw.add_argument("--device", help="Warp device of --executor warp, e.g. cpu or cuda:0 (default: Warp's default, "
+                    "a GPU where there is one)")  # fmt: skip
     sw.add_argument("--workers", type=positive_int, default=2, help="processes for pool/dask")
     sw.add_argument("--threads", type=int, help="Batch threads per process (default: all CPUs here, 1 per worker)")
     sw.add_argument("--out", default="out", help="folder for sweep_arcade.nc, .png and .json, created if missing")
@@ -523,6 +526,8 @@ def main(argv=None):
     if args.command == "sweep":
         if args.threads is not None and args.threads < 0:
             ap.error("--threads must be >= 0 (0: all CPUs)")
+        if args.device is not None and args.executor != "warp":
+            ap.error("--device is for --executor warp")
         if not (args.duration >= 0 and math.isfinite(args.duration)):
             ap.error(f"--duration must be a finite number of seconds >= 0; got {args.duration:g}")
         check_output_folder(args.out)

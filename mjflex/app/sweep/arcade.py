@@ -59,10 +59,20 @@ def arcade_recipe() -> Recipe:
     return Recipe(source if isinstance(source, str) else source.to_xml(), arcade_edit, keyframe="paper_run")
 
 
-def make_executor(kind, workers):
-    """``(executor, closer)`` for ``kind`` in ``{"batch", "pool", "dask"}``."""
+def make_executor(kind, workers, device=None):
+    """``(executor, closer)`` for ``kind`` in ``{"batch", "pool", "dask", "warp"}`` (``device``: Warp's, for warp)."""
     if kind == "batch":
         return None, lambda: None
+    if kind == "warp":
+        try:
+            import warp
+        except ImportError:
+            raise SystemExit('error: --executor warp needs MuJoCo Warp: pip install "mjflex[warp]"') from None
+        if device is None:
+            return "warp", lambda: None
+        scope = warp.ScopedDevice(device)
+        scope.__enter__()
+        return "warp", lambda: scope.__exit__(None, None, None)
     if kind == "pool":
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
@@ -147,7 +157,7 @@ def run(args):
     from .api import sweep
 
     started = time.perf_counter()
-    executor, close = make_executor(args.executor, args.workers)
+    executor, close = make_executor(args.executor, args.workers, getattr(args, "device", None))
     recipe = arcade_recipe()
     try:
         with warnings.catch_warnings():

@@ -1,0 +1,317 @@
+"""The passive callback of a MuJoCo Warp model: the elements' arrays on the device, their per-world
+parameters, the launches, the queries and the per-world divergence records."""
+
+import weakref
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+import warp as wp
+
+from ..core import validation
+from . import _kernels as kn
+from ._mjflex import PLANAR_INDEX, ElementTable
+
+_KIND_TEXT = {
+    kn.NONFINITE: "its wrench is not finite at a finite state",
+    kn.BAD_QPOS: "MuJoCo Warp's qpos became non-finite or beyond 1e10",
+    kn.BAD_QVEL: "MuJoCo Warp's qvel became non-finite or beyond 1e10",
+}
+_SPRING, _DAMPER = int(mujoco.mjtDisableBit.mjDSBL_SPRING), int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+_OFF_PLANE = np.ones((6, 6), bool)
+_OFF_PLANE[np.ix_(PLANAR_INDEX, PLANAR_INDEX)] = False
+
+
+class WorldDivergence(NamedTuple):
+    """The first divergence of one world in its current run (see :func:`mjflex.warp.divergences`)."""
+
+    world: int
+    element: str  # the flexure blamed; '' when none was violent enough to blame
+    step: int  # index of the step that diverged, counting from 0
+    time: float  # the world's time when it was found [s] (MuJoCo Warp's float32 clock)
+    reason: str
+    message: str
+
+
+class _DataState:
+    """What one ``mujoco_warp.Data`` needs: the per-(world, element) results and the divergence watch."""
+
+    def __init__(self, k, n, nworld, device):
+        real = k["real"]
+        shape = (nworld, max(n, 1))
+        out = k["Out"]()
+        out.mo, out.f = wp.zeros(shape, k["V3"], device=device), wp.zeros(shape, k["V3"], device=device)
+        out.mom_a, out.mom_b = wp.zeros(shape, k["V3"], device=device), wp.zeros(shape, k["V3"], device=device)
+        out.power = wp.zeros(shape, real, device=device)
+        out.accel = wp.zeros(shape, wp.float32, device=device)
+        out.finite = wp.ones(shape, wp.int32, device=device)
+        self.out = out
+        watch = kn.Watch()
+        for name, value, dtype in (("last_time", 0.0, wp.float32), ("step", 0, wp.int32), ("evals", -1, wp.int32),
+                                   ("cand_element", -1, wp.int32), ("cand_accel", 0.0, wp.float32),
+                                   ("cand_step", 0, wp.int32), ("element", -1, wp.int32), ("kind", 0, wp.int32),
+                                   ("at_step", -1, wp.int32), ("time", 0.0, wp.float32),
+                                   ("accel", 0.0, wp.float32)):  # fmt: skip
+            setattr(watch, name, wp.full(nworld, value, dtype=dtype, device=device))
+        self.watch = watch
+        self.nworld = nworld
+
+
+class WarpFlexures:
+    """The flexure elements of a MuJoCo Warp model and the passive callback that adds their forces.
+
+    Made by :func:`mjflex.warp.put_model`, which sets it as ``m.callback.passive``; reach it with
+    :func:`mjflex.warp.flexures`. Attributes: ``names``, ``kinds`` (``"record"`` / ``"plugin"``),
+    ``records`` (the :class:`mjflex.FlexureRecord` of each element), ``precision`` of the element
+    math (``"float32"`` or ``"float64"``), ``mjmodel`` (the adapted copy of the MuJoCo model that
+    MuJoCo Warp was given) and ``adaptations`` (what :func:`~mjflex.warp.put_model` changed on it).
+    """
+
+    def __init__(self, table: ElementTable, mjmodel, precision: str, adaptations, device=None):
+        self.names, self.kinds, self.records = table.names, table.kinds, table.records
+        self.mjmodel, self.precision, self.adaptations = mjmodel, precision, tuple(adaptations)
+        self._index = {name: i for i, name in enumerate(self.names)}
+        self._table = table
+        self._k = k = kn.kernels(precision)
+        self.device = wp.get_device(device)
+        real = np.float64 if precision == "float64" else np.float32
+        d = self.device
+        el = k["Elements"]()
+        n1 = max(len(self), 1)  # arrays are never empty (a valid address)
+
+        def arr(a, dtype, shape=None):
+            a = np.asarray(a)
+            if a.shape[0] == 0:
+                a = np.zeros((n1, *a.shape[1:]), a.dtype)
+            return wp.array(a.astype(real) if a.dtype.kind == "f" else a, dtype=dtype, device=d)
+
+        el.ints = wp.array(table.ints if len(self) else np.zeros((1, kn.I_NCOL), np.int32), dtype=wp.int32, device=d)
+        el.qa, el.qb = arr(table.qa, k["Q4"]), arr(table.qb, k["Q4"])
+        el.p0, el.lever_a, el.lever_b = arr(table.p0, k["V3"]), arr(table.lever_a, k["V3"]), arr(table.lever_b, k["V3"])
+        el.inv_mass, el.inv_inertia = arr(table.inv_mass, k["real"]), arr(table.inv_inertia, k["real"])
+        el.exps = wp.array(table.exps, dtype=wp.int32, device=d)
+        el.coefs = arr(table.coefs, k["real"])
+        el.series_c, el.series_g = arr(table.series_c, k["real"]), arr(table.series_g, k["real"])
+        self._el = el
+        self._start = wp.array(table.start, dtype=wp.int32, device=d)
+        self._element = wp.array(table.element, dtype=wp.int32, device=d)
+        self._code = wp.array(table.code, dtype=wp.int32, device=d)
+        for e in range(len(self)):
+            lo, hi = table.ints[e, kn.I_LO], table.ints[e, kn.I_HI]
+            self._check_range(table.coefs[lo:hi], f"a polynomial term's coefficient of flexure '{self.names[e]}'")
+        self._params = k["Params"]()
+        self._real = real
+        self._host = {}
+        self.set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous)
+        self._states = {}
+        self._no_watch = wp.zeros(0, dtype=wp.int32, device=d)
+
+    def __len__(self):
+        return len(self.names)
+
+    def __repr__(self):
+        more = ", ..." if len(self) > 5 else ""
+        return f"WarpFlexures({len(self)} elements: {', '.join(self.names[:5])}{more}; {self.precision})"
+
+    def index(self, name) -> int:
+        """Row of element ``name`` in the per-element arrays."""
+        try:
+            return self._index[name]
+        except KeyError:
+            raise KeyError(f"no flexure named {name!r}; the elements are {list(self.names)[:10]}") from None
+
+    # ------------------------------------------------------------------ parameters
+
+    def set_parameters(self, *, K=None, B=None, enabled=None, viscous=None) -> None:
+        """Set the per-world parameters (see :func:`mjflex.warp.set_parameters`)."""
+        n, fields = len(self), {}
+        for name, value in (("K", K), ("B", B)):
+            if value is not None:
+                fields[name] = self._matrices(name, value)
+        for name, value in (("enabled", enabled), ("viscous", viscous)):
+            if value is not None:
+                a = np.asarray(value)
+                if a.dtype != bool:
+                    raise TypeError(f"{name} must be booleans, (n,) or (worlds, n) with n = {n}; got {a.dtype}")
+                if a.ndim == 1:
+                    a = a[None]
+                if a.ndim != 2 or a.shape[1] != n:
+                    raise ValueError(f"{name} must have shape ({n},) or (worlds, {n}); got {np.shape(value)}")
+                fields[name] = a
+        k, p = self._k, self._params
+        for name, a in fields.items():
+            self._host[name] = a
+            if len(self) == 0:
+                a = np.zeros((1, 1, 6, 6) if name in "KB" else (1, 1), a.dtype)
+            if name in ("K", "B"):
+                setattr(p, name, wp.array(a.astype(self._real), dtype=k["M66"], device=self.device))
+            else:
+                setattr(p, name, wp.array(a.astype(np.int32), dtype=wp.int32, device=self.device))
+
+    def _matrices(self, name, value):
+        n = len(self)
+        a = validation.numeric_array(value, name)
+        if a.shape[-2:] != (6, 6) and a.shape[-1:] == (6,):
+            a = a[..., :, None] * np.eye(6)  # diagonals
+        if a.ndim == 3:
+            a = a[None]
+        if a.ndim != 4 or a.shape[1:] != (n, 6, 6):
+            raise ValueError(
+                f"{name} must have shape ({n}, 6, 6) or (worlds, {n}, 6, 6) (or diagonals (..., {n}, 6)), one 6x6 "
+                f"matrix per element in the element frame (planar elements embedded at rows/columns "
+                f"{list(PLANAR_INDEX)}); got {np.shape(value)}"
+            )
+        what = "stiffness" if name == "K" else "damping"
+        for e, element in enumerate(self.names):
+            validation.check_psd_matrix(a[:, e], f"{name} of flexure '{element}' (per world)", 6, what=what)
+            self._check_range(a[:, e], f"{name} of flexure '{element}'")
+            if self._table.planar[e] and (a[:, e][:, _OFF_PLANE] != 0).any():
+                raise ValueError(
+                    f"{name} of flexure '{element}': the element is planar, so only rows/columns "
+                    f"{list(PLANAR_INDEX)} ([theta_z; x; y]) may be non-zero; got out-of-plane entries"
+                )
+        return np.ascontiguousarray(a)
+
+    def _check_range(self, a, what):
+        big = float(np.abs(a).max(initial=0.0))
+        if self.precision == "float32" and big > _FLOAT32_MAX:
+            raise ValueError(
+                f"{what} has an entry of {big:.3g}, beyond float32's range ({_FLOAT32_MAX:.3g}): the float32 kernels "
+                'would see infinity. Use mjflex.warp.put_model(..., precision="float64"), or check the units'
+            )
+
+    def parameters(self) -> dict:
+        """The per-world parameters as set: ``K``, ``B`` ``(worlds or 1, n, 6, 6)``, ``enabled``, ``viscous``."""
+        return {name: a.copy() for name, a in self._host.items()}
+
+    # ------------------------------------------------------------------ evaluation
+
+    def _state(self, d):
+        state = self._states.get(id(d))
+        if state is None or state.nworld != d.nworld:
+            state = self._states[id(d)] = _DataState(self._k, len(self), d.nworld, self.device)
+            weakref.finalize(d, self._states.pop, id(d), None)
+        return state
+
+    def _check_worlds(self, d):
+        for name, a in self._host.items():
+            if a.shape[0] not in (1, d.nworld):
+                raise ValueError(
+                    f"mjflex.warp: the per-world {name} has {a.shape[0]} worlds but the data has {d.nworld}; set "
+                    f"parameters for 1 or {d.nworld} worlds (mjflex.warp.set_parameters)"
+                )
+
+    def _launch_wrench(self, m, d, state):
+        flags = int(m.opt.disableflags)
+        wp.launch(
+            self._k["wrench"], dim=(d.nworld, len(self)), device=self.device,
+            inputs=[self._el, self._params, int(not flags & _SPRING), int(not flags & _DAMPER), d.xquat, d.site_xpos,
+                    d.cvel, d.subtree_com],
+            outputs=[state.out],
+        )  # fmt: skip
+
+    def _launch_gather(self, m, d, state, qfrc, watched):
+        wp.launch(
+            self._k["gather"], dim=(d.nworld, m.nv), device=self.device,
+            inputs=[self._start, self._element, self._code, state.out, d.cdof,
+                    state.watch.at_step if watched else self._no_watch],
+            outputs=[qfrc],
+        )  # fmt: skip
+
+    def __call__(self, m, d) -> None:
+        """The passive callback: add the elements' generalized forces to ``d.qfrc_passive`` and watch for divergence."""
+        if not len(self):
+            return
+        self._check_worlds(d)
+        state = self._state(d)
+        self._launch_wrench(m, d, state)
+        wp.launch(
+            kn.watch_kernel, dim=d.nworld, device=self.device,
+            inputs=[d.time, m.opt.timestep, d.qpos, d.qvel, state.out.accel, state.out.finite], outputs=[state.watch],
+        )  # fmt: skip
+        self._launch_gather(m, d, state, d.qfrc_passive, True)
+
+    # ------------------------------------------------------------------ queries
+
+    def _evaluated(self, m, d):
+        self._check_worlds(d)
+        state = self._state(d)
+        if len(self):
+            self._launch_wrench(m, d, state)
+        return state
+
+    def wrenches(self, m, d) -> np.ndarray:
+        out = self._evaluated(m, d).out
+        n = len(self)
+        return np.concatenate([out.mo.numpy()[:, :n], out.f.numpy()[:, :n]], axis=-1)
+
+    def dissipation_powers(self, m, d) -> np.ndarray:
+        return self._evaluated(m, d).out.power.numpy()[:, : len(self)]
+
+    def generalized_forces(self, m, d) -> np.ndarray:
+        state = self._evaluated(m, d)
+        qfrc = wp.zeros((d.nworld, m.nv), dtype=wp.float32, device=self.device)
+        if len(self):
+            self._launch_gather(m, d, state, qfrc, False)
+        return qfrc.numpy()
+
+    def potentials_and_twists(self, m, d):
+        self._check_worlds(d)
+        k, n = self._k, len(self)
+        shape = (d.nworld, max(n, 1))
+        energy = wp.zeros(shape, k["real"], device=self.device)
+        twist = wp.zeros(shape, k["V6"], device=self.device)
+        if n:
+            wp.launch(
+                k["potential"], dim=(d.nworld, n), device=self.device,
+                inputs=[self._el, self._params, int(not int(m.opt.disableflags) & _SPRING), d.xquat, d.site_xpos],
+                outputs=[energy, twist],
+            )  # fmt: skip
+        return energy.numpy()[:, :n], twist.numpy()[:, :n]
+
+    # ------------------------------------------------------------------ divergence
+
+    def divergences(self, m, d) -> list[WorldDivergence]:
+        """The worlds that diverged in their current run, in world order."""
+        state = self._states.get(id(d))
+        if state is None:
+            return []
+        w = state.watch
+        at = w.at_step.numpy()
+        worlds = np.flatnonzero(at >= 0)
+        if not worlds.size:
+            return []
+        element, kind, time, accel = (a.numpy() for a in (w.element, w.kind, w.time, w.accel))
+        h = m.opt.timestep.numpy().astype(float)
+        exact = float(self.mjmodel.opt.timestep)
+        h[h == np.float32(exact)] = exact  # the model's own step, not its float32 rounding, in messages
+        out = []
+        for i in worlds:
+            e, step = int(element[i]), int(at[i])
+            name = self.names[e] if 0 <= e < len(self) else ""
+            t0 = step * h[i % h.shape[0]]
+            reason = _KIND_TEXT[int(kind[i])]
+            if kind[i] == kn.NONFINITE:
+                blame = f"flexure '{name}': {reason}"
+            elif name:
+                blame = (f"{reason}, and flexure '{name}''s force alone accelerated one of its bodies at "
+                         f"{float(accel[i]):.3g} (m/s^2 or rad/s^2) in that step")  # fmt: skip
+            else:
+                blame = f"{reason}; no flexure's force alone exceeded {kn.CANDIDATE_ACCEL:g} m/s^2 there"
+            message = (
+                f"mjflex.warp: world {int(i)} diverged in the step from t = {t0:.9g} s (step index {step}, counting "
+                f"from 0): {blame}. Its forces are NaN from then on (until its time runs back: a reset). Reduce the "
+                "time step (mjflex.normal_modes gives the stiffest mode) or check the state you set."
+            )
+            out.append(WorldDivergence(int(i), name, step, float(time[i]), reason, message))
+        return out
+
+    def diverged(self, d) -> np.ndarray:
+        """``(nworld,)`` bool: which worlds diverged in their current run."""
+        state = self._states.get(id(d))
+        return np.zeros(d.nworld, bool) if state is None else state.watch.at_step.numpy() >= 0
+
+    def clear_divergences(self, d) -> None:
+        """Forget the divergence records of ``d`` (every world starts a new run)."""
+        self._states.pop(id(d), None)

@@ -1,0 +1,575 @@
+"""The element forces of mjflex as Warp kernels, in float32 or float64 (one set of kernels per precision).
+
+A new implementation of the formulas of the C engine (``mjflex/native/flexure_kernel.h``,
+``evaluate.h``; derivations in :mod:`mjflex.core`), one thread per (world, element):
+
+* pose: ``q_ab`` from MuJoCo Warp's body quaternions and the sites' local orientations (rest
+  offset folded into ``qb``), ``w >= 0``; ``p_ab = R_Wa^T (p_b* - p_a)``;
+* coordinates: the finite twist (rotation vector ``tau`` by ``atan2``, ``t = P p``) or the dual
+  quaternion ``[xi; x']``; the twist map's scalars ``c(alpha)``, ``g(alpha)`` by their series in
+  ``alpha^2`` below 2.2 rad (coefficients from Bernoulli numbers) and closed forms above;
+* wrench: ``-Gamma_ab (K [tau; t] + B rate + grad terms)`` (twist) or
+  ``-2 Lambda_ab (K [xi; x'] + B rate + terms / 4)`` (dual quaternion), the maps applied as
+  dual-number maps exactly as in the C kernel;
+* generalized forces: a free body takes the world force and the moment about its origin in its
+  own axes; any other body maps the wrench through its chain of dofs (``cdof``).
+
+Kinematics come from MuJoCo Warp in float32 (its only precision): the float64 kernels convert
+them once and do the element math and the sums in float64, then add float32 results to
+``qfrc_passive``.
+
+Forces are summed per dof in a fixed order (a gather over a table of contributions, no atomic
+adds), so a run is reproducible bit for bit on one device.
+"""
+
+import warp as wp
+
+#: Terms of the series of c and g in alpha^2 (alpha < 2.2 rad: the 21st term is below 1e-17 of the first).
+NSERIES = 20
+SERIES_THRESHOLD = 2.2
+#: An element whose wrench alone accelerates one of its bodies beyond this [m/s^2, rad/s^2] is the
+#: culprit of a bad state found soon after (as the C engine: a hundredth of MuJoCo's 1e10).
+CANDIDATE_ACCEL = 1e8
+#: MuJoCo's bound on a sane qpos / qvel (mjMAXVAL).
+MAXVAL = 1e10
+TWIST = 0
+#: What a world's divergence was: its first non-finite element wrench, or a bad qpos / qvel.
+NONFINITE, BAD_QPOS, BAD_QVEL = 0, 1, 2
+#: Kinds of a contribution to a dof: a free body's force or moment component, or a chain dof.
+FORCE, MOMENT, CHAIN = 0, 1, 2
+#: Integer columns of an element.
+I_BODY_A, I_BODY_B, I_SITE_A, I_SITE_B, I_METHOD, I_ROOT_A, I_ROOT_B, I_FREE_A, I_FREE_B, I_LO, I_HI, I_NCOL = range(12)
+
+
+@wp.struct
+class Watch:
+    """Per-world divergence watch (see ``watch_kernel``)."""
+
+    last_time: wp.array(dtype=wp.float32)
+    step: wp.array(dtype=wp.int32)
+    evals: wp.array(dtype=wp.int32)
+    cand_element: wp.array(dtype=wp.int32)
+    cand_accel: wp.array(dtype=wp.float32)
+    cand_step: wp.array(dtype=wp.int32)
+    element: wp.array(dtype=wp.int32)  # -1: no flexure to blame
+    kind: wp.array(dtype=wp.int32)
+    at_step: wp.array(dtype=wp.int32)  # -1: the world has not diverged
+    time: wp.array(dtype=wp.float32)
+    accel: wp.array(dtype=wp.float32)
+
+
+@wp.kernel(module="unique", enable_backward=False)
+def watch_kernel(
+    time: wp.array(dtype=wp.float32),
+    timestep: wp.array(dtype=wp.float32),
+    qpos: wp.array2d(dtype=wp.float32),
+    qvel: wp.array2d(dtype=wp.float32),
+    accel: wp.array2d(dtype=wp.float32),
+    finite: wp.array2d(dtype=wp.int32),
+    watch: Watch,
+):
+    """One world: count its steps, then judge the state and the elements' wrenches of this evaluation.
+
+    A step starts when the world's time changes (MuJoCo Warp keeps it through the stages of RK4);
+    time running backwards starts a new run (a reset) and clears the world's record. The first
+    divergence of a run is kept: a qpos or qvel not finite or beyond MuJoCo's 1e10 is blamed on the
+    element whose force alone accelerated a body beyond 1e8 in that step or the one before (-1 if
+    none), else a non-finite wrench at a finite state is blamed on its element.
+    """
+    w = wp.tid()
+    t = time[w]
+    h = timestep[w % timestep.shape[0]]
+    last = watch.last_time[w]
+    if t != last:
+        if watch.evals[w] < 0 or t < last:
+            if t < last:  # a reset: a new run
+                watch.at_step[w] = -1
+                watch.element[w] = -1
+                watch.cand_element[w] = -1
+            watch.step[w] = wp.int32(wp.round(t / h))
+        else:
+            watch.step[w] = watch.step[w] + wp.max(1, wp.int32(wp.round((t - last) / h)))
+        watch.evals[w] = 0
+        watch.last_time[w] = t
+    else:
+        watch.evals[w] = watch.evals[w] + 1
+    if watch.at_step[w] >= 0:
+        return
+    step = watch.step[w]
+    bad = wp.int32(-1)
+    for i in range(qpos.shape[1]):
+        if not (wp.abs(qpos[w, i]) <= MAXVAL):
+            bad = BAD_QPOS
+    if bad < 0:
+        for i in range(qvel.shape[1]):
+            if not (wp.abs(qvel[w, i]) <= MAXVAL):
+                bad = BAD_QVEL
+    if bad >= 0:
+        # found at a step's first evaluation: the step before made it
+        made = step
+        if watch.evals[w] == 0:
+            made = step - 1
+        watch.kind[w] = bad
+        watch.time[w] = t
+        if watch.cand_element[w] >= 0 and watch.cand_step[w] >= made - 1:
+            watch.element[w] = watch.cand_element[w]
+            watch.at_step[w] = watch.cand_step[w]
+            watch.accel[w] = watch.cand_accel[w]
+        else:
+            watch.element[w] = -1
+            watch.at_step[w] = wp.max(made, 0)
+            watch.accel[w] = 0.0
+        return
+    best = wp.float32(0.0)
+    culprit = wp.int32(-1)
+    for e in range(accel.shape[1]):
+        if finite[w, e] == 0:
+            watch.element[w] = e
+            watch.kind[w] = NONFINITE
+            watch.at_step[w] = step
+            watch.time[w] = t
+            watch.accel[w] = wp.inf
+            return
+        if accel[w, e] > best:
+            best = accel[w, e]
+            culprit = e
+    if watch.cand_element[w] >= 0 and watch.cand_step[w] < step - 1:
+        watch.cand_element[w] = -1
+    if culprit >= 0 and best > CANDIDATE_ACCEL and (watch.cand_element[w] < 0 or best >= watch.cand_accel[w]):
+        watch.cand_element[w] = culprit
+        watch.cand_accel[w] = best
+        watch.cand_step[w] = step
+
+
+def build(real):
+    """The kernels of one precision (``wp.float32`` or ``wp.float64``): a dict of Warp kernels and types."""
+    V3 = wp.types.vector(3, real)
+    V6 = wp.types.vector(6, real)
+    V8 = wp.types.vector(8, real)
+    Q4 = wp.types.vector(4, real)
+    M33 = wp.types.matrix((3, 3), real)
+    M66 = wp.types.matrix((6, 6), real)
+
+    @wp.struct
+    class Elements:
+        ints: wp.array2d(dtype=wp.int32)  # I_* columns
+        qa: wp.array(dtype=Q4)  # site a's orientation in body A (w-first)
+        qb: wp.array(dtype=Q4)  # site b's orientation in body B times the rest offset's inverse
+        p0: wp.array(dtype=V3)  # rest offset: position of frame b seen from frame a at qpos0
+        lever_a: wp.array(dtype=V3)  # origin of frame a in body A
+        lever_b: wp.array(dtype=V3)  # origin of frame b* in body B
+        inv_mass: wp.array(dtype=real)
+        inv_inertia: wp.array(dtype=real)
+        exps: wp.array2d(dtype=wp.int32)  # (M, 8) exponents of the polynomial terms
+        coefs: wp.array(dtype=real)
+        series_c: wp.array(dtype=real)  # NSERIES coefficients of c and g in alpha^2
+        series_g: wp.array(dtype=real)
+
+    @wp.struct
+    class Params:
+        """Per-world parameters: leading dimension 1 (shared) or the number of worlds."""
+
+        K: wp.array2d(dtype=M66)
+        B: wp.array2d(dtype=M66)
+        enabled: wp.array2d(dtype=wp.int32)
+        viscous: wp.array2d(dtype=wp.int32)
+
+    @wp.struct
+    class Out:
+        """Per (world, element): what the gather, the watch and the queries read."""
+
+        mo: wp.array2d(dtype=V3)  # moment about pb, world axes
+        f: wp.array2d(dtype=V3)  # force, world axes
+        mom_a: wp.array2d(dtype=V3)  # A: moment about its origin in its axes (free) or about its root's com (chain)
+        mom_b: wp.array2d(dtype=V3)
+        power: wp.array2d(dtype=real)
+        accel: wp.array2d(dtype=wp.float32)
+        finite: wp.array2d(dtype=wp.int32)
+
+    @wp.func
+    def quat_in(q: wp.quat) -> Q4:
+        return Q4(real(q[0]), real(q[1]), real(q[2]), real(q[3]))
+
+    @wp.func
+    def vec_in(v: wp.vec3) -> V3:
+        return V3(real(v[0]), real(v[1]), real(v[2]))
+
+    @wp.func
+    def qmul(a: Q4, b: Q4) -> Q4:
+        return Q4(
+            a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+            a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+            a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+            a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+        )
+
+    @wp.func
+    def qconj_mul(a: Q4, b: Q4) -> Q4:  # a^* b
+        return Q4(
+            a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3],
+            a[0] * b[1] - a[1] * b[0] - a[2] * b[3] + a[3] * b[2],
+            a[0] * b[2] + a[1] * b[3] - a[2] * b[0] - a[3] * b[1],
+            a[0] * b[3] - a[1] * b[2] + a[2] * b[1] - a[3] * b[0],
+        )
+
+    @wp.func
+    def qapply(q: Q4, v: V3, inverse: bool) -> V3:
+        """R(q) v, or R(q)^T v: with t = 2 u x v, R v = v + w t + u x t, R^T v = v - w t + u x t."""
+        u = V3(q[1], q[2], q[3])
+        t = real(2.0) * wp.cross(u, v)
+        wt = q[0] * t
+        if inverse:
+            wt = -wt
+        return v + wt + wp.cross(u, t)
+
+    @wp.func
+    def qrot(q: Q4) -> M33:
+        ww = q[0] * q[0]
+        xx = q[1] * q[1]
+        yy = q[2] * q[2]
+        zz = q[3] * q[3]
+        two = real(2.0)
+        return M33(
+            ww + xx - yy - zz, two * (q[1] * q[2] - q[0] * q[3]), two * (q[1] * q[3] + q[0] * q[2]),
+            two * (q[1] * q[2] + q[0] * q[3]), ww - xx + yy - zz, two * (q[2] * q[3] - q[0] * q[1]),
+            two * (q[1] * q[3] - q[0] * q[2]), two * (q[2] * q[3] + q[0] * q[1]), ww - xx - yy + zz,
+        )  # fmt: skip
+
+    @wp.func
+    def angle_scalars(n2: real, w: real, el: Elements) -> V3:
+        """(alpha / n, c(alpha), g(alpha)) of a unit quaternion with w >= 0 and |vector part|^2 = n2."""
+        n = wp.sqrt(n2)
+        s = real(2.0) / w
+        if n > real(0.0):
+            s = real(2.0) * wp.atan2(n, w) / n
+        a = s * n
+        c = real(0.0)
+        g = real(0.0)
+        if a < real(SERIES_THRESHOLD):
+            x = a * a
+            for k in range(NSERIES - 1, -1, -1):
+                c = c * x + el.series_c[k]
+                g = g * x + el.series_g[k]
+        else:
+            h = real(0.5) * a
+            cot = w / n
+            one_m = real(1.0) - h * cot
+            dc_dh = (-cot + h / (n * n)) / (real(4.0) * h * h) - one_m / (real(2.0) * h * h * h)
+            c = one_m / (a * a)
+            g = dc_dh / (real(4.0) * h)
+        return V3(s, c, g)
+
+    @wp.func
+    def pose(el: Elements, e: int, w: int, xquat: wp.array2d(dtype=wp.quat), site_xpos: wp.array2d(dtype=wp.vec3)):
+        """(q_ab with w >= 0, p_ab, R_Wb*, p_Wb*, orientation of frame a R_Wa as a quaternion)."""
+        wa = qmul(quat_in(xquat[w, el.ints[e, I_BODY_A]]), el.qa[e])
+        wb = qmul(quat_in(xquat[w, el.ints[e, I_BODY_B]]), el.qb[e])
+        q = qconj_mul(wa, wb)
+        if q[0] < real(0.0):
+            q = -q
+        Rb = qrot(wb)
+        pb = vec_in(site_xpos[w, el.ints[e, I_SITE_B]]) - Rb @ el.p0[e]
+        p = qapply(wa, pb - vec_in(site_xpos[w, el.ints[e, I_SITE_A]]), True)
+        return q, p, Rb, pb
+
+    @wp.func
+    def coords(method: int, q: Q4, p: V3, el: Elements):
+        """The coordinates [e1; e2] and what the maps need: (e1, e2, k0, k1, u0, u1, w, s')."""
+        qv = V3(q[1], q[2], q[3])
+        zero = V3(real(0.0), real(0.0), real(0.0))
+        if method == TWIST:
+            scal = angle_scalars(wp.dot(qv, qv), q[0], el)
+            c = scal[1]
+            g = scal[2]
+            tau = scal[0] * qv
+            a2 = wp.dot(tau, tau)
+            k0 = real(1.0) - c * a2
+            u0 = c * tau
+            t = k0 * p - real(0.5) * wp.cross(tau, p) + wp.dot(tau, p) * u0
+            e = wp.dot(tau, t)
+            k1 = -e * (real(2.0) * c + g * a2)
+            u1 = c * t + (g * e) * tau
+            return tau, t, k0, k1, u0, u1, real(0.0), real(0.0)
+        s_d = real(-0.5) * wp.dot(qv, p)
+        x_d = real(0.5) * q[0] * p - real(0.5) * wp.cross(qv, p)
+        return qv, x_d, real(0.0), real(0.0), zero, zero, q[0], s_d
+
+    @wp.func
+    def dual_map(
+        method: int,
+        e1: V3,
+        e2: V3,
+        k0: real,
+        k1: real,
+        u0: V3,
+        u1: V3,
+        w: real,
+        s_d: real,
+        sign: real,
+        x0: V3,
+        x1: V3,
+    ):
+        """The method's dual map of x0 + eps x1: Gamma's P^ (sign -1) or P^T (+1); Lambda (-1) or Lambda^T (+1)."""
+        c0 = wp.cross(e1, x0)
+        c12 = wp.cross(e1, x1) + wp.cross(e2, x0)
+        if method == TWIST:
+            h = real(0.5) * sign
+            s0 = wp.dot(e1, x0)
+            s1 = wp.dot(e1, x1) + wp.dot(e2, x0)
+            o0 = k0 * x0 + h * c0 + s0 * u0
+            o1 = k0 * x1 + k1 * x0 + h * c12 + s1 * u0 + s0 * u1
+            return o0, o1
+        return w * x0 + sign * c0, w * x1 + s_d * x0 + sign * c12
+
+    @wp.func
+    def mat6(M: M66, a: V3, b: V3):
+        y = M @ V6(a[0], a[1], a[2], b[0], b[1], b[2])
+        return V3(y[0], y[1], y[2]), V3(y[3], y[4], y[5])
+
+    @wp.func
+    def terms(method: int, z: V8, lo: int, hi: int, el: Elements, want_grad: bool):
+        """Value and gradient dU/dz of the polynomial terms lo..hi at the coordinates z (6 or 8 used)."""
+        nvar = 8
+        if method == TWIST:
+            nvar = 6
+        grad = V8()
+        value = real(0.0)
+        for r in range(lo, hi):
+            pw = V8()
+            pm = V8()
+            for i in range(nvar):
+                v = real(1.0)
+                for _k in range(el.exps[r, i] - 1):
+                    v = v * z[i]
+                pm[i] = v
+                if el.exps[r, i] > 0:
+                    pw[i] = v * z[i]
+                else:
+                    pw[i] = real(1.0)
+            suffix = V8()
+            acc = real(1.0)
+            for j in range(nvar):
+                i = nvar - 1 - j
+                suffix[i] = acc
+                acc = acc * pw[i]
+            value = value + el.coefs[r] * acc
+            if want_grad:
+                prefix = el.coefs[r]
+                for i in range(nvar):
+                    ei = el.exps[r, i]
+                    if ei > 0:
+                        grad[i] = grad[i] + prefix * real(ei) * pm[i] * suffix[i]
+                    prefix = prefix * pw[i]
+        return value, grad
+
+    @wp.func
+    def coords8(method: int, e1: V3, e2: V3, w: real, s_d: real) -> V8:
+        if method == TWIST:
+            return V8(e1[0], e1[1], e1[2], e2[0], e2[1], e2[2], real(0.0), real(0.0))
+        return V8(w, e1[0], e1[1], e1[2], s_d, e2[0], e2[1], e2[2])
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def wrench_kernel(
+        el: Elements,
+        par: Params,
+        spring_on: int,
+        damper_on: int,
+        xquat: wp.array2d(dtype=wp.quat),
+        site_xpos: wp.array2d(dtype=wp.vec3),
+        cvel: wp.array2d(dtype=wp.spatial_vector),
+        subtree_com: wp.array2d(dtype=wp.vec3),
+        out: Out,
+    ):
+        """Wrench of element e on its body B in world w (the C kernel's mjfx_kernel and group_wrench)."""
+        w, e = wp.tid()
+        zero = V3(real(0.0), real(0.0), real(0.0))
+        if par.enabled[w % par.enabled.shape[0], e] == 0:
+            out.mo[w, e] = zero
+            out.f[w, e] = zero
+            out.mom_a[w, e] = zero
+            out.mom_b[w, e] = zero
+            out.power[w, e] = real(0.0)
+            out.accel[w, e] = 0.0
+            out.finite[w, e] = 1
+            return
+        method = el.ints[e, I_METHOD]
+        q, p, Rb, pb = pose(el, e, w, xquat, site_xpos)
+        e1, e2, k0, k1, u0, u1, qw, s_d = coords(method, q, p, el)
+        y1 = zero
+        y2 = zero
+        if spring_on != 0:
+            y1, y2 = mat6(par.K[w % par.K.shape[0], e], e1, e2)
+        pwr = real(0.0)
+        if damper_on != 0 and par.viscous[w % par.viscous.shape[0], e] != 0:
+            ba = el.ints[e, I_BODY_A]
+            bb = el.ints[e, I_BODY_B]
+            ca = cvel[w, ba]
+            cb = cvel[w, bb]
+            wa = V3(real(ca[0]), real(ca[1]), real(ca[2]))
+            wb = V3(real(cb[0]), real(cb[1]), real(cb[2]))
+            va = V3(real(ca[3]), real(ca[4]), real(ca[5])) + wp.cross(
+                wa, pb - vec_in(subtree_com[w, el.ints[e, I_ROOT_A]])
+            )
+            vb = V3(real(cb[3]), real(cb[4]), real(cb[5])) + wp.cross(
+                wb, pb - vec_in(subtree_com[w, el.ints[e, I_ROOT_B]])
+            )
+            r1, r2 = dual_map(
+                method, e1, e2, k0, k1, u0, u1, qw, s_d, real(1.0), wp.transpose(Rb) @ (wb - wa),
+                wp.transpose(Rb) @ (vb - va),
+            )  # fmt: skip
+            if method != TWIST:
+                r1 = real(0.5) * r1
+                r2 = real(0.5) * r2
+            b1, b2 = mat6(par.B[w % par.B.shape[0], e], r1, r2)
+            pwr = wp.dot(r1, b1) + wp.dot(r2, b2)
+            y1 = y1 + b1
+            y2 = y2 + b2
+        lo = el.ints[e, I_LO]
+        hi = el.ints[e, I_HI]
+        mb = zero
+        fb = zero
+        if spring_on != 0 and hi > lo:
+            _value, grad = terms(method, coords8(method, e1, e2, qw, s_d), lo, hi, el, True)
+            if method == TWIST:
+                y1 = y1 + V3(grad[0], grad[1], grad[2])
+                y2 = y2 + V3(grad[3], grad[4], grad[5])
+                fb, mb = dual_map(method, e1, e2, k0, k1, u0, u1, qw, s_d, real(-1.0), y2, y1)
+            else:
+                quarter = real(0.25)
+                y1 = y1 + quarter * V3(grad[1], grad[2], grad[3])
+                y2 = y2 + quarter * V3(grad[5], grad[6], grad[7])
+                ff, mm = dual_map(method, e1, e2, k0, k1, u0, u1, qw, s_d, real(-1.0), y2, y1)
+                # the sigma and s' columns of eq. 116 (1/4: the scale -2 below stands for -1/2)
+                mb = mm - (quarter * grad[0]) * e1 - (quarter * grad[4]) * e2
+                fb = ff - (quarter * grad[4]) * e1
+        else:
+            fb, mb = dual_map(method, e1, e2, k0, k1, u0, u1, qw, s_d, real(-1.0), y2, y1)
+        scale = real(-1.0)
+        if method != TWIST:
+            scale = real(-2.0)
+            pwr = real(4.0) * pwr
+        mb = scale * mb
+        fb = scale * fb
+        mo = Rb @ mb
+        f = Rb @ fb
+        out.mo[w, e] = mo
+        out.f[w, e] = f
+        out.power[w, e] = pwr
+        total = mo[0] + mo[1] + mo[2] + f[0] + f[1] + f[2] + pwr
+        out.finite[w, e] = int(wp.isfinite(total))
+        am = wp.max(wp.max(wp.abs(f[0]), wp.abs(f[1])), wp.abs(f[2])) * el.inv_mass[e]
+        ai = wp.max(wp.max(wp.abs(mo[0]), wp.abs(mo[1])), wp.abs(mo[2])) * el.inv_inertia[e]
+        out.accel[w, e] = wp.float32(wp.max(am, ai))
+        # the moments the gather maps: a free body's about its origin in its axes, else about its root's com
+        if el.ints[e, I_FREE_B] != 0:
+            Rl = qrot(el.qb[e])
+            out.mom_b[w, e] = Rl @ mb + wp.cross(el.lever_b[e], Rl @ fb)
+        else:
+            out.mom_b[w, e] = mo + wp.cross(pb - vec_in(subtree_com[w, el.ints[e, I_ROOT_B]]), f)
+        if el.ints[e, I_FREE_A] != 0:
+            Rl = qrot(qmul(el.qa[e], q))
+            lever = qapply(el.qa[e], p, False) + el.lever_a[e]
+            out.mom_a[w, e] = Rl @ mb + wp.cross(lever, Rl @ fb)
+        else:
+            out.mom_a[w, e] = mo + wp.cross(pb - vec_in(subtree_com[w, el.ints[e, I_ROOT_A]]), f)
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def gather_kernel(
+        start: wp.array(dtype=wp.int32),
+        element: wp.array(dtype=wp.int32),
+        code: wp.array(dtype=wp.int32),
+        out: Out,
+        cdof: wp.array2d(dtype=wp.spatial_vector),
+        diverged: wp.array(dtype=wp.int32),
+        qfrc: wp.array2d(dtype=wp.float32),
+    ):
+        """Add the elements' generalized forces on dof j of world w, in a fixed order.
+
+        ``code`` of a contribution: +-(1 + 4 kind + component), + for body B, - for body A.
+        A world whose watch found a divergence gets NaN (it must never look like a result).
+        """
+        w, j = wp.tid()
+        total = real(0.0)
+        for k in range(start[j], start[j + 1]):
+            e = element[k]
+            c = code[k]
+            sign = real(1.0)
+            mom = out.mom_b[w, e]
+            if c < 0:
+                sign = real(-1.0)
+                c = -c
+                mom = out.mom_a[w, e]
+            kind = (c - 1) // 4
+            comp = (c - 1) % 4
+            f = out.f[w, e]
+            if kind == FORCE:
+                total = total + sign * f[comp]
+            elif kind == MOMENT:
+                total = total + sign * mom[comp]
+            else:
+                d = cdof[w, j]
+                total = total + sign * (
+                    real(d[0]) * mom[0] + real(d[1]) * mom[1] + real(d[2]) * mom[2]
+                    + real(d[3]) * f[0] + real(d[4]) * f[1] + real(d[5]) * f[2]
+                )  # fmt: skip
+        if diverged.shape[0] > 0:
+            if diverged[w] >= 0:
+                total = total + real(wp.nan)
+        qfrc[w, j] = qfrc[w, j] + wp.float32(total)
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def potential_kernel(
+        el: Elements,
+        par: Params,
+        spring_on: int,
+        xquat: wp.array2d(dtype=wp.quat),
+        site_xpos: wp.array2d(dtype=wp.vec3),
+        energy: wp.array2d(dtype=real),
+        twist: wp.array2d(dtype=V6),
+    ):
+        """Elastic energy and finite twist [tau; t] of element e in world w (zeros when disabled)."""
+        w, e = wp.tid()
+        if par.enabled[w % par.enabled.shape[0], e] == 0:
+            energy[w, e] = real(0.0)
+            twist[w, e] = V6()
+            return
+        method = el.ints[e, I_METHOD]
+        q, p, _Rb, _pb = pose(el, e, w, xquat, site_xpos)
+        e1, e2, _k0, _k1, _u0, _u1, qw, s_d = coords(method, q, p, el)
+        u = real(0.0)
+        if spring_on != 0:
+            y1, y2 = mat6(par.K[w % par.K.shape[0], e], e1, e2)
+            scale = real(0.5)
+            if method != TWIST:
+                scale = real(2.0)
+            u = scale * (wp.dot(e1, y1) + wp.dot(e2, y2))
+            lo = el.ints[e, I_LO]
+            hi = el.ints[e, I_HI]
+            if hi > lo:
+                value, _grad = terms(method, coords8(method, e1, e2, qw, s_d), lo, hi, el, False)
+                u = u + value
+        energy[w, e] = u
+        t1, t2, _c0, _c1, _c2, _c3, _c4, _c5 = coords(TWIST, q, p, el)
+        twist[w, e] = V6(t1[0], t1[1], t1[2], t2[0], t2[1], t2[2])
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def scalars_kernel(n2: wp.array(dtype=real), qw: wp.array(dtype=real), el: Elements, out: wp.array(dtype=V3)):
+        """(alpha / n, c, g) of quaternions given by |vector part|^2 and w (for tests against the C engine)."""
+        i = wp.tid()
+        out[i] = angle_scalars(n2[i], qw[i], el)
+
+    return {
+        "real": real, "V3": V3, "V6": V6, "Q4": Q4, "M66": M66, "Elements": Elements, "Params": Params,
+        "Out": Out, "wrench": wrench_kernel, "gather": gather_kernel, "potential": potential_kernel,
+        "scalars": scalars_kernel,
+    }  # fmt: skip
+
+
+_BUILT = {}
+
+
+def kernels(precision: str) -> dict:
+    """The kernels of ``"float32"`` or ``"float64"`` (built once per process; compiled on first launch)."""
+    if precision not in _BUILT:
+        _BUILT[precision] = build({"float32": wp.float32, "float64": wp.float64}[precision])
+    return _BUILT[precision]

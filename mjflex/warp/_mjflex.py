@@ -1,0 +1,173 @@
+"""What mjflex.warp reads from the rest of mjflex: the one place that knows mjflex's element table.
+
+The elements of a model are read by :class:`mjflex.Flexures` (both forms: text records and
+``mjflex.flexure`` plugin instances, parsed and checked once), and laid out here as plain numpy
+arrays for the Warp kernels. Everything the kernels derive (rest offsets folded into the site
+orientations, lever arms, contributions to dofs) is computed here from the model, independently of
+the C engine's own set-up.
+"""
+
+import dataclasses
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..core._series import _coefficients
+from ..mj import Flexures, schema
+from ..mj import _native as native
+from ..mj import _tables as tables
+from . import _kernels as kn
+
+#: Record fields the kernels implement, or that do not change the forces (reports, colours, provenance).
+SUPPORTED_FIELDS = {
+    "name", "method", "K", "B", "enabled", "viscous", "terms", "order", "strain_per_radian", "source", "site",
+    "strain_scale",
+}  # fmt: skip
+METHODS = {"twist": kn.TWIST, "dualquat": 1}
+
+
+class UnsupportedElementError(NotImplementedError):
+    """An element uses a feature of mjflex that the Warp kernels do not implement."""
+
+
+@dataclass
+class ElementTable:
+    """The elements of one model as the Warp kernels read them (n elements, M polynomial terms)."""
+
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]  # "record" or "plugin"
+    records: list  # mjflex.FlexureRecord each
+    instances: tuple[int, ...]  # plugin instance id, -1 for a text record
+    ints: np.ndarray  # (n, I_NCOL) int32
+    qa: np.ndarray  # (n, 4)
+    qb: np.ndarray  # (n, 4)
+    p0: np.ndarray  # (n, 3)
+    lever_a: np.ndarray
+    lever_b: np.ndarray
+    inv_mass: np.ndarray  # (n,)
+    inv_inertia: np.ndarray
+    K: np.ndarray  # (n, 6, 6), planar ones embedded
+    B: np.ndarray  # (n, 6, 6), zero without damping
+    enabled: np.ndarray  # (n,) bool
+    viscous: np.ndarray  # (n,) bool: the record's switch, and it has B
+    planar: np.ndarray  # (n,) bool
+    exps: np.ndarray  # (M, 8) int32
+    coefs: np.ndarray  # (M,)
+    start: np.ndarray  # (nv + 1,) int32: contributions to dof j are start[j]:start[j + 1]
+    element: np.ndarray  # (C,) int32
+    code: np.ndarray  # (C,) int32: +-(1 + 4 kind + component), + body B, - body A
+    series_c: np.ndarray  # (NSERIES,)
+    series_g: np.ndarray
+    joined_trees: dict  # tree -> an element that joins it to another tree or a mocap body
+
+
+def flexures(model: mujoco.MjModel) -> Flexures:
+    """mjflex's provider of ``model`` (reads and checks the elements; sets joined trees' automatic sleep to never)."""
+    return Flexures(model)
+
+
+def _quat_from_rot(R):
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).ravel())
+    return q if q[0] >= 0 else -q
+
+
+def _quat_mul(a, b):
+    out = np.empty(4)
+    mujoco.mju_mulQuat(out, np.asarray(a, float), np.asarray(b, float))
+    return out
+
+
+def _rot_from_quat(q):
+    R = np.empty(9)
+    mujoco.mju_quat2Mat(R, np.asarray(q, float))
+    return R.reshape(3, 3)
+
+
+def unsupported_features(record) -> list[str]:
+    """Features of ``record`` (a FlexureRecord) that the Warp kernels do not implement, set to a non-default value."""
+    found = []
+    for f in dataclasses.fields(record):
+        if f.name in SUPPORTED_FIELDS:
+            continue
+        default = f.default if f.default is not dataclasses.MISSING else None
+        value = getattr(record, f.name)
+        if value is not None and not _equal(value, default):
+            found.append(f.name)
+    if record.method not in METHODS:
+        found.append(f"method {record.method!r}")
+    return found
+
+
+def _equal(a, b):
+    try:
+        return bool(np.all(np.asarray(a) == np.asarray(b))) and np.shape(a) == np.shape(b)
+    except (TypeError, ValueError):
+        return a is b
+
+
+def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
+    """Lay out ``flex``'s elements (of ``model``) for the kernels; refuses features the kernels lack."""
+    t = flex._tables
+    n = len(flex)
+    for name, record in zip(t.names, t.records, strict=True):
+        features = unsupported_features(record)
+        if features:
+            raise UnsupportedElementError(
+                f"mjflex.warp: flexure '{name}' uses {', '.join(features)}, which the MuJoCo Warp kernels of mjflex "
+                "do not implement (its force would be wrong or missing). Simulate this model with MuJoCo (the C "
+                "engine: mujoco.mj_step, mujoco.rollout, Batch), or remove the feature from the element"
+            )
+    rows = t.elements[:n]
+    ints = np.zeros((n, kn.I_NCOL), np.int32)
+    qa, qb, p0 = np.zeros((n, 4)), np.zeros((n, 4)), np.zeros((n, 3))
+    lever_a, lever_b = np.zeros((n, 3)), np.zeros((n, 3))
+    contributions = [[] for _ in range(model.nv)]
+    for e, row in enumerate(rows):
+        sa, sb, ba, bb = (int(row[k]) for k in ("site_a", "site_b", "body_a", "body_b"))
+        ints[e, [kn.I_SITE_A, kn.I_SITE_B, kn.I_BODY_A, kn.I_BODY_B]] = sa, sb, ba, bb
+        ints[e, kn.I_METHOD] = METHODS[t.records[e].method]
+        ints[e, kn.I_ROOT_A], ints[e, kn.I_ROOT_B] = model.body_rootid[ba], model.body_rootid[bb]
+        ints[e, kn.I_FREE_A], ints[e, kn.I_FREE_B] = row["free_a"] >= 0, row["free_b"] >= 0
+        ints[e, kn.I_LO], ints[e, kn.I_HI] = row["terms_lo"], row["terms_hi"]
+        # frame b* = frame b times the rest offset's inverse: q_ab is the identity at qpos0
+        R0, p0[e] = row["R0"].reshape(3, 3), row["p0"]
+        q0 = _quat_from_rot(R0)
+        qa[e] = model.site_quat[sa]
+        qb[e] = _quat_mul(model.site_quat[sb], q0 * [1, -1, -1, -1])
+        lever_a[e] = model.site_pos[sa]
+        lever_b[e] = model.site_pos[sb] - _rot_from_quat(qb[e]) @ p0[e]
+        for side, sign in (("b", 1), ("a", -1)):
+            free = int(row[f"free_{side}"])
+            if free >= 0:
+                for k in range(3):
+                    contributions[free + k].append((e, sign * (1 + 4 * kn.FORCE + k)))
+                    contributions[free + 3 + k].append((e, sign * (1 + 4 * kn.MOMENT + k)))
+            else:
+                for j in t.chain[row[f"chain_{side}0"] : row[f"chain_{side}1"]]:
+                    contributions[int(j)].append((e, sign * (1 + 4 * kn.CHAIN)))
+    start = np.zeros(model.nv + 1, np.int32)
+    start[1:] = np.cumsum([len(c) for c in contributions])
+    flat = [c for dof in contributions for c in dof] or [(0, 0)]
+    series = _coefficients(kn.NSERIES)
+    return ElementTable(
+        names=t.names, kinds=t.kinds, records=list(t.records), instances=t.instances, ints=ints, qa=qa, qb=qb, p0=p0,
+        lever_a=lever_a, lever_b=lever_b, inv_mass=rows["inv_mass"].copy(), inv_inertia=rows["inv_inertia"].copy(),
+        K=rows["K"].reshape(n, 6, 6).copy(), B=rows["B"].reshape(n, 6, 6).copy(),
+        enabled=rows["enabled"].astype(bool), viscous=rows["viscous"].astype(bool),
+        planar=np.array([r.planar for r in t.records], bool),
+        exps=t.exps.astype(np.int32), coefs=t.coefs.copy(), start=start,
+        element=np.array([c[0] for c in flat], np.int32), code=np.array([c[1] for c in flat], np.int32),
+        series_c=series["c"], series_g=series["g"], joined_trees=dict(t.joined_trees),
+    )  # fmt: skip
+
+
+def mjflex_instances(model: mujoco.MjModel) -> list[int]:
+    """Ids of the model's ``mjflex.flexure`` plugin instances."""
+    return native.plugin_instances(model)
+
+
+#: The planar coordinates [theta_z; x; y] in the 6-vector, and the sleep policies mjflex writes.
+PLANAR_INDEX = schema.PLANAR_INDEX
+RECORD, PLUGIN = tables.RECORD, tables.PLUGIN
