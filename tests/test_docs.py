@@ -579,6 +579,23 @@ def test_output_check_finds_warnings_and_non_finite_numbers(tmp_path):
     assert codeblocks.output_problems("b", "[ 0.  -inf  1.]\nx = -Inf\n", "", None) != []
 
 
+def test_a_comment_below_a_print_is_checked_against_what_it_printed():
+    """A comment right below a print says what it prints: the words must be the same and each number within one unit
+    of its last digit shown; other comments are not claims."""
+    code = (
+        "x = 0.12716\nprint(f'rotation {x:.4f} rad, {x:.1e} s')\n# rotation 0.1272 rad, 1.3e-01 s\n"
+        "for k in range(2):\n    print(f'mode {16 + k:.1f} Hz')\n    # mode 17.0 Hz\n# mode 99 Hz: below no print\n"
+    )
+    block = codeblocks.Block("page.md", 1, "python", code, None)
+    claims = codeblocks.printed_claims(block)
+    assert claims == ["rotation 0.1272 rad, 1.3e-01 s", "mode 17.0 Hz"]
+    out = "rotation 0.1272 rad, 1.3e-01 s\nmode 16.0 Hz\nmode 17.0 Hz\n"
+    assert codeblocks.claim_problems("b", claims, out) == []
+    assert codeblocks.claim_matches("rotation 0.1271 rad, 1.3e-01 s", "rotation 0.1272 rad, 1.3e-01 s")  # one unit
+    stale = ["rotation 0.1274 rad, 1.3e-01 s", "rotation 0.1272 rad, 1.3e-01 J", "mode 18.0 Hz"]
+    assert len(codeblocks.claim_problems("b", stale, out)) == 3
+
+
 def test_a_block_that_diverges_fails(tmp_path):
     """The "Build with plugin elements" block as it was: MuJoCo's default 2 ms step on a 1.9 kHz element. It exits
     with status 0 and prints an energy of 0 J (MuJoCo reset the diverged state); the check fails it."""
