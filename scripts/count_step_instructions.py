@@ -27,6 +27,9 @@ would not be a step's cost.
 ``git worktree`` of main) whose native library is built in ``DIR/mjflex/native``: the child
 runs with ``DIR`` first on ``PYTHONPATH``, so ``import mujoco`` loads that library instead. The
 ratio of the two counts is the change's cost for a model without stops. Needs ``valgrind``.
+
+The JSON records the model's number of elements and its force evaluations per step (4 for RK4),
+so that a difference of counts reads per element evaluation (docs/background/end_stops.md).
 """
 
 import argparse
@@ -83,6 +86,11 @@ def _with_stops(path, lower, upper, out, stiffness=None):
     return out
 
 
+def _elements(path):
+    """Number of mjflex plugin elements in the model file at ``path``."""
+    return sum(p.plugin_name == "mjflex.flexure" for p in mujoco.MjSpec.from_file(path).plugins)
+
+
 def count(path, steps, pythonpath=None):
     """Instructions callgrind counts inside ``mj_step`` for ``steps`` steps of the model file ``path``."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -135,7 +143,10 @@ def main(argv=None):
     for r in rows:
         r["ratio_to_model"] = r["per_step"] / reference
     print("\n" + "\n".join(f"{r['case']:28s} x {r['ratio_to_model']:.5f}" for r in rows))
+    model = mujoco.MjModel.from_xml_path(args.model)
     payload = {"model": os.path.relpath(args.model, ROOT), "steps": args.steps, "rows": rows,
+               "elements": _elements(args.model), "integrator": mujoco.mjtIntegrator(model.opt.integrator).name,
+               "evaluations_per_step": 4 if model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 else 1,
                "mujoco": mujoco.__version__, "numpy": np.__version__}  # fmt: skip
     write_json(args.json, payload)
     return payload

@@ -22,7 +22,10 @@ sources:
 Then run this script. Adding a measurement: make the script write its JSON with
 ``_bench.write_json``, write a renderer below (JSON -> text), list it in ``BLOCKS`` (and a row
 in ``MEASURED``), put an empty block ``<!-- results:NAME -->`` / ``<!-- /results -->`` on the
-page it belongs to, record, regenerate, commit the JSON and the page.
+page it belongs to, record, regenerate, commit the JSON and the page. A measured number in a
+sentence is an inline block (renderers in ``scripts/_readme_inline.py``): tests/test_docs.py
+fails on a number with a unit in a page's prose outside the blocks, unless its allow-list of
+constants (parameters, defaults, definitions, test bounds) names it.
 """
 
 import argparse
@@ -45,6 +48,17 @@ from _readme_format import (
     table,
     timed_on,
     times,
+)
+from _readme_inline import (
+    fit_reach,
+    inline_encoder_quality,
+    inline_fit_reach,
+    inline_long_run_divergence,
+    inline_method_difference,
+    inline_stop_cost,
+    inline_stop_instructions,
+    row_count_step_instructions,
+    row_encoder_quality,
 )
 from _readme_speed import (
     LONG_RUNS,
@@ -516,7 +530,7 @@ def _fit_cell(e, limit):
 def block_fit_flexure(results):
     r = results["fit_flexure"]
     fits = r["table"]
-    reach = max(abs(p["tip_rotation_deg"]) for pts in r["points"].values() for v in pts.values() for p in v)
+    reach = fit_reach(r)
     loads = len(next(iter(next(iter(r["points"].values())).values())))
     bins = sorted({int(k.split("_")[-1][:-3]) for k in fits[0] if k.startswith("worst_")})
     top = bins[-1]
@@ -587,6 +601,8 @@ MEASURED = [
     ("bench_sweep", row_bench_sweep),
     ("fit_flexure", row_fit_flexure),
     ("demo", row_demo),
+    ("encoder_quality", row_encoder_quality),
+    ("count_step_instructions", row_count_step_instructions),
 ]
 
 
@@ -634,6 +650,12 @@ BLOCKS = {
     "plugin-overhead": (["bench_step"], inline_plugin_overhead),
     "warp-float32": (["warp_float32"], block_warp_float32),
     "warp-bench": (WARP_BENCH, block_warp_bench),  # only the throughput JSON recorded so far (GPU: where measured)
+    "encoder-quality": (["encoder_quality", "demo"], inline_encoder_quality),
+    "stop-cost": (["count_step_instructions"], inline_stop_cost),
+    "stop-instructions": (["count_step_instructions"], inline_stop_instructions),
+    "fit-reach": (["fit_flexure"], inline_fit_reach),
+    "long-run-divergence": (["long_run_arcade", "long_run_arcade_1e-5"], inline_long_run_divergence),
+    "method-difference": (["study_arcade"], inline_method_difference),
 }
 
 

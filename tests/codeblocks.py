@@ -18,6 +18,11 @@ no warning printed by MuJoCo (``mju_warning``: a line ``WARNING: ...`` and an en
 printed by Python (mjflex's, or any library's: ``file:line: SomeWarning: ...``), and no ``nan`` or
 ``inf`` among the printed numbers. A page that shows a warning on purpose catches it
 (``warnings.catch_warnings(record=True)``, ``mujoco.set_mju_user_warning``) and prints what it means.
+
+A comment line right below a ``print(`` line, at its indentation, says what that call prints
+(:func:`printed_claims`): the output must hold such a line, the same words and each number within
+one unit of the last digit the comment shows (:func:`claim_problems`), so the numbers a reader
+sees beside the code are what it prints.
 """
 
 import os
@@ -123,6 +128,44 @@ def output_problems(where, stdout, stderr, cwd=None):
     return found
 
 
+#: A number of a printed line or of a claim about it.
+_PRINTED_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
+
+
+def printed_claims(block):
+    """What a python block's comments say it prints: each comment line right below a line that starts with
+    ``print(``, at the same indentation (its text after ``# ``)."""
+    lines = block.code.split("\n")
+    indent = [len(line) - len(line.lstrip()) for line in lines]
+    return [line.strip()[2:] for k, line in enumerate(lines[1:], 1)
+            if line.strip().startswith("# ") and lines[k - 1].strip().startswith("print(")
+            and indent[k] == indent[k - 1]]  # fmt: skip
+
+
+def _one_unit(number):
+    """One unit of the last digit ``number`` shows: ``0.1272`` -> 1e-4, ``3.5e-05`` -> 1e-6, ``16`` -> 1."""
+    mantissa, _, exponent = number.lower().partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    return 10.0 ** (int(exponent or 0) - decimals)
+
+
+def claim_matches(claim, line):
+    """``line`` says what ``claim`` says: the same text, and each number within one unit of the claim's last digit."""
+    said = _PRINTED_NUMBER.findall(claim)
+    pattern = f"({_PRINTED_NUMBER.pattern})".join(re.escape(part) for part in _PRINTED_NUMBER.split(claim))
+    m = re.fullmatch(pattern, line.strip())
+    if not m:
+        return False
+    return all(abs(float(got) - float(x)) <= 1.000001 * _one_unit(x) for x, got in zip(said, m.groups(), strict=True))
+
+
+def claim_problems(where, claims, stdout):
+    """The claims (:func:`printed_claims`) that no line of ``stdout`` matches."""
+    lines = stdout.splitlines()
+    return [f"{where}: the comment says it prints {claim!r}; no printed line matches" for claim in claims
+            if not any(claim_matches(claim, line) for line in lines)]  # fmt: skip
+
+
 def workspace(tmp_path):
     """A folder with a copy of the repository's models/, for blocks written from the repository root."""
     shutil.copytree(os.path.join(ROOT, "models"), os.path.join(tmp_path, "models"))
@@ -152,6 +195,8 @@ def run_page(page_blocks, cwd, timeout=600):
             failures.append(f"{python[0].where()} (python blocks): exit {done.returncode}\n{done.stderr[-3000:]}")
         else:
             failures += output_problems(f"{python[0].where()} (python blocks)", done.stdout, done.stderr, cwd)
+            claims = [claim for b in python for claim in printed_claims(b)]
+            failures += claim_problems(f"{python[0].where()} (python blocks)", claims, done.stdout)
     for block in (b for b in page_blocks if b.language == "bash" and b.skip is None):
         for command in commands(block):
             done = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, capture_output=True, text=True,

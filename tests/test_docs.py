@@ -304,6 +304,155 @@ def test_pages_say_things_in_steps_lists_and_tables():
     assert not long, f"paragraphs to split into steps, lists or tables: {long}"
 
 
+# ----------------------------------------------------------------------------- numbers in prose
+
+#: A number (``3``, ``-0.12``, ``1e-5``, ``10⁵``, ``727,470``, ``140 000``), a range of two, then a unit.
+_NUMBER = r"[-−+]?(?:\d{1,3}(?:[, ]\d{3})+(?!\d)|\d+(?:\.\d+)?(?:e[-+]?\d+)?[⁰¹²³⁴⁵⁶⁷⁸⁹⁻]*)"
+_UNIT = (r"kHz|Hz|µs|ms|ns|min|s|%|percent|×|dB|kB|MB|GB|bytes|µJ|mJ|J|W|rad/s|rad|°|rpm|mm|µm|cm|m/s|m|N m/rad|N m"
+         r"|N/m|kN|N|GPa|MPa|Pa|kg|g|steps|instructions|frames")  # fmt: skip
+#: A quantity in prose: ``12 ms``, ``~9 kB``, ``0.5–1 %``, ``2.5x`` (not ``6×6``, ``x_2`` or ``2/omega``).
+MEASURE = re.compile(rf"(?<![\w.,/^-])(?:[~≈≤≥<>]\s?)?{_NUMBER}(?:\s?[–-]\s?{_NUMBER})?(?:\s?(?:{_UNIT})|x)(?![\w/²³])")
+#: Quantities that stand in prose without a recorded source because they are not measurements: the ARCADE scene's
+#: own parameters, on any page.
+SCENE_CONSTANTS = {
+    "1000 rpm": "the paper's spin, ARCADE's keyframe paper_run (mjflex/app/arcade.py PAPER_SPIN)",
+    "105 rad/s": "the same spin in rad/s",
+    "5 m/s": "the paper run's axial speed of the cylinder (PAPER_AXIAL_SPEED)",
+}
+#: Per page (path from the repository root): the quantities of its prose that are constants, with why. Everything
+#: else with a unit is a measurement and must be an inline results block (scripts/results_blocks.py) that renders
+#: it from the JSON a stated command recorded. Keep this short: an entry is a parameter, a default, a definition or
+#: closed form, or a bound a test asserts, never a measured figure.
+PROSE_CONSTANTS = {
+    "README.md": {"80 ms": "the demo's default duration (--duration 0.08)"},
+    "docs/index.md": {
+        "0.5 ms": "the demo's panels: frames 0.5 ms apart (a choice, as in the paper's Fig. 4)",
+        "1 %": "an error target the reader chooses",
+    },
+    "docs/background/end_stops.md": {
+        "0.02 s": "MuJoCo's default solref time constant",
+        "0.1 rad": "the example's stop limit",
+        "0.3 rad": "the example's free swing, closed form from its parameters (I ω² = k θ²)",
+        "2 steps": "MuJoCo's refsafe rule: a solref time constant of at least two time steps",
+    },
+    "docs/background/measured.md": {
+        "1500 steps": "the test's run length",
+        "> 1 rad": "the rotations the test reaches (its parameter)",
+    },
+    "docs/background/methods.md": {
+        "1e-12 rad": "the smallest angle the tests evaluate",
+        "90°": "where a sin(θ/2) law's moment peaks (mathematics)",
+    },
+    "docs/background/native_alternatives.md": {
+        "1 rad": "the bushing scene's launch (scripts/compare_native.py's parameter)",
+        "1.2 kg": "the bushing scene's block",
+        "10 cm": "the cantilever scene's length",
+        "2 mm": "its thickness",
+        "10 mm": "its width",
+        "9 mm": "the paper's leaf length",
+        "~1e-5 kg": "an order of magnitude from the leaf's dimensions, not a measurement",
+        "90°": "where a sin(θ/2) law's moment peaks (mathematics)",
+    },
+    "docs/background/stability.md": {
+        "1e-7 rad": "the test's rotation",
+        "1e-9 rad": "a bound the test asserts",
+        "2000 steps": "the test's steps per turn",
+        "0.5 %": "a bound the test asserts",
+        "2 %": "a bound the test asserts",
+        "1e6 steps": "scripts/long_run.py's run length (--steps)",
+        "20 rad/s": "two_body's keyframe",
+    },
+    "docs/howto/add_flexures_to_a_robot.md": {"10 %": "a bound the tests assert"},
+    "docs/howto/choose_method_integrator_step.md": {"90°": "where a sin(θ/2) law's moment peaks (mathematics)"},
+    "docs/howto/plugin_models.md": {
+        "2 ms": "MuJoCo's default time step",
+        "159 Hz": "closed form: 2/(2π · 2 ms)",
+        "10 %": "the plugin draws an element 10 % larger than its site (a choice)",
+        "1 %": "the default strain_scale",
+        "0.5–1 %": "yield strains of flexure metals (material data)",
+        "0.1 rad": "the default strain_scale without strain_per_radian",
+        "2 %": "ARCADE's strain_scale (mjflex/app/arcade.py STRAIN_SCALE)",
+        "3.5 GPa": "the modulus of ARCADE's hinge material (a model parameter)",
+        "20 ms": "scripts/viewer_screenshot.py's run length",
+    },
+    "docs/howto/reduce_a_model.md": {
+        "3 kHz": "the test's band",
+        "1 %": "a bound the tests assert",
+        "5 %": "a bound the test asserts",
+    },
+    "docs/howto/render_headless.md": {
+        "100×": "the default --slowdown",
+        "4×": "MuJoCo's default multisampling",
+        "80 ms": "the demo's default duration",
+        "0.5 ms": "the demo's panels: frames 0.5 ms apart (a choice)",
+    },
+    "docs/howto/study_your_scene.md": {
+        "2000 Hz": "the default variant's band (DEFAULT_VARIANTS)",
+        "2 %": "the default limit_rtol",
+        "10 %": "a bound tests/test_study.py asserts",
+        "1 %": "the error target in the recommendation's wording",
+        "1000×": "the study's divergence threshold",
+        "120 s": "the default --max-run-wall",
+        "0.1 %": "scripts/step_limits.py's bisection tolerance (--rtol)",
+    },
+    "docs/howto/sweeps_on_a_cluster.md": {"30 ms": "the ARCADE sweep's default --duration"},
+    "docs/troubleshooting.md": {"0 J": "what MuJoCo's reset leaves: the example of a non-result"},
+}
+
+
+def _results_blocks():
+    spec = importlib.util.spec_from_file_location("results_blocks", os.path.join(ROOT, "scripts", "results_blocks.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def quantities_in_prose(text):
+    """The quantities with a unit in a Markdown text's prose: outside results blocks, code, math and comments."""
+    text = _results_blocks().BLOCK.sub(" ", text)
+    text = re.sub(r"^ {0,3}(`{3,}|~{3,}).*?^ {0,3}\1", " ", text, flags=re.S | re.M)  # fenced code and directives
+    text = re.sub(r"\$\$.*?\$\$|<!--.*?-->", " ", text, flags=re.S)
+    text = re.sub(r"`[^`\n]*`|\]\([^)\s]*\)", " ", text)  # inline code and roles' targets, link targets
+    return [m.group(0) for m in MEASURE.finditer(text)]
+
+
+def test_prose_check_finds_hand_written_numbers():
+    """A hand-written measurement is found, however written; constants in code, blocks and notation are not."""
+    page = (
+        "A step costs 12.5 ms, ~9 kB a frame, 0.14× (0.12–0.16) and 2.5x the bare step, 40 dB, -0.12 rad, after "
+        "10⁵ steps or 140 000 steps, 727,470 instructions.\n\n```python\nx = 3  # 5 ms\n```\n\n"
+        "Inline `h = 1e-5 s`, <!-- results:a -->12 ms<!-- /results -->, a 6×6 K, {doc}`page_2 s`, x_2, 2/omega.\n"
+        "<!-- results:b -->\n| 3 Hz |\n<!-- /results -->\n"
+    )
+    assert quantities_in_prose(page) == ["12.5 ms", "~9 kB", "0.14×", "2.5x", "40 dB", "-0.12 rad", "10⁵ steps",
+                                         "140 000 steps", "727,470 instructions"]  # fmt: skip
+
+
+def test_numbers_in_prose_come_from_recorded_json():
+    """Every quantity with a unit in the prose of the README and the hand-written pages is either rendered from the
+    recorded JSON (an inline or block ``<!-- results:NAME -->``) or a constant named, with its reason, in
+    PROSE_CONSTANTS or SCENE_CONSTANTS; an entry there that no page uses any more fails too. docs/study/ is written
+    by ``mjflex study`` from its JSON."""
+    found, unlisted = set(), []
+    for page in _pages():
+        where = os.path.relpath(page, ROOT).replace(os.sep, "/")
+        if where.startswith("docs/study/"):
+            continue
+        with open(page, encoding="utf-8") as f:
+            quantities = quantities_in_prose(f.read())
+        allowed = {**SCENE_CONSTANTS, **PROSE_CONSTANTS.get(where, {})}
+        unlisted += [f"{where}: {q!r}" for q in dict.fromkeys(quantities) if q not in allowed]
+        found |= {(where, q) for q in quantities} | {("*", q) for q in quantities}
+    assert not unlisted, (
+        f"hand-written quantities in prose: {unlisted}. A measurement: render it from its JSON (an inline block of "
+        "scripts/results_blocks.py); a constant (parameter, default, closed form, tested bound): add it with its "
+        "reason to PROSE_CONSTANTS"
+    )
+    stale = [f"{page}: {q!r}" for page, listed in PROSE_CONSTANTS.items() for q in listed if (page, q) not in found]
+    stale += [f"any page: {q!r}" for q in SCENE_CONSTANTS if ("*", q) not in found]
+    assert not stale, f"allowed quantities that no page holds any more (remove them): {stale}"
+
+
 # ----------------------------------------------------------------------------- docstring examples
 
 #: Public names whose docstring has no Examples section yet. Empty since issue 18's stage B: a public name comes with
@@ -428,6 +577,23 @@ def test_output_check_finds_warnings_and_non_finite_numbers(tmp_path):
     (tmp_path / codeblocks.MUJOCO_LOG).write_text("WARNING Sat Nov 28 2026: Attach conflict\n")
     assert ["Attach conflict" in x for x in codeblocks.output_problems("b", "", "", str(tmp_path))] == [True]
     assert codeblocks.output_problems("b", "[ 0.  -inf  1.]\nx = -Inf\n", "", None) != []
+
+
+def test_a_comment_below_a_print_is_checked_against_what_it_printed():
+    """A comment right below a print says what it prints: the words must be the same and each number within one unit
+    of its last digit shown; other comments are not claims."""
+    code = (
+        "x = 0.12716\nprint(f'rotation {x:.4f} rad, {x:.1e} s')\n# rotation 0.1272 rad, 1.3e-01 s\n"
+        "for k in range(2):\n    print(f'mode {16 + k:.1f} Hz')\n    # mode 17.0 Hz\n# mode 99 Hz: below no print\n"
+    )
+    block = codeblocks.Block("page.md", 1, "python", code, None)
+    claims = codeblocks.printed_claims(block)
+    assert claims == ["rotation 0.1272 rad, 1.3e-01 s", "mode 17.0 Hz"]
+    out = "rotation 0.1272 rad, 1.3e-01 s\nmode 16.0 Hz\nmode 17.0 Hz\n"
+    assert codeblocks.claim_problems("b", claims, out) == []
+    assert codeblocks.claim_matches("rotation 0.1271 rad, 1.3e-01 s", "rotation 0.1272 rad, 1.3e-01 s")  # one unit
+    stale = ["rotation 0.1274 rad, 1.3e-01 s", "rotation 0.1272 rad, 1.3e-01 J", "mode 18.0 Hz"]
+    assert len(codeblocks.claim_problems("b", stale, out)) == 3
 
 
 def test_a_block_that_diverges_fails(tmp_path):

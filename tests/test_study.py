@@ -10,6 +10,7 @@ import contextlib
 import io
 import json
 import os
+import re
 
 import mujoco
 import numpy as np
@@ -17,7 +18,7 @@ import pytest
 
 import mjflex
 from mjflex.app.cli import main
-from mjflex.app.study import Limit, StudyError, study
+from mjflex.app.study import Limit, StudyError, StudyResult, study
 from mjflex.app.study._metrics import linearized_frequencies
 from mjflex.mj.linearize import mass_matrix, normal_modes, stiffness_matrix
 from mjflex.mj.variant import Variant
@@ -116,6 +117,41 @@ def test_report_pareto_and_recommendation(two_body_run):
     assert needs["what the model file uses now"]["vs the model's setting"] == "the setting itself"
 
 
+def test_a_report_is_made_again_from_its_json(two_body_run):
+    """StudyResult.from_dict of a written JSON report gives that report back (to_dict) and the same Markdown, so a
+    report can be written again when its wording changes, without running anything."""
+    result, _, out = two_body_run
+    again = StudyResult.from_dict(result)
+    assert json.loads(json.dumps(again.to_dict(), default=float)) == result
+    with open(out / "study_two_body.md") as f:
+        assert again.to_markdown() == f.read()
+    bracketed = [lim for lim in again.limits if lim.linear_step is not None]
+    assert bracketed and all(lim.linear_step < lim.linear_unstable for lim in bracketed)
+    assert all(lim.linear_unstable is None for lim in again.limits if lim.linear_step is None)
+
+
+def test_the_recorded_arcade_report_is_what_its_json_gives():
+    """docs/study/study_arcade.md is what the study's writer makes of docs/study/study_arcade.json today (written
+    again after a change of wording, with the one-liner below; the JSON, timed on an idle machine, stays)."""
+    folder = os.path.join(ROOT, "docs", "study")
+    with open(os.path.join(folder, "study_arcade.json")) as f:
+        recorded = json.load(f)
+    again = StudyResult.from_dict(recorded)
+    written = json.loads(json.dumps(again.to_dict(), default=float))  # as the writer writes it
+    assert {k: written[k] for k in recorded} == {**recorded, "limits": written["limits"]}  # the same, read back
+    assert [{k: lim[k] for k in old} for lim, old in zip(written["limits"], recorded["limits"], strict=True)] == (
+        recorded["limits"]
+    )  # a report recorded before the linear bracket's upper end was: the field is new, the rest the same
+    with open(os.path.join(folder, "study_arcade.md")) as f:
+        assert f.read() == again.to_markdown(), (
+            'docs/study/study_arcade.md is stale: python -c "import json; from mjflex.app.study import StudyResult; '
+            "r = StudyResult.from_dict(json.load(open('docs/study/study_arcade.json'))); "
+            "open('docs/study/study_arcade.md', 'w').write(r.to_markdown())\""
+        )
+    lines = [x for x in again.to_markdown().splitlines() if x.startswith("- rk4, twist: ")]
+    assert len(lines) == 1 and "linear limit at or above 3.63e-05 s (the last stable step of its bisection" in lines[0]
+
+
 def test_stability_limits_match_closed_form():
     """A linear oscillator (w = 100 rad/s): the bisection brackets the theoretical limits.
 
@@ -138,6 +174,15 @@ def test_stability_limits_match_closed_form():
         assert "spring" in div.text() and f"{div.timestep:.3g}" in div.text()
         # the scene excites the only mode: the linear limit is the same one, bracketed to limit_rtol
         assert exact * 0.997 <= limit.linear_step <= exact * 1.002
+        assert limit.linear_step < limit.linear_unstable <= limit.linear_step * 1.002 and exact <= limit.linear_unstable
+        said = re.search(r"linear limit between (\S+) s \(stable\) and (\S+) s \(unstable\), set by the 15.92 Hz mode",
+                         limit.text())  # fmt: skip
+        lo, hi = float(said[1]), float(said[2])  # as many digits as tell them apart (3 would not here)
+        assert (
+            lo < hi
+            and lo == pytest.approx(limit.linear_step, rel=1e-3)  # rounded to its digits
+            and hi == pytest.approx(limit.linear_unstable, rel=1e-3)
+        )
         assert limit.linear_mode["frequency_hz"] == pytest.approx(w / (2 * np.pi), rel=1e-6)
         assert limit.recommended == min(limit.largest_stable, limit.linear_step)
     assert not any(r.status == "ok" and r.timestep > 2.84 / w for r in result.rows)
@@ -342,6 +387,7 @@ def test_linear_stability_limit_and_the_mode_the_scene_leaves_unexcited():
     for lim in result.limits:
         h = exact[lim.integrator]
         assert h * (1 - 0.021) <= lim.linear_step <= h * 1.002, (lim.integrator, lim.linear_step, h)
+        assert h <= lim.linear_unstable <= lim.linear_step * 1.02  # the bisection's bracket holds the limit
         assert lim.largest_stable > 1.1 * lim.linear_step  # the scene alone would claim 10 % more
         mode = lim.linear_mode
         assert mode["frequency_hz"] == pytest.approx(f_max, rel=1e-3) and mode["oscillating"]

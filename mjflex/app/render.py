@@ -35,8 +35,8 @@ from .simulate import element_strain_per_radian
 
 #: x264 settings of the videos: the fastest preset at quantizer 23. On ARCADE's frames at 960x540 it
 #: needs a fraction of the encoder time of mediapy's default (preset medium, qp 28; scripts/demo.py
-#: measures both) with a higher fidelity (PSNR 40 dB against 39 dB), for files about twice as
-#: large (9 kB a frame).
+#: times both) with a higher fidelity, for larger files (scripts/encoder_quality.py records both:
+#: docs/howto/render_headless.md).
 ENCODER = {"preset": "ultrafast", "qp": 23}
 
 #: Substrings of ``GL_RENDERER`` (lower case) of GL implementations that draw on the CPU.

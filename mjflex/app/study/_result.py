@@ -23,6 +23,15 @@ def who(variant, integrator, method):
     return f"{'' if variant == 'full' else variant + ': '}{integrator}{'' if method == '-' else ', ' + method}"
 
 
+def _bracket(lo, hi):
+    """``lo`` and ``hi`` [s] as text, with the fewest significant digits (3 to 6) that tell them apart."""
+    for digits in range(3, 7):
+        a, b = f"{lo:.{digits}g}", f"{hi:.{digits}g}"
+        if a != b:
+            break
+    return a, b
+
+
 @dataclass
 class Row:
     """One candidate of a study: a model variant, an element method, an integrator and a time step.
@@ -153,8 +162,12 @@ class Limit:
     steps_given : bool
         The candidate steps were given (``steps=``), not the default range.
     linear_step : float or None
-        Largest step at which the one-step map of the model linearized at the initial pose at rest is stable
-        [s]: the limit for any motion, with the model's damping.
+        The last stable step of the bisection of the linear limit [s]: the one-step map of the model linearized
+        at the initial pose at rest (the limit for any motion, with the model's damping) is stable there. The
+        linear limit itself lies between it and ``linear_unstable``.
+    linear_unstable : float or None
+        The bisection's first unstable step above ``linear_step`` [s] (within the study's ``limit_rtol`` of it;
+        None where there is no ``linear_step``, and in reports recorded before it was).
     linear_note : str
         Why there is no ``linear_step``, when there is none.
     linear_mode : dict or None
@@ -196,12 +209,13 @@ class Limit:
     smallest_unstable: float | None  # smallest larger step that diverged [s]
     divergence: Divergence | None = None  # how the smallest unstable step diverged
     steps_given: bool = False  # the candidate steps were given (steps=), not the default range
-    linear_step: float | None = None  # largest step at which the linearized model is stable [s]
+    linear_step: float | None = None  # the bisection's last step at which the linearized model is stable [s]
     linear_note: str = ""  # why there is no linear_step, when there is none
     linear_mode: dict | None = None  # the mode diverging first above it: frequency_hz, where, share, scene_share
     checks: list = field(default_factory=list)  # perturbed runs: {"timestep", "diverged": text or None}
     recommended: float | None = None  # the smaller of the two limits, halved until a perturbed run went through
     checked: bool = False  # the linear limit and the perturbed runs were done
+    linear_unstable: float | None = None  # the bisection's first unstable step above linear_step [s]
 
     def measured_text(self) -> str:
         """The bracket measured on the scene, in words (or what to widen when there is none)."""
@@ -210,7 +224,8 @@ class Limit:
         if self.smallest_unstable is None:
             widen = "add a larger step to --steps (steps=)" if self.steps_given else "widen with --max-step (max_step=)"
             return f"stable at every step tried (largest {self.largest_stable:.3g} s); {widen}"
-        return f"stable at {self.largest_stable:.3g} s, diverges at {self.smallest_unstable:.3g} s"
+        lo, hi = _bracket(self.largest_stable, self.smallest_unstable)
+        return f"stable at {lo} s, diverges at {hi} s"
 
     def mode_text(self) -> str:
         """The mode that diverges first above the linear limit, in words (empty without one)."""
@@ -226,15 +241,24 @@ class Limit:
                  else f"moving mostly {mode['where']}")  # fmt: skip
         return f"{what} ({where}, {100 * mode['share']:.3g} %; {mode['scene_share']:.1g} of the scene's initial energy)"
 
+    def linear_text(self) -> str:
+        """The bisection's bracket of the linear limit, in words (or why there is none)."""
+        if self.linear_step is None:
+            return self.linear_note
+        if self.linear_unstable is None:  # a report recorded before the bracket's upper end was
+            return (f"linear limit at or above {self.linear_step:.3g} s (the last stable step of its bisection; "
+                    "the unstable end was not recorded)")  # fmt: skip
+        lo, hi = _bracket(self.linear_step, self.linear_unstable)
+        return f"linear limit between {lo} s (stable) and {hi} s (unstable)"
+
     def text(self) -> str:
-        """The limit in one line: measured bracket, linear limit and its mode, the step to use (the report's)."""
+        """The limit in one line: measured bracket, linear bracket and its mode, the step to use (the report's)."""
         head = f"{who(self.variant, self.integrator, self.method)}: {self.measured_text()}"
         if not self.checked:
             return head
-        if self.linear_step is None:
-            head += f"; {self.linear_note}"
-        else:
-            head += f"; linear limit {self.linear_step:.3g} s, set by {self.mode_text()}"
+        head += f"; {self.linear_text()}"
+        if self.linear_step is not None:
+            head += f", set by {self.mode_text()}"
         over = [c for c in self.checks if c["status"] == "diverged" and self.recommended is not None
                 and c["timestep"] > self.recommended * (1 + 1e-9)]  # fmt: skip
         if over and self.linear_step is not None:
@@ -579,6 +603,7 @@ class StudyResult:
             "fastest_rate_per_s": self.fastest_rate,
             "clock": self.clock,
             "variants": self.variants,
+            "targets": list(self.targets),
             "recommendation": self.recommendation(),
             "needs": [dict(zip(self.NEEDS_COLUMNS, row, strict=True)) for row in self.needs()],
             "notes": self.notes,
@@ -587,6 +612,43 @@ class StudyResult:
             "date": self.date,
             "wall_s": self.wall_s,
         }
+
+    @classmethod
+    def from_dict(cls, report) -> "StudyResult":
+        """The result that a JSON report holds (the dict of :meth:`to_dict`), to write its reports again.
+
+        Nothing is run: :meth:`to_markdown`, :meth:`recommendation` and :meth:`needs` are computed again from the
+        recorded rows and limits, so a report's Markdown can be made again after its wording changed. A report
+        recorded before a field existed gets that field's default (``targets``: the default targets).
+
+        Parameters
+        ----------
+        report : dict
+            A study's JSON report, as :meth:`write` wrote it and ``json.load`` read it.
+
+        Returns
+        -------
+        StudyResult
+        """
+
+        def divergence(x):
+            return None if x is None else Divergence(**x)
+
+        def ranged(x):
+            return {**x, "wall_range": None if x.get("wall_range") is None else tuple(x["wall_range"])}
+
+        ref = report["reference"]
+        return cls(
+            model=report["model"], initial_state=report["initial_state"], duration=report["duration"],
+            sample_interval=report["sample_interval"], frame=report["frame"], tracked=report["tracked"],
+            model_setting=report["model_setting"], reference=None if ref is None else Reference(**ranged(ref)),
+            rows=[Row(**{**ranged(r), "divergence": divergence(r["divergence"])}) for r in report["rows"]],
+            limits=[Limit(**{**x, "divergence": divergence(x["divergence"])}) for x in report["limits"]],
+            frequencies=report["frequencies_hz"], highest_frequency=report["highest_frequency_hz"],
+            fastest_rate=report["fastest_rate_per_s"], variants=report["variants"],
+            targets=tuple(report.get("targets", cls.targets)), clock=report["clock"], notes=report["notes"],
+            message=report["message"], date=report["date"], wall_s=report["wall_s"], command=report["command"],
+        )  # fmt: skip
 
     def summary_lines(self) -> list[str]:
         """The report's summary, one line each: model, run, reference, frequencies, wall time, notes."""
@@ -623,11 +685,12 @@ class StudyResult:
             out += ["", "## Largest stable step", ""]
             if any(lim.checked for lim in self.limits):
                 out += [
-                    "Measured: the bisection of this scene's runs. Linear limit: the model linearized at the initial "
-                    "pose, for any motion; the mode named is the one that diverges first above it. Used: the smaller "
-                    f"of the two, checked by a run of the scene with a random velocity perturbation of relative size "
-                    f"{PERTURBATION:g}; candidates above it ran through only because the scene leaves a mode unexcited "
-                    "and are never recommended.",
+                    "Measured: the bisection of this scene's runs, its last stable and first diverged step. Linear "
+                    "limit: of the model linearized at the initial pose, for any motion, bracketed by a bisection "
+                    "between its last stable and first unstable step; the mode named is the one that diverges first "
+                    "above it. Used: the smaller of the two stable steps, checked by a run of the scene with a random "
+                    f"velocity perturbation of relative size {PERTURBATION:g}; candidates above it ran through only "
+                    "because the scene leaves a mode unexcited and are never recommended.",
                     "",
                 ]
             out += [f"- {lim.text()}" for lim in self.limits]

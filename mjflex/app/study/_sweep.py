@@ -270,6 +270,8 @@ class _Study:
         lin = self._linear[key]
         h_lin, T, last = linear_limit(sim, integrator, method, guess, rtol, self.plan.duration, lin["growth"])
         limit.linear_step, limit.checked = h_lin, True
+        if h_lin is not None:
+            limit.linear_unstable = last  # the bisection's bracket: [h_lin, last]
         if T is not None:
             limit.linear_mode = limiting_mode(sim, T, lin)
         if h_lin is None:
