@@ -365,3 +365,21 @@ ts = [threading.Thread(target=work, args=(k,)) for k in range({threads})]
 [t.join() for t in ts]
 assert not errors, errors
 """)
+
+
+def test_the_known_issues_page_still_reproduces_mujocos_double_free():
+    """docs/background/known_issues.md reports MuJoCo's pickle bug with a reproducer that needs no mjflex (MuJoCo's own
+    PID plugin): it must still abort with a double free, or MuJoCo fixed it and the page must say so."""
+    import os
+    import re
+
+    from tests.native_cases import ROOT
+
+    with open(os.path.join(ROOT, "docs", "background", "known_issues.md"), encoding="utf-8") as f:
+        blocks = re.findall(r"```python\n(.*?)```", f.read(), re.S)
+    result = run_python(blocks[0], check=False, timeout=120)
+    out = result.stdout + result.stderr
+    assert result.returncode != 0 and re.search(r"double[ -]free", out), (
+        f"the reproducer of MuJoCo's pickle bug exited with {result.returncode}: if MuJoCo fixed it, update "
+        f"docs/background/known_issues.md\n{out[-3000:]}"
+    )
