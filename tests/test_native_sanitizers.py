@@ -147,6 +147,20 @@ import mjflex
 from tests.native_cases import two_body_xml, chain_xml
 from tests.models import two_body_spec, B_DEMO
 
+# the mjcb_passive dispatcher: 160 datas of one text-record model, more than its 64 watch records, 4 threads
+m = two_body_spec(B=B_DEMO).compile()
+flex = mjflex.Flexures(m)
+datas = [mujoco.MjData(m) for _ in range(160)]
+
+def run(k):
+    for _ in range(15):
+        for d in datas[k::4]:
+            mujoco.mj_step(m, d)
+
+with flex:
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(4)]
+    [t.start() for t in threads]; [t.join() for t in threads]
+
 # rollout: 4 threads, a model list of 1, 6 and 2 elements on datas made from the first
 models = [mujoco.MjModel.from_xml_string(two_body_xml(n)) for n in (1, 6, 2)]
 kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -175,19 +189,6 @@ def churn(k):
 threads = [threading.Thread(target=churn, args=(k,)) for k in range(4)]
 [t.start() for t in threads]; [t.join() for t in threads]
 
-# the mjcb_passive dispatcher: 160 datas of one text-record model, more than its 64 watch records, 4 threads
-m = two_body_spec(B=B_DEMO).compile()
-flex = mjflex.Flexures(m)
-datas = [mujoco.MjData(m) for _ in range(160)]
-
-def run(k):
-    for _ in range(15):
-        for d in datas[k::4]:
-            mujoco.mj_step(m, d)
-
-with flex:
-    threads = [threading.Thread(target=run, args=(k,)) for k in range(4)]
-    [t.start() for t in threads]; [t.join() for t in threads]
 print("threaded paths done")
 """
 
