@@ -21,10 +21,10 @@ B_DIAG = (0.01, 0.014, 0.012, 1.6, 2.4, 2.0)
 SANITIZER_REPORTS = ("ERROR: AddressSanitizer", "runtime error:", "WARNING: ThreadSanitizer", "ERROR: LeakSanitizer")
 
 
-def _instances(n, site_a="a", site_b="b", method="twist", extra=""):
+def _instances(n, site_a="a", site_b="b", method="twist", extra="", scale=1.0):
     out = []
     for i in range(n):
-        K = " ".join(repr((i + 1) * k) for k in K_DIAG)
+        K = " ".join(repr(scale * (i + 1) * k) for k in K_DIAG)
         B = " ".join(repr(b) for b in B_DIAG)
         out.append(
             f'<instance name="e{i}"><config key="site_a" value="{site_a}"/><config key="site_b" value="{site_b}"/>'
@@ -35,19 +35,19 @@ def _instances(n, site_a="a", site_b="b", method="twist", extra=""):
 
 
 def two_body_xml(n=1, *, method="twist", mocap=False, sleep=False, site_b_pos="-0.0821053 0.0173684 0.0621053",
-                 name="two_body", attached=False):  # fmt: skip
+                 name="two_body", attached=False, scale=1.0):  # fmt: skip
     """Bodies A (free, or mocap) and B (free) joined at one point by ``n`` elements ``e0..`` on the same two sites.
 
     Models of different ``n`` have the same bodies, joints and sites (equal nq, nv, nsite): only their plugin
     instances differ, as in the issue's ``rollout`` with a model list. ``attached``: body B references ``e0``
-    (``MjSpec.attach`` keeps only instances that a body references).
+    (``MjSpec.attach`` keeps only instances that a body references). ``scale`` multiplies every K.
     """
     option = '<option gravity="0 0 0"><flag sleep="enable"/></option>' if sleep else '<option gravity="0 0 0"/>'
     body_a = '<body name="A" pos="0 0 0.5" mocap="true">' if mocap else '<body name="A" pos="0 0 0.5"><freejoint/>'
     policy = "" if sleep else ' sleep="never"'
     plugin = '<plugin instance="e0"/>' if attached else ""
     return f"""<mujoco model="{name}">{option}
-<extension><plugin plugin="mjflex.flexure">{_instances(n, method=method)}</plugin></extension>
+<extension><plugin plugin="mjflex.flexure">{_instances(n, method=method, scale=scale)}</plugin></extension>
 <worldbody>
 {body_a}<inertial pos="0 0 0" mass="1.3" diaginertia="0.01 0.014 0.018"/>
 <geom size="0.03" contype="0" conaffinity="0" mass="0"/><site name="a" pos="0.1 0.02 0" quat="0.8 0 0.6 0"/></body>

@@ -175,16 +175,22 @@ del twin
 
 
 def test_one_data_stepped_with_two_models_in_turn():
-    """Two model objects of other stiffness interleaved on one data: each step reads its model's elements."""
+    """Two model objects interleaved on one data (other element counts; other stiffness; a copy with another rest
+    offset): each step reads its model's elements."""
     _run("""
-soft, stiff = model(two_body_xml(1)), model(two_body_xml(3))
-d = moving(soft)
-for k in range(6):
-    m = (soft, stiff)[k % 2]
-    expected = own_forces(m, d)
-    mujoco.mj_forward(m, d)
-    assert np.array_equal(d.qfrc_passive, expected), k
-    mujoco.mj_step(m, d)
+shifted = model(two_body_xml(2))
+moved = copy.copy(shifted)
+moved.site_pos[1] += [1e-6, 0, 0]  # a copy: the same sizes and text, another rest offset (within tolerance)
+pairs = ((model(two_body_xml(1)), model(two_body_xml(3))), (model(two_body_xml(2)), model(two_body_xml(2, scale=3.0))),
+         (shifted, moved))
+for soft, stiff in pairs:
+    d = moving(soft)
+    for k in range(6):
+        m = (soft, stiff)[k % 2]
+        expected = own_forces(m, d)
+        mujoco.mj_forward(m, d)
+        assert np.array_equal(d.qfrc_passive, expected), k
+        mujoco.mj_step(m, d)
 """)
 
 

@@ -324,17 +324,19 @@ def test_make_compliant_keeps_every_pair_of_a_single_body_in_collide():
 
 @pytest.mark.parametrize("kind", ["plugin", "record"])
 def test_reduce_keeps_the_polynomial_terms_of_an_element_it_keeps_whole(kind):
-    """Planted bug "reduce": an element kept whole lost its terms. The reduced model's element has the same terms,
-    and its energy at a large displacement is the core's potential with those terms."""
-    from tests.models import B_DEMO, two_body_spec
+    """Planted bug "reduce": an element kept whole lost its terms. Its damping is negligible, so reduce rewrites it
+    (damping dropped) while keeping it whole: the reduced model's element has the same terms, and its energy at a
+    large displacement is the core's potential with those terms."""
+    from tests.models import K_DEMO, two_body_spec
     from tests.plugin_models import polynomial_terms
 
     terms = polynomial_terms("twist")
-    source = two_body_spec(B=B_DEMO, terms=terms, kind=kind)
+    source = two_body_spec(B=1e-9 * K_DEMO, terms=terms, kind=kind)
     variant = mjflex.reduce(source, 1e6, verify=False)
     model = variant.model
     assert model.nq == source.compile().nq  # nothing restricted: the element is kept whole
     (record,) = mjflex.Flexures(model).records
+    assert not record.viscous  # rewritten: its damping was dropped
     assert np.array_equal(record.terms.exponents, terms.exponents)
     assert np.array_equal(record.terms.coefficients, terms.coefficients)
     flex, data = mjflex.Flexures(model), mujoco.MjData(model)
