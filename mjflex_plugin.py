@@ -98,6 +98,13 @@ def library():
             path = library_path()
             mujoco.mj_loadPluginLibrary(path)  # runs the library's constructor: mjp_registerPlugin
             lib = ctypes.CDLL(path)  # the same handle (same path): no second copy
+            if lib.mjfx_status() == -2:
+                raise NativeLibraryError(
+                    f"another copy of mjflex's native library, loaded from another path, registered the plugin "
+                    f"mjflex.flexure in this process before {path}: two installations of mjflex are on the path "
+                    "(see sys.path and PYTHONPATH); keep one, so that the plugin's elements and mjflex's Python "
+                    "layer use one library"
+                )
             if lib.mjfx_status() != 1:
                 raise NativeLibraryError(
                     f"mjflex's native library {path} refused to register: it was compiled against the headers of "

@@ -328,6 +328,17 @@ m = model(two_body_xml(2))
 d = moving(m)
 assert np.abs(d.qfrc_passive).max() > 0 and np.array_equal(d.qfrc_passive, own_forces(m, d))
 del d
+state = dict(mjflex_plugin._STATE)
+mjflex_plugin._STATE.clear()  # as a second installation of mjflex would find it
+os.environ["MJFLEX_NATIVE_DIR"] = folder
+try:
+    mjflex_plugin.library()
+except mjflex_plugin.NativeLibraryError as exc:
+    assert "another copy of mjflex's native library" in str(exc) and "two installations" in str(exc), exc
+else:
+    raise AssertionError("the copy was taken for the plugin")
+mjflex_plugin._STATE.clear()
+mjflex_plugin._STATE.update(state)
 """)
     assert result.returncode == 0
 
