@@ -198,14 +198,15 @@ def state_case(seed, index):
     which = rng.integers(4)
     if which == 0:
         n = int(rng.integers(1, 4))
-        xml, variants = two_body_xml(n, method=method), [two_body_xml(k, method=method) for k in (1, 4)]
+        # 12 elements: past the 64-byte padding of a data's plugin_data words (8 per 64 bytes)
+        xml, variants = two_body_xml(n, method=method), [two_body_xml(k, method=method) for k in (1, 12)]
     elif which == 1:
         xml = two_body_xml(1, method="twist").replace("</instance>", _valid_terms(rng, "twist") + "</instance>")
         variants = [two_body_xml(2)]
     elif which == 2:
         xml, variants = chain_xml(4, method=method), [chain_xml(4, method="dualquat" if method == "twist" else "twist")]
     else:
-        xml, variants = two_body_xml(2, method=method, mocap=True), [two_body_xml(1, method=method, mocap=True)]
+        xml, variants = two_body_xml(2, method=method, mocap=True), [two_body_xml(12, method=method, mocap=True)]
     specials = [np.nan, np.inf, -np.inf, 1e300, -1e300, 1e-300, 0.0, 1e6, -1e6, 1e154]
     edits = []
     for field in ("qpos", "qvel", "mocap_pos", "mocap_quat", "qacc"):
