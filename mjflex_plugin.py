@@ -9,7 +9,9 @@ library, checks that it was built for the MuJoCo that runs, and loads it, once, 
 :func:`library` (a second copy from another path would collide with the first registration).
 
 The library ``mjflex/native/libmjflex-mjNNNNNNN.so`` is built by ``pip install`` (``setup.py``);
-``NNNNNNN`` is the ``mjVERSION_HEADER`` of the MuJoCo headers it was compiled against.
+``NNNNNNN`` is the ``mjVERSION_HEADER`` of the MuJoCo headers it was compiled against. The
+environment variable ``MJFLEX_NATIVE_DIR`` names another folder to take it from (the sanitizer
+builds of ``tests/test_native_sanitizers.py``); it must be set before ``import mujoco``.
 """
 
 import ctypes
@@ -34,6 +36,8 @@ class NativeLibraryError(RuntimeError):
 
 
 def _folder():
+    if os.environ.get("MJFLEX_NATIVE_DIR"):
+        return os.environ["MJFLEX_NATIVE_DIR"]
     spec = importlib.util.find_spec("mjflex")  # locates the package without importing it (no numba)
     if spec is None or not spec.submodule_search_locations:
         return None
@@ -81,17 +85,26 @@ def library():
     Raises :class:`NativeLibraryError` when it is missing, built for another MuJoCo, or refused
     to register (the check of ``mjVERSION_HEADER`` against ``mj_version()`` inside it).
     """
+    # mujoco is imported before the lock is taken: its import runs the entry point, register(), which calls this
+    # function again in this thread (a lock held across the import would deadlock; tests/test_native_lifecycle.py)
+    import mujoco
+
     with _LOCK:
         if "library" in _STATE:
             return _STATE["library"]
         if "error" in _STATE:
             raise NativeLibraryError(_STATE["error"])
-        import mujoco
-
         try:
             path = library_path()
             mujoco.mj_loadPluginLibrary(path)  # runs the library's constructor: mjp_registerPlugin
             lib = ctypes.CDLL(path)  # the same handle (same path): no second copy
+            if lib.mjfx_status() == -2:
+                raise NativeLibraryError(
+                    f"another copy of mjflex's native library, loaded from another path, registered the plugin "
+                    f"mjflex.flexure in this process before {path}: two installations of mjflex are on the path "
+                    "(see sys.path and PYTHONPATH); keep one, so that the plugin's elements and mjflex's Python "
+                    "layer use one library"
+                )
             if lib.mjfx_status() != 1:
                 raise NativeLibraryError(
                     f"mjflex's native library {path} refused to register: it was compiled against the headers of "

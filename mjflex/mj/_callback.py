@@ -170,10 +170,12 @@ def _publish(model, provider):
         t, n = provider._tables, provider._tables.served
         names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in provider.names[:n]))
         records = provider._records_for(model)
-        native.mjfx_registry_publish(
-            slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, t.exps.ctypes.data,
-            t.coefs.ctypes.data, ctypes.cast(names, ctypes.c_void_p), records.ctypes.data,
-        )  # fmt: skip
+        if native.mjfx_registry_publish(
+            slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, len(t.chain), t.exps.ctypes.data,
+            t.coefs.ctypes.data, len(t.coefs), ctypes.cast(names, ctypes.c_void_p), records.ctypes.data,
+        ):  # fmt: skip
+            _FREE.insert(0, slot)
+            raise RuntimeError("mjflex: the element table does not fit the model (an index out of range); rebuild it")
         keep = (t, names, records)
     old = _IN_SLOT.get(model._address)
     _IN_SLOT[model._address] = (slot, provider, model, keep)

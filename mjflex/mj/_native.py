@@ -73,11 +73,13 @@ _SIGNATURES = {
     "mjfx_element_field": (ctypes.c_long, [ctypes.c_char_p]),
     "mjfx_attribute": (ctypes.c_char_p, [_I]),
     "mjfx_evaluate": (_I, [_P, _P, _P, _I, _P, _P, _P, _I, _P, _P, _P, _P]),
-    "mjfx_rest_offset": (None, [_P, _I, _I, _P, _P, _DP, _DP]),
+    "mjfx_evaluate_checked": (_I, [_P, _P, _P, _I, _P, _I, _P, _P, _I, _I, _P, _P, _P, _P]),
+    "mjfx_check_rows": (_I, [_P, _P, _I, _P, _I, _P, _P, _I]),
+    "mjfx_site_rest_offset": (_I, [_P, _P, _I, _I, _P, _P, _DP, _DP]),
     "mjfx_matrix_structure": (_I, [_P]),
     "mjfx_registry_capacity": (_I, []),
     "mjfx_registry_records_size": (ctypes.c_size_t, [_I]),
-    "mjfx_registry_publish": (None, [_I, _P, _I, _P, _P, _P, _P, _P, _P]),
+    "mjfx_registry_publish": (_I, [_I, _P, _I, _P, _P, _I, _P, _P, _I, _P, _P]),
     "mjfx_registry_clear": (None, [_I]),
     "mjfx_registry_used": (_I, []),
     "mjfx_records_watch": (_P, [_P, _I, _P]),
@@ -91,14 +93,16 @@ _SIGNATURES = {
     "mjfx_watch_size_of": (_I, [_P]),
     "mjfx_watch_first": (_I, [_P, _I, _P]),
     "mjfx_watch_peek": (None, [_P, _P, _P, _P]),
-    "mjfx_wrench_batch": (None, [_I, _I, *[_P] * 6, _I, *[_P] * 6, _I, _I, _P, _P]),
-    "mjfx_potential_batch": (None, [_I, _I, *[_P] * 7, _I, _I, _P]),
-    "mjfx_twist_batch": (None, [_I, _P, _P, _P, _P, _P]),
+    "mjfx_wrench_batch": (_I, [_I, _I, *[_P] * 6, _I, *[_P] * 6, _I, _I, _P, _P]),
+    "mjfx_potential_batch": (_I, [_I, _I, *[_P] * 7, _I, _I, _P]),
+    "mjfx_twist_batch": (_I, [_I, _P, _P, _P, _P, _P]),
+    "mjfx_min_eigenvalue": (_D, [_P, _I]),
     "mjfx_series_coefficients": (_I, [_P, _P, _I]),
     "mjfx_header_version": (_I, []),
     "mjfx_is_instance": (_I, [_P, _I]),
-    "mjfx_element_prepare": (None, [_P, _P]),
+    "mjfx_prepare_row": (_I, [_P, _P]),
     "mjfx_live_instances": (ctypes.c_long, []),
+    "mjfx_states_count": (ctypes.c_long, []),
     "mjfx_set_lanes": (_I, [_I]),
     "mjfx_lanes_available": (_I, [_I]),
     "mjfx_lanes": (_I, []),
@@ -185,25 +189,38 @@ def _ptr(a):
 
 
 def evaluate(model, data, elements, chain, exps, coefs, mode, *, qfrc=None, out6=None, out1=None, n=None):
-    """Run the C loop on ``data``; returns -1 or the index of the first element with a non-finite wrench."""
+    """Run the C loop on ``data``; returns -1 or the index of the first element with a non-finite wrench.
+
+    The C side checks the tables against the model first (``mjfx_evaluate_checked``): a table that would
+    index past the model's arrays raises RuntimeError instead of reading memory it does not own.
+    """
     native = lib()
     count = len(elements) if n is None else n
-    return native.mjfx_evaluate(
-        model._address, data._address, _ptr(elements), count, _ptr(chain), _ptr(exps), _ptr(coefs), mode,
-        _ptr(qfrc), _ptr(out6), _ptr(out1), None,
+    if count > len(elements):
+        raise ValueError(f"mjflex: {count} elements asked of a table of {len(elements)}")
+    status = native.mjfx_evaluate_checked(
+        model._address, data._address, _ptr(elements), count, _ptr(chain), len(chain), _ptr(exps), _ptr(coefs),
+        len(coefs), mode, _ptr(qfrc), _ptr(out6), _ptr(out1), None,
     )  # fmt: skip
+    if status == -2:
+        raise RuntimeError("mjflex: an element table does not fit its model (an index out of range); rebuild it")
+    return status
 
 
 def rest_offset(data, sa, sb):
     """``(R0 (3, 3), p0 (3,), distance, angle)`` of site b seen from site a in ``data`` (the C computation)."""
     R0, p0, dist, angle = np.empty(9), np.empty(3), ctypes.c_double(), ctypes.c_double()
-    lib().mjfx_rest_offset(data._address, int(sa), int(sb), R0.ctypes.data, p0.ctypes.data, dist, angle)
+    if lib().mjfx_site_rest_offset(data.model._address, data._address, int(sa), int(sb), R0.ctypes.data,
+                                   p0.ctypes.data, dist, angle):  # fmt: skip
+        raise ValueError(f"mjflex: site ids {sa}, {sb} are not sites of the data's model")
     return R0.reshape(3, 3), p0, dist.value, angle.value
 
 
 def prepare(model, elements, i):
     """Fill row ``i``'s derived fields (``mjfx_element_prepare``: offset, qa, qb, levers, structures, diagonals)."""
-    lib().mjfx_element_prepare(model._address, elements.ctypes.data + i * elements.itemsize)
+    row = elements.ctypes.data + i * elements.itemsize
+    if not 0 <= i < len(elements) or lib().mjfx_prepare_row(model._address, row):
+        raise ValueError(f"mjflex: row {i} of the element table does not name sites of the model")
 
 
 def report_text(model, verdict, element: str) -> str:

@@ -178,8 +178,22 @@ def rest_offset(ref, sa, sb):
     return R0, p0, float(np.linalg.norm(p0)), angle
 
 
+def _coincide(dist, angle, tol):
+    """Whether a distance and an angle are within the coincidence tolerances (NaN is not: ``NaN > tol`` is false)."""
+    return dist <= tol and angle <= schema.COINCIDENCE_ANGLE
+
+
+_NONFINITE = (
+    "Their pose at qpos0 is not finite: a position, orientation or joint reference (qpos0) that places them is NaN "
+    "or infinite; give finite numbers."
+)
+
+
 def _check_coincident(element, sites, dist, angle, tol):
-    if dist > tol or angle > schema.COINCIDENCE_ANGLE:
+    if not np.isfinite([dist, angle, tol]).all():
+        raise model_error(element, f"sites '{sites[0]}' and '{sites[1]}' are {dist:.3g} m and {angle:.3g} rad apart "
+                          "at qpos0", _NONFINITE)  # fmt: skip
+    if not _coincide(dist, angle, tol):
         raise model_error(
             element,
             f"sites '{sites[0]}' and '{sites[1]}' are {dist:.3g} m apart and {angle:.3g} rad apart at qpos0 "
@@ -215,12 +229,14 @@ def _check_frame_site(model, ref, element, site, site_a, tol):
     R_s, R_a = ref.site_xmat[sid].reshape(3, 3), ref.site_xmat[site_a[1]].reshape(3, 3)
     dist = float(np.linalg.norm(ref.site_xpos[sid] - ref.site_xpos[site_a[1]]))
     angle = float(np.linalg.norm(twist_from_transform(R_s.T @ R_a, np.zeros(3), check=False)[:3]))
-    if dist > tol or angle > schema.COINCIDENCE_ANGLE:
+    if not _coincide(dist, angle, tol):
         raise model_error(
             element,
             f"its frame is {dist:.3g} m and {angle:.3g} rad away from the site '{site}' its record names (at qpos0)",
             "The site was moved without the element: place the element again at the site "
-            '(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop "site" from its record.',
+            '(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop "site" from its record.'
+            if np.isfinite([dist, angle]).all()
+            else _NONFINITE,
         )
 
 
@@ -460,6 +476,6 @@ def _rest_moved(mine, other, e):
     dp = other.elements["p0"][e] - mine.elements["p0"][e]
     angle = float(np.linalg.norm(twist_from_transform(R, np.zeros(3), check=False)[:3]))
     dist = float(np.linalg.norm(dp))
-    if dist > mine.tolerance[e] or angle > schema.COINCIDENCE_ANGLE:
+    if not _coincide(dist, angle, mine.tolerance[e]):
         return f"{dist:.3g} m and {angle:.3g} rad"
     return None

@@ -15,6 +15,12 @@ Sources
     Parsing and validation of a plugin instance's configuration (a compile error on bad input).
 ``plugin.c``
     The engine plugin ``mjflex.flexure`` (one instance per element) and its registration.
+``instances.c``
+    Reading the plugin's elements from a model: each instance's configuration, sites, rest offset
+    and dof chains, gathered into the table the per-step loop evaluates.
+``states.c``
+    The registry of the plugin's per-mjData states: the plugin never trusts ``mjData.plugin_data``
+    (pickled datas, rollout with other models; see plugin.c and docs/background/known_issues.md).
 ``callback.c``
     The ``mjcb_passive`` dispatcher and the registry of the text-record models it serves.
 ``api.c``

@@ -1,6 +1,7 @@
 // Entry points for Python (ctypes, mjflex/mj/_native.py): the element struct's layout, batch
 // versions of the element math (tested against mjflex.core), and the watch's contents.
 
+#include <math.h>
 #include <stddef.h>
 #include <string.h>
 
@@ -44,12 +45,107 @@ const char* mjfx_attribute(int i) {
   return i >= 0 && i < MJFX_NATTRIBUTE ? MJFX_ATTRIBUTES[i] : NULL;
 }
 
-// Wrenches (n x 6) and powers (n) of n elements given as stacked arrays (every array has n
-// rows); velocities may be NULL when viscous is 0; terms shared by all (nterms may be 0).
-void mjfx_wrench_batch(int n, int method, const double* Ra, const double* pa, const double* Rb, const double* pb,
-                       const double* K, const double* B, int viscous, const double* wa, const double* va,
-                       const double* wb, const double* vb, const int* exps, const double* coefs, int nterms, int top,
-                       double* out, double* power) {
+//------------------------------------------------------------------------------ argument checks
+// Python passes these functions its own, validated tables; the checks keep a wrong argument from a ctypes
+// caller from reading or writing past an array (tests/test_native_lifecycle.py calls each with bad ones).
+
+// the terms' arguments: nterms >= 0 rows of exponents in [0, top] (the columns the method reads), top in
+// [0, MJFX_MAX_EXPONENT] (the kernel's table of powers)
+static int terms_ok(int method, const int* exps, int nterms, int top) {
+  if (nterms < 0 || top < 0 || top > MJFX_MAX_EXPONENT) return 0;
+  if (!nterms) return 1;
+  if (!exps) return 0;
+  int nvar = method == MJFX_TWIST ? 6 : 8;
+  for (long r = 0; r < nterms; r++) {
+    for (int k = 0; k < nvar; k++) {
+      int e = exps[MJFX_TERM_COLUMNS * r + k];
+      if (e < 0 || e > top) return 0;
+    }
+  }
+  return 1;
+}
+
+static void fill_nan(double* out, long count) {
+  for (long i = 0; out && i < count; i++) out[i] = NAN;
+}
+
+// a free joint's dof address (6 dofs from it) or -1
+static int free_ok(const mjModel* m, int adr) {
+  return adr == -1 || (adr >= 0 && adr <= m->nv - 6);
+}
+
+// The first row of an element table that could make mjfx_evaluate read or write outside the arrays of
+// model m (sizes and indices), or of chain (nchain dof ids in [0, nv)) and the terms' tables (nterms
+// rows); -1 when every row is sound. A size < 0 or a missing array: 0.
+int mjfx_check_rows(const mjModel* m, const mjfxElement* el, int n, const int* chain, int nchain, const int* exps,
+                    const double* coefs, int nterms) {
+  if (!m || n < 0 || nchain < 0 || nterms < 0 || (n && !el) || (nchain && !chain) || (nterms && (!exps || !coefs))) {
+    return 0;
+  }
+  for (int k = 0; k < nchain; k++) {
+    if (chain[k] < 0 || chain[k] >= m->nv) return 0;
+  }
+  for (int i = 0; i < n; i++) {
+    const mjfxElement* e = el + i;
+    int ok = (e->method == MJFX_TWIST || e->method == MJFX_DUALQUAT) && (e->enabled | 1) == 1 &&
+             (e->viscous | 1) == 1 && (e->offset | 1) == 1 && e->site_a >= 0 && e->site_a < m->nsite &&
+             e->site_b >= 0 && e->site_b < m->nsite && e->body_a >= 0 && e->body_a < m->nbody && e->body_b >= 0 &&
+             e->body_b < m->nbody && e->kstruct >= MJFX_FULL && e->kstruct <= MJFX_ZERO && e->bstruct >= MJFX_FULL &&
+             e->bstruct <= MJFX_ZERO && free_ok(m, e->free_a) && free_ok(m, e->free_b) && e->chain_a0 >= 0 && e->chain_a0 <= e->chain_a1 && e->chain_a1 <= nchain &&
+             e->chain_b0 >= 0 && e->chain_b0 <= e->chain_b1 && e->chain_b1 <= nchain && e->terms_lo >= 0 &&
+             e->terms_lo <= e->terms_hi && e->terms_hi <= nterms;
+    if (!ok || !terms_ok(e->method, exps ? exps + MJFX_TERM_COLUMNS * (long)e->terms_lo : NULL,
+                         e->terms_hi - e->terms_lo, e->terms_top)) {
+      return i;
+    }
+  }
+  return -1;
+}
+
+// mjfx_evaluate for ctypes: the table checked first (mjfx_check_rows); -2 and nothing evaluated when a
+// row is not sound.
+int mjfx_evaluate_checked(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
+                          int nchain, const int* exps, const double* coefs, int nterms, int mode, double* qfrc,
+                          double* out6, double* out1, mjfxScan* scan) {
+  if (!m || !d || mjfx_check_rows(m, el, n, chain, nchain, exps, coefs, nterms) >= 0) return -2;
+  if (((mode & (MJFX_WRENCH | MJFX_COORDS)) && !out6) || ((mode & (MJFX_ENERGY | MJFX_POWER)) && !out1) ||
+      ((mode & MJFX_APPLY) && !qfrc)) {
+    return -2;
+  }
+  return mjfx_evaluate(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
+}
+
+// mjfx_rest_offset for ctypes: sites checked against m. 0, or -1 (nothing written).
+int mjfx_site_rest_offset(const mjModel* m, const mjData* d, int sa, int sb, double R0[9], double p0[3],
+                          double* dist, double* angle) {
+  if (!m || !d || sa < 0 || sa >= m->nsite || sb < 0 || sb >= m->nsite) return -1;
+  mjfx_rest_offset(d, sa, sb, R0, p0, dist, angle);
+  return 0;
+}
+
+// mjfx_element_prepare for ctypes: the element's sites checked against m. 0, or -1 (nothing written).
+int mjfx_prepare_row(const mjModel* m, mjfxElement* e) {
+  if (!m || !e || e->site_a < 0 || e->site_a >= m->nsite || e->site_b < 0 || e->site_b >= m->nsite) return -1;
+  mjfx_element_prepare(m, e);
+  return 0;
+}
+
+//------------------------------------------------------------------------------ batch math (for the tests)
+
+// Wrenches (n x 6) and powers (n) of n elements given as stacked arrays (every array has n rows);
+// velocities may be NULL when viscous is 0; terms shared by all (nterms may be 0). 0, or -1 for an
+// argument out of range (then out and power are NaN).
+int mjfx_wrench_batch(int n, int method, const double* Ra, const double* pa, const double* Rb, const double* pb,
+                      const double* K, const double* B, int viscous, const double* wa, const double* va,
+                      const double* wb, const double* vb, const int* exps, const double* coefs, int nterms, int top,
+                      double* out, double* power) {
+  if (n < 0 || !out || !power) return -1;
+  if ((method != MJFX_TWIST && method != MJFX_DUALQUAT) || !Ra || !pa || !Rb || !pb || !K ||
+      (viscous && (!B || !wa || !va || !wb || !vb)) || !terms_ok(method, exps, nterms, top) || (nterms && !coefs)) {
+    fill_nan(out, 6L * n);
+    fill_nan(power, n);
+    return -1;
+  }
   mjfxTerms terms = {exps, coefs, nterms, top};
   for (int i = 0; i < n; i++) {
     double q[4], p[3], w[3], v[3], mb[3], fb[3];
@@ -67,10 +163,18 @@ void mjfx_wrench_batch(int n, int method, const double* Ra, const double* pa, co
       o[3 + k] = R[3 * k] * fb[0] + R[3 * k + 1] * fb[1] + R[3 * k + 2] * fb[2];
     }
   }
+  return 0;
 }
 
-void mjfx_potential_batch(int n, int method, const double* Ra, const double* pa, const double* Rb, const double* pb,
-                          const double* K, const int* exps, const double* coefs, int nterms, int top, double* out) {
+// Elastic energies (n) of n elements; 0, or -1 for an argument out of range (then out is NaN).
+int mjfx_potential_batch(int n, int method, const double* Ra, const double* pa, const double* Rb, const double* pb,
+                         const double* K, const int* exps, const double* coefs, int nterms, int top, double* out) {
+  if (n < 0 || !out) return -1;
+  if ((method != MJFX_TWIST && method != MJFX_DUALQUAT) || !Ra || !pa || !Rb || !pb || !K ||
+      !terms_ok(method, exps, nterms, top) || (nterms && !coefs)) {
+    fill_nan(out, n);
+    return -1;
+  }
   mjfxTerms terms = {exps, coefs, nterms, top};
   for (int i = 0; i < n; i++) {
     double q[4], p[3];
@@ -79,10 +183,14 @@ void mjfx_potential_batch(int n, int method, const double* Ra, const double* pa,
                     .bstruct = MJFX_ZERO, .method = method, .terms = &terms};
     out[i] = mjfx_potential(&in);
   }
+  return 0;
 }
 
-void mjfx_twist_batch(int n, const double* Ra, const double* pa, const double* Rb, const double* pb, double* out) {
+// Finite twists (n x 6); 0, or -1 for an argument out of range.
+int mjfx_twist_batch(int n, const double* Ra, const double* pa, const double* Rb, const double* pb, double* out) {
+  if (n < 0 || !Ra || !pa || !Rb || !pb || !out) return -1;
   for (int i = 0; i < n; i++) mjfx_twist(Ra + 9 * i, pa + 3 * i, Rb + 9 * i, pb + 3 * i, out + 6 * i);
+  return 0;
 }
 
 // Number of tallies of a watch (0 for NULL).

@@ -11,10 +11,15 @@
 //   provider was built.
 // * Models not in the registry (other models, the temporary ones MuJoCo builds while
 //   compiling) are left untouched; a previous C callback is called first (chained).
-// * Divergence: each slot has MJFX_WATCHES per-mjData watch records, claimed by data address
-//   (an atomic compare-exchange); when all are taken the least recently used is reclaimed, so a
-//   diagnostic may be approximate when more mjData of one model are alive at once, but every
-//   read stays within the slot's tables.
+// * The tables are checked once, when a slot is published (mjfx_check_rows): a table that could
+//   index past the model's arrays is refused.
+// * Divergence: each slot has MJFX_WATCHES per-mjData watch records, claimed by data address;
+//   when all are taken the least recently used is reclaimed, so a diagnostic may be approximate
+//   when more mjData of one model are alive at once than there are records. A record is used
+//   (read, cleared or written) only by the thread that holds its busy flag (an atomic
+//   compare-exchange): two threads that reclaim the same record at once cannot both use it (the
+//   loser evaluates without diagnostics), and a record is never cleared while another thread
+//   uses it (tests/test_native_sanitizers.py runs this under ThreadSanitizer).
 
 #include <stdatomic.h>
 #include <math.h>
@@ -32,6 +37,7 @@
 typedef struct Record_ {
   _Atomic uintptr_t owner;  // the mjData address, 0 when free
   _Atomic uint64_t stamp;   // last use (for reclaiming)
+  _Atomic int busy;         // 1 while a thread uses the record
   mjfxWatch watch;          // followed by its tallies
 } Record;
 
@@ -70,14 +76,20 @@ void mjfx_registry_records_init(unsigned char* records, int n) {
     Record* rec = (Record*)(records + r * record_size(n));
     atomic_store(&rec->owner, 0);
     atomic_store(&rec->stamp, 0);
+    atomic_store(&rec->busy, 0);
     rec->watch.exact = 0;
     mjfx_watch_clear(&rec->watch, n);
   }
 }
 
-void mjfx_registry_publish(int slot, const mjModel* m, int n, const mjfxElement* el, const int* chain,
-                           const int* exps, const double* coefs, const char* const* names, unsigned char* records) {
-  if (slot < 0 || slot >= MJFX_CAPACITY) return;
+// Serve model m from slot `slot` with a table of n elements (chain: nchain dof ids, nterms rows of terms).
+// 0, or -1 when the slot is out of range or the table is not sound (nothing published).
+int mjfx_registry_publish(int slot, const mjModel* m, int n, const mjfxElement* el, const int* chain, int nchain,
+                          const int* exps, const double* coefs, int nterms, const char* const* names,
+                          unsigned char* records) {
+  if (slot < 0 || slot >= MJFX_CAPACITY || !records || mjfx_check_rows(m, el, n, chain, nchain, exps, coefs, nterms) >= 0) {
+    return -1;
+  }
   Slot* s = g_slots + slot;
   s->n = n, s->el = el, s->chain = chain, s->exps = exps, s->coefs = coefs, s->names = names;
   s->records = records;
@@ -85,6 +97,7 @@ void mjfx_registry_publish(int slot, const mjModel* m, int n, const mjfxElement*
   int used = atomic_load(&g_used);
   while (used < slot + 1 && !atomic_compare_exchange_weak(&g_used, &used, slot + 1)) {
   }
+  return 0;
 }
 
 void mjfx_registry_clear(int slot) {
@@ -118,18 +131,34 @@ static uintptr_t mix(uintptr_t x) {
   return x;
 }
 
-// the watch of d in records (of n elements): found, claimed if free, or reclaimed from the least recently used
-static mjfxWatch* watch_in(unsigned char* records, int n, const mjData* d, int claim) {
+// take a record's busy flag (0: another thread uses it)
+static int take(Record* rec) {
+  int expected = 0;
+  return atomic_compare_exchange_strong_explicit(&rec->busy, &expected, 1, memory_order_acquire, memory_order_relaxed);
+}
+
+static void give(Record* rec) {
+  atomic_store_explicit(&rec->busy, 0, memory_order_release);
+}
+
+// The record of d in records (of n elements), its busy flag taken: found, claimed if free, or
+// reclaimed from the least recently used; NULL when none can be had (the caller goes on without
+// diagnostics). The caller gives the flag back (give) when done with the watch.
+static Record* record_in(unsigned char* records, int n, const mjData* d, int claim) {
   size_t size = record_size(n);
   uintptr_t key = (uintptr_t)d;
   int start = (int)(mix(key) % MJFX_WATCHES);
   uint64_t now = atomic_fetch_add_explicit(&g_clock, 1, memory_order_relaxed) + 1;
   for (int k = 0; k < MJFX_WATCHES; k++) {
     Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
-    if (atomic_load_explicit(&rec->owner, memory_order_acquire) == key) {
+    if (atomic_load_explicit(&rec->owner, memory_order_acquire) != key) continue;
+    if (!take(rec)) return NULL;  // d is being evaluated in another thread, or its record reclaimed right now
+    if (atomic_load_explicit(&rec->owner, memory_order_relaxed) == key) {
       atomic_store_explicit(&rec->stamp, now, memory_order_relaxed);
-      return &rec->watch;
+      return rec;
     }
+    give(rec);  // reclaimed for another data meanwhile
+    break;
   }
   if (!claim) return NULL;
   for (int attempt = 0; attempt < 4; attempt++) {
@@ -137,16 +166,17 @@ static mjfxWatch* watch_in(unsigned char* records, int n, const mjData* d, int c
     uint64_t oldest_stamp = UINT64_MAX;
     for (int k = 0; k < MJFX_WATCHES; k++) {
       Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
+      if (atomic_load_explicit(&rec->busy, memory_order_relaxed)) continue;
       uintptr_t owner = atomic_load(&rec->owner);
       uint64_t stamp = owner ? atomic_load_explicit(&rec->stamp, memory_order_relaxed) : 0;
       if (stamp < oldest_stamp) oldest = rec, oldest_stamp = stamp;
       if (!owner) break;
     }
-    uintptr_t expected = atomic_load(&oldest->owner);
-    if (atomic_compare_exchange_strong(&oldest->owner, &expected, key)) {
+    if (oldest && take(oldest)) {
+      atomic_store_explicit(&oldest->owner, key, memory_order_release);
       mjfx_watch_clear(&oldest->watch, n);
       atomic_store_explicit(&oldest->stamp, now, memory_order_relaxed);
-      return &oldest->watch;
+      return oldest;
     }
   }
   return NULL;  // lost every race: no diagnostics for this evaluation
@@ -157,28 +187,28 @@ static const char* element_name(const Slot* s, int e) {
 }
 
 // Evaluate the served elements of m on d; returns 0 if m is not served. With report, verdicts
-// are reported through MuJoCo here; else they are written to out[0..2) for the caller.
+// are reported through MuJoCo here; else they are written to out[0..2) for the caller. The record
+// is given back before anything is reported: a report may raise (mju_error), leaving this function.
 int mjfx_dispatch(const mjModel* m, mjData* d, int report, mjfxVerdict out[2]) {
   Slot* s = slot_of(m);
   if (out) out[0].element = out[1].element = -1;
   if (!s) return 0;
-  mjfxWatch* w = watch_in(s->records, s->n, d, 1);
-  mjfxVerdict v;
-  if (w) {
-    mjfx_watch_judge(w, m, d, 1, &v);
-    if (report) mjfx_report(m, &v, element_name(s, v.element));
-    else if (out) out[0] = v;
-  }
+  Record* rec = record_in(s->records, s->n, d, 1);
+  mjfxVerdict v[2] = {{.element = -1}, {.element = -1}};
+  if (rec) mjfx_watch_judge(&rec->watch, m, d, 1, v);
   mjfxScan scan;
   int bad = mjfx_evaluate(m, d, s->el, s->n, s->chain, s->exps, s->coefs, MJFX_APPLY, d->qfrc_passive, NULL, NULL,
                           &scan);
   if (bad >= 0) {
     for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;  // so that MuJoCo's checks see it too
   }
-  if (w) {
-    mjfx_watch_record(w, m, d, &scan, 1, &v);
-    if (report) mjfx_report(m, &v, element_name(s, v.element));
-    else if (out) out[1] = v;
+  if (rec) {
+    mjfx_watch_record(&rec->watch, m, d, &scan, 1, v + 1);
+    give(rec);
+  }
+  for (int k = 0; k < 2; k++) {
+    if (report) mjfx_report(m, v + k, element_name(s, v[k].element));
+    else if (out) out[k] = v[k];
   }
   return 1;
 }
@@ -190,7 +220,9 @@ void mjfx_passive(const mjModel* m, mjData* d) {
   mjfx_dispatch(m, d, 1, NULL);
 }
 
-// The watch of d in a records buffer of n elements (NULL if none).
+// The watch of d in a records buffer of n elements (NULL if none), for Python's queries between steps.
 const mjfxWatch* mjfx_records_watch(unsigned char* records, int n, const mjData* d) {
-  return records ? watch_in(records, n, d, 0) : NULL;
+  Record* rec = records ? record_in(records, n, d, 0) : NULL;
+  if (rec) give(rec);
+  return rec ? &rec->watch : NULL;
 }

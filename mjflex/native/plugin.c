@@ -1,17 +1,44 @@
 // The engine plugin mjflex.flexure (capability mjPLUGIN_PASSIVE): one instance per element.
 //
 // init parses and validates the instance's configuration (config.c) and measures the rest
-// offset at qpos0; a bad value is mju_warning + return -1, which MuJoCo turns into a compile
-// error naming the element. compute adds the element's generalized forces to qfrc_passive.
-// All mutable state lives in plugin_data (per mjData); nothing is global but the plugin struct.
+// offset at qpos0 (instances.c); a bad value is mju_warning + return -1, which MuJoCo turns into a
+// compile error naming the element. compute adds the element's generalized forces to qfrc_passive.
+// Nothing is global but the plugin's registration and the registry below.
 //
 // The first instance of the plugin in a model (the leader) does the per-step work of all: the
-// last instance's init gathers every instance's element into one contiguous table of the
-// leader's (what the mjcb_passive dispatcher evaluates for text records: the same loop), and the
-// other instances' compute returns at once. MuJoCo's own loops over plugin instances still cost
-// a few hundred instructions per instance and step.
+// last instance's init gathers every instance's element into one contiguous table (what the
+// mjcb_passive dispatcher evaluates for text records: the same loop), and the other instances'
+// compute returns at once. MuJoCo's own loops over plugin instances still cost a few hundred
+// instructions per instance and step.
 //
-// Divergence (see elements.h, mjfx_watch_*): the leader owns the mjData's watch. Its compute
+// Ownership: the registry of per-mjData states. MuJoCo gives a plugin one word per instance and
+// data, d->plugin_data[i], and that word cannot be trusted (tests/test_native_lifecycle.py):
+// * MjData.__setstate__ (pickle, multiprocessing, Dask) makes a data with mj_makeData and then
+//   overwrites plugin_data with the pickled words: the source data's pointers (alive and in use by
+//   it, or freed) or another process's;
+// * mujoco.rollout steps a data with any model of equal nv, state and control sizes: the model may
+//   have more plugin instances than the data has plugin_data words;
+// * mj_copyData into a data laid out for another model leaves the source's words in the slots past
+//   the destination's own; MuJoCo's reset passes d->plugin_data[i] for every instance of the model.
+// So the plugin keeps its own record of what it made. All of a data's mjflex state is one State
+// (its element table, divergence watch, visualization scratch), and a process-wide registry, a
+// hash table under one mutex, maps the data's address to it; the State also records the data's
+// buffer address when it was made (the generation: a data freed without MuJoCo calling destroy and
+// another allocated at the same address is not taken for it). The registry also holds every live
+// State's own address, so that a word read from plugin_data is used only when it is a live State
+// and the call is for that State's data (the reset callback gets nothing else: it compares the
+// plugin_state address, which only that data has). The plugin never dereferences, frees or writes
+// through a word it reads from plugin_data, never indexes plugin_data past d->nplugin, and writes
+// d->plugin_data[i] (the State, for MuJoCo's reset) only where d->plugin[i] is its own slot.
+//
+// A data stepped with another model object than its own (Batch.set_models, rollout with a model
+// list, an edited copy) reads that model's elements again, into its own State; when they cannot be
+// read (sites that no longer meet) it warns once, gives NaN forces with that model, and keeps its
+// table for its own model. A data that has no mjflex instance of its own (made from a model without
+// elements) cannot hold a State (MuJoCo would never destroy it): its elements are read at every
+// evaluation (slow; a warning says so once per process).
+//
+// Divergence (see elements.h, mjfx_watch_*): the State owns the data's watch. The leader's compute
 // first looks at MuJoCo's bad-state counters; its advance, which MuJoCo calls at the end of every
 // step, looks again, so that a step MuJoCo judged bad is reported from within that step.
 //
@@ -32,451 +59,341 @@
 
 #include "config.h"
 #include "elements.h"
+#include "instances.h"
+#include "states.h"
 
-// All elements of a model, gathered (the leader's).
-typedef struct Table_ {
-  int n;
-  mjfxElement* el;
-  int* chain;
-  int* exps;
-  double* coefs;
-  int* instance;  // plugin instance of each element
-} Table;
+// The plugin's registered slot (-1 until registration; compute never runs before it).
+static int g_slot = -1;
 
-typedef struct Instance_ {
-  mjfxElement el;
-  int* chain;     // dofs moving body A, then body B (chain_a0.. in el)
-  int* exps;      // own terms
-  double* coefs;
-  int nchain, nterms;
-  int leader;     // instance id of the model's first mjflex.flexure instance
-  mjfxWatch* watch;  // the mjData's watch, tallies by element of the table (leader only)
-  Table* table;      // every element (leader only, from the last instance's init on)
-  double strain_per_radian;  // 0: not given (the colour shows the rotation about z)
-  double strain_scale;       // full scale of the colour (0: the default, MJFX_DEFAULT_*_SCALE)
-  double* twists;            // 6 per element of the table, for visualize (leader only, allocated on first use)
-  const mjModel* model;      // the model init read the element from, and its configuration strings: a data
-  const char* attr;          //   stepped with another model reads its elements again (see leader_for)
-} Instance;
+// What identifies the model a table was read from. Beyond the model's address and its configuration
+// strings' address (another model object: read again), the sizes the table's indices depend on, so
+// that no index can leave the arrays of the model it is used with.
+typedef struct ModelKey_ {
+  const mjModel* m;
+  const char* attr;
+  uint64_t signature;
+  mjtSize nq, nv, nbody, nsite, nplugin, npluginattr;
+} ModelKey;
 
-static const char* instance_name(const mjModel* m, int instance) {
-  return m->names + m->name_pluginadr[instance];
+typedef struct State_ {
+  const mjData* data;    // the data it belongs to
+  const void* buffer;    // data->buffer when it was made (the generation)
+  uintptr_t state_base;  // data->plugin_state, as last seen (the reset callback's check)
+  int last;              // during init: the model's last instance of the plugin
+  int nparts, counted;   // during init: instances read so far; elements counted in g_live
+  Part* parts;
+  Table* table;          // from the last instance's init on
+  ModelKey key;          // the model the table was read from
+  ModelKey refused;      // the last model whose elements could not be read (NaN forces with it)
+  mjfxWatch* watch;      // tallies by element of the table
+  double* twists;        // 6 per element of the table, for visualize (allocated on first use)
+} State;
+
+static int is_ours(const mjModel* m, int i) {
+  return i >= 0 && i < m->nplugin && m->plugin[i] == g_slot;
 }
 
-static void free_table(Table* t) {
-  if (!t) return;
-  free(t->el);
-  free(t->chain);
-  free(t->exps);
-  free(t->coefs);
-  free(t->instance);
-  free(t);
+// the model's first (leader) and last instance of the plugin, -1 if none
+static int first_of(const mjModel* m) {
+  for (int i = 0; i < m->nplugin; i++) {
+    if (m->plugin[i] == g_slot) return i;
+  }
+  return -1;
 }
 
-// instances alive in the process (a test checks that failed compiles leave none behind)
+static int last_of(const mjModel* m) {
+  for (int i = (int)m->nplugin - 1; i >= 0; i--) {
+    if (m->plugin[i] == g_slot) return i;
+  }
+  return -1;
+}
+
+static int count_of(const mjModel* m) {
+  int n = 0;
+  for (int i = 0; i < m->nplugin; i++) n += m->plugin[i] == g_slot;
+  return n;
+}
+
+// whether d has an instance of the plugin in its own arrays (then MuJoCo calls destroy for d)
+static int data_has_instance(const mjData* d) {
+  for (int i = 0; i < d->nplugin; i++) {
+    if (d->plugin[i] == g_slot) return 1;
+  }
+  return 0;
+}
+
+static ModelKey key_of(const mjModel* m) {
+  ModelKey k = {m, m->plugin_attr, m->signature, m->nq, m->nv, m->nbody, m->nsite, m->nplugin, m->npluginattr};
+  return k;
+}
+
+static int key_is(const ModelKey* k, const mjModel* m) {
+  return k->m == m && k->attr == m->plugin_attr && k->signature == m->signature && k->nq == m->nq &&
+         k->nv == m->nv && k->nbody == m->nbody && k->nsite == m->nsite && k->nplugin == m->nplugin &&
+         k->npluginattr == m->npluginattr;
+}
+
+//------------------------------------------------------------------------------ tables and states
+
+// elements alive in the process (a test checks that failed compiles and freed datas leave none behind)
 static _Atomic long g_live = 0;
 
 long mjfx_live_instances(void) {
   return atomic_load(&g_live);
 }
 
-static void free_instance(Instance* in) {
-  if (!in) return;
-  atomic_fetch_sub(&g_live, 1);
-  free(in->chain);
-  free(in->exps);
-  free(in->coefs);
-  free(in->watch);
-  free(in->twists);
-  free_table(in->table);
-  free(in);
+static void free_parts(State* s) {
+  for (int k = 0; k < s->nparts; k++) mjfx_free_part(s->parts + k);
+  free(s->parts);
+  s->parts = NULL;
+  s->nparts = 0;
 }
 
-static int leader_of(const mjModel* m, int instance) {
-  for (int i = 0; i < m->nplugin; i++) {
-    if (m->plugin[i] == m->plugin[instance]) return i;
-  }
-  return instance;
+// free a state that is not (or no longer) in the registry
+static void free_state(void* p) {
+  State* s = (State*)p;
+  if (!s) return;
+  atomic_fetch_sub(&g_live, s->counted);
+  free_parts(s);
+  mjfx_free_table(s->table);
+  free(s->watch);
+  free(s->twists);
+  free(s);
 }
 
-static int last_of(const mjModel* m, int instance) {
-  for (int i = m->nplugin - 1; i >= 0; i--) {
-    if (m->plugin[i] == m->plugin[instance]) return i;
-  }
-  return instance;
-}
-
-// Gather the elements of every instance (all initialized: this runs in the last one's init) into
-// the leader's table, with the chain and term ranges shifted into the concatenated arrays.
-static Table* gather(const mjModel* m, const mjData* d, int leader, int last) {
-  Table* t = calloc(1, sizeof(Table));
-  if (!t) return NULL;
-  int n = 0, nchain = 0, nterms = 0;
-  for (int i = leader; i <= last; i++) {
-    const Instance* in = m->plugin[i] == m->plugin[leader] ? (const Instance*)d->plugin_data[i] : NULL;
-    if (in) n++, nchain += in->nchain, nterms += in->nterms;
-  }
-  t->el = malloc(sizeof(mjfxElement) * (n ? n : 1));
-  t->instance = malloc(sizeof(int) * (n ? n : 1));
-  t->chain = malloc(sizeof(int) * (nchain ? nchain : 1));
-  t->exps = calloc((size_t)(nterms ? nterms : 1) * MJFX_TERM_COLUMNS, sizeof(int));
-  t->coefs = calloc(nterms ? nterms : 1, sizeof(double));
-  if (!t->el || !t->instance || !t->chain || !t->exps || !t->coefs) {
-    free_table(t);
-    return NULL;
-  }
-  int k = 0, c = 0, r = 0;
-  for (int i = leader; i <= last; i++) {
-    const Instance* in = m->plugin[i] == m->plugin[leader] ? (const Instance*)d->plugin_data[i] : NULL;
-    if (!in) continue;
-    mjfxElement* e = t->el + k;
-    *e = in->el;
-    e->chain_a0 += c, e->chain_a1 += c, e->chain_b0 += c, e->chain_b1 += c;
-    e->terms_lo += r, e->terms_hi += r;
-    memcpy(t->chain + c, in->chain, sizeof(int) * in->nchain);
-    if (in->nterms) {
-      memcpy(t->exps + MJFX_TERM_COLUMNS * r, in->exps, sizeof(int) * MJFX_TERM_COLUMNS * in->nterms);
-      memcpy(t->coefs + r, in->coefs, sizeof(double) * in->nterms);
-    }
-    t->instance[k] = i;
-    c += in->nchain, r += in->nterms, k++;
-  }
-  t->n = n;
-  return t;
-}
-
-// A failed init: report, free this instance (MuJoCo calls no destroy for it), and free the earlier
-// instances of the plugin in d too, their pointers zeroed: MuJoCo 4.0.0 destroys the instances it had
-// initialized (observed: tests/test_plugin_config.py counts live instances), the 3.x source frees the
-// mjData without destroying them; either way nothing leaks and nothing is freed twice.
-static int init_fail(const mjModel* m, mjData* d, int instance, Instance* in, const char* msg) {
-  mju_warning("%s", msg);
-  free_instance(in);
-  for (int i = 0; i < instance; i++) {
-    if (m->plugin[i] == m->plugin[instance] && d->plugin_data[i]) {
-      free_instance((Instance*)d->plugin_data[i]);
-      d->plugin_data[i] = 0;
-    }
-  }
-  return -1;
-}
-
-// the text record of the same element, if the model has one (a model must hold each element once)
-static const char* record_of(const mjModel* m, const char* name) {
-  static const char prefix[] = "mjflex:";
-  for (int t = 0; t < m->ntext; t++) {
-    const char* tname = m->names + m->name_textadr[t];
-    const char* at = strstr(tname, prefix);
-    if (!at) continue;
-    size_t head = (size_t)(at - tname), len = strlen(name);
-    if (strlen(tname) == len + sizeof(prefix) - 1 && !strncmp(tname, name, head) &&
-        !strcmp(at + sizeof(prefix) - 1, name + head)) {
-      return tname;
-    }
-  }
-  return NULL;
-}
-
-// Id of the site a configuration names: `value` itself or, in a model composed with MjSpec.attach
-// (which prefixes and suffixes every name but leaves configuration strings as written), P + value + S
-// where the instance's name is P + E + S (mjflex.mj.schema.attached_name, the same rule). -1: none.
-static int config_site(const mjModel* m, const char* instance_name, const char* value) {
-  int id = mj_name2id(m, mjOBJ_SITE, value);
-  if (id >= 0 || !value[0]) return id;
-  size_t nlen = strlen(instance_name), vlen = strlen(value);
-  for (int i = 0; i < m->nsite; i++) {
-    const char* s = m->names + m->name_siteadr[i];
-    size_t slen = strlen(s);
-    for (const char* at = strstr(s, value); at; at = strstr(at + 1, value)) {
-      size_t pre = (size_t)(at - s), suf = slen - pre - vlen;
-      if (pre + suf < nlen && !strncmp(instance_name, s, pre) && !strcmp(instance_name + nlen - suf, at + vlen)) {
-        return i;
-      }
-    }
-  }
-  return -1;
-}
-
-// The optional frame site (attribute "site", written by add_flexure(..., site=...)): it must exist and
-// coincide with frame a at qpos0 (d holds the kinematics at qpos0). Returns 0 or -1 with a message.
-static int check_frame_site(const mjModel* m, const mjData* d, const char* name, const char* value, int site_a,
-                            double tol, char* err, int errsz) {
-  if (!value[0]) return 0;
-  int id = config_site(m, name, value);
-  if (id < 0) {
-    snprintf(err, errsz,
-             "mjflex: flexure '%.200s' (plugin instance of %s): its site attribute names the frame site '%.200s', "
-             "which the model does not have. Restore the site, or drop the site attribute if site_a and site_b are "
-             "right", name, MJFX_PLUGIN_NAME, value);
-    return -1;
-  }
-  double R[9], p[3], dist, angle;
-  mjfx_rest_offset(d, id, site_a, R, p, &dist, &angle);
-  if (dist > tol || angle > MJFX_COINCIDENCE_ANGLE) {
-    snprintf(err, errsz,
-             "mjflex: flexure '%.200s' (plugin instance of %s): its frame is %.3g m and %.3g rad away from the site "
-             "'%.200s' its site attribute names (at qpos0). The site was moved without the element: place the "
-             "element again at the site (mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop the "
-             "site attribute", name, MJFX_PLUGIN_NAME, dist, angle, value);
-    return -1;
-  }
+// the state's watch for n elements: kept when it has n tallies (a run goes on), else a fresh one
+static int size_watch(State* s, int n) {
+  if (s->watch && s->watch->n == n) return 0;
+  mjfxWatch* w = malloc(mjfx_watch_size(n));
+  if (!w) return -1;
+  free(s->watch);
+  s->watch = w;
+  w->exact = 1;
+  mjfx_watch_clear(w, n);
   return 0;
 }
 
-// Whether tree `t` may sleep: its policy lets MuJoCo put it to sleep.
-static int may_sleep(const mjModel* m, int t) {
-  int policy = m->tree_sleep_policy[t];
-  return policy != mjSLEEP_NEVER && policy != mjSLEEP_AUTO_NEVER;
+// install table t (read from m) in s, replacing its table; -1: out of memory (t freed)
+static int install_table(State* s, const mjModel* m, Table* t) {
+  if (size_watch(s, t->n)) {
+    mjfx_free_table(t);
+    return -1;
+  }
+  atomic_fetch_add(&g_live, t->n - (s->table ? s->table->n : 0));
+  s->counted += t->n - (s->table ? s->table->n : 0);
+  mjfx_free_table(s->table);
+  free(s->twists);
+  s->twists = NULL;
+  s->table = t;
+  s->key = key_of(m);
+  memset(&s->refused, 0, sizeof(ModelKey));
+  return 0;
 }
 
-// With sleeping enabled, warn (once per mjData) about an element that joins a tree which may sleep to
-// another tree or a mocap body: MuJoCo ignores forces on sleeping trees, and only the compiled model's
-// policies count (mjflex.add_flexure and python -m mjflex convert write sleep="never" on such trees).
-static void warn_sleepy(const mjModel* m, const Table* t) {
-  if (!mjENABLED(mjENBL_SLEEP)) return;
-  int first = -1, tree = -1, count = 0;
-  for (int k = 0; k < t->n; k++) {
-    int ba = t->el[k].body_a, bb = t->el[k].body_b;
-    int ta = m->body_treeid[ba], tb = m->body_treeid[bb];
-    int mocap = m->body_mocapid[ba] >= 0 || m->body_mocapid[bb] >= 0;
-    if (ta == tb || ((ta < 0 || tb < 0) && !mocap)) continue;
-    int sleepy = ta >= 0 && may_sleep(m, ta) ? ta : (tb >= 0 && may_sleep(m, tb) ? tb : -1);
-    if (sleepy < 0) continue;
-    if (first < 0) first = k, tree = sleepy;
-    count++;
+// the state of d in the registry, made if d has none (NULL: out of memory)
+static State* state_new(const mjData* d) {
+  State* s = calloc(1, sizeof(State));
+  if (!s) return NULL;
+  s->data = d, s->buffer = d->buffer, s->state_base = (uintptr_t)d->plugin_state;
+  if (mjfx_states_add(d, d->buffer, s, free_state)) {
+    free(s);
+    return NULL;
   }
-  if (first < 0) return;
-  const char* root = m->names + m->name_bodyadr[m->tree_bodyadr[tree]];
-  mju_warning(
-      "mjflex: flexure '%.200s' (and %d more) joins the tree of body '%.200s', which may sleep: sleeping is enabled, "
-      "and MuJoCo ignores forces on sleeping trees, so the element's force would be lost while it sleeps. Set "
-      "sleep=\"never\" on that body (mjflex.add_flexure and python -m mjflex convert write it), or disable sleeping",
-      instance_name(m, t->instance[first]), count - 1, root[0] ? root : "(unnamed)");
+  return s;
+}
+
+// Write the state into d's own words of the plugin (where d->plugin[i] is its slot; 0 for none).
+static void own_words(mjData* d, const State* s) {
+  for (int i = 0; i < d->nplugin; i++) {
+    if (d->plugin[i] == g_slot) d->plugin_data[i] = (uintptr_t)s;
+  }
+}
+
+//------------------------------------------------------------------------------ callbacks
+
+// A failed init: report, and drop d's state (MuJoCo calls no destroy for the failed instance; MuJoCo 4.0.0
+// destroys the instances it had initialized, the 3.x source frees the mjData without destroying them: either
+// way nothing leaks and nothing is freed twice, as the registry, not plugin_data, holds what was made).
+static int init_fail(mjData* d, const char* msg) {
+  mju_warning("%s", msg);
+  mjfx_states_remove(d);
+  for (int i = 0; i < d->nplugin; i++) {
+    if (d->plugin[i] == g_slot) d->plugin_data[i] = 0;
+  }
+  return -1;
+}
+
+// The last instance's init: the parts become the table.
+static int init_table(const mjModel* m, State* s) {
+  int* instance = malloc(sizeof(int) * (s->nparts ? s->nparts : 1));
+  Table* t = NULL;
+  if (instance) {
+    for (int i = 0, k = 0; i < m->nplugin; i++) {
+      if (m->plugin[i] == g_slot && k < s->nparts) instance[k++] = i;
+    }
+    t = mjfx_gather(s->parts, instance, s->nparts);
+  }
+  free(instance);
+  atomic_fetch_sub(&g_live, s->nparts);
+  s->counted -= s->nparts;
+  free_parts(s);
+  if (!t || install_table(s, m, t)) return -1;
+  mjfx_warn_sleepy(m, s->table);
+  return 0;
 }
 
 static int flexure_init(const mjModel* m, mjData* d, int instance) {
   char err[1000];
-  const char* name = instance_name(m, instance);
-  Instance* in = calloc(1, sizeof(Instance));
-  if (!in) return init_fail(m, d, instance, NULL, "mjflex: out of memory");
+  if (instance >= d->nplugin) return init_fail(d, "mjflex: internal error: an instance past the data's own");
+  State* s = NULL;
+  if (instance == first_of(m)) {  // the leader: a fresh state for d (one left by a data that lived here goes)
+    mjfx_states_remove(d);
+    s = state_new(d);
+    if (s) {
+      s->last = last_of(m);
+      s->parts = calloc(count_of(m), sizeof(Part));
+    }
+    if (!s || !s->parts) return init_fail(d, "mjflex: out of memory");
+  } else {
+    s = (State*)mjfx_states_find(d, d->buffer);
+    if (!s || !s->parts) return init_fail(d, "mjflex: internal error: an instance initialized before the first");
+  }
+  double* saved = mjfx_measure_begin(m, d);
+  if (!saved) return init_fail(d, "mjflex: out of memory");
+  int failed = mjfx_read_part(m, d, instance, s->parts + s->nparts, err, sizeof(err));
+  mjfx_measure_end(m, d, saved, 0);  // a fresh data: MuJoCo resets it next
+  if (failed) return init_fail(d, err);
+  s->nparts++, s->counted++;
   atomic_fetch_add(&g_live, 1);
-  if (!name[0]) {
-    snprintf(err, sizeof(err),
-             "mjflex: an instance of plugin %s (instance %d) has no name; an element is known by its name: declare it "
-             "as <instance name=\"...\"> under <extension><plugin plugin=\"%s\">",
-             MJFX_PLUGIN_NAME, instance, MJFX_PLUGIN_NAME);
-    return init_fail(m, d, instance, in, err);
-  }
-  const char* values[MJFX_NATTRIBUTE];
-  for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
-    values[i] = mj_getPluginConfig(m, instance, MJFX_ATTRIBUTES[i]);
-    if (!values[i]) values[i] = "";
-  }
-  mjfxParsed parsed;
-  memset(&parsed, 0, sizeof(parsed));
-  if (mjfx_parse_config(name, values, &parsed, err, sizeof(err))) return init_fail(m, d, instance, in, err);
-  in->el = parsed.el;
-  in->exps = parsed.exps, in->coefs = parsed.coefs, in->nterms = parsed.nterms;
-  in->strain_per_radian = parsed.strain_per_radian, in->strain_scale = parsed.strain_scale;
-  mjfxElement* e = &in->el;
-
-  const char* record = record_of(m, name);
-  if (record) {
-    snprintf(err, sizeof(err),
-             "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
-             "added twice. Keep one of them (python -m mjflex convert writes either form)",
-             name, record);
-    return init_fail(m, d, instance, in, err);
-  }
-  int sites[2];
-  for (int k = 0; k < 2; k++) {
-    const char* key = k ? "site_b" : "site_a";
-    const char* site = values[k];
-    if (!site[0]) {
-      snprintf(err, sizeof(err),
-               "mjflex: flexure '%.200s' (plugin instance of %s): %s is missing. Add <config key=\"%s\" "
-               "value=\"SITE\"/> naming the site of the element frame on body %s",
-               name, MJFX_PLUGIN_NAME, key, key, k ? "B" : "A");
-      return init_fail(m, d, instance, in, err);
-    }
-    sites[k] = config_site(m, name, site);
-    if (sites[k] < 0) {
-      snprintf(err, sizeof(err),
-               "mjflex: flexure '%.200s' (plugin instance of %s): %s '%.200s' is not a site of the model. Add <site "
-               "name=\"%.200s\"/> at the element frame (body %s) or fix the name",
-               name, MJFX_PLUGIN_NAME, key, site, site, k ? "B" : "A");
-      return init_fail(m, d, instance, in, err);
-    }
-  }
-  e->site_a = sites[0], e->site_b = sites[1];
-  e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
-  if (e->body_a == e->body_b) {
-    snprintf(err, sizeof(err),
-             "mjflex: flexure '%.200s' (plugin instance of %s): both sites are on body '%.200s'. Put site_a on one "
-             "body and site_b on the other (a site of the world body grounds the element)",
-             name, MJFX_PLUGIN_NAME, m->names + m->name_bodyadr[e->body_a]);
-    return init_fail(m, d, instance, in, err);
-  }
-
-  // rest offset at qpos0 (round-off of the model file absorbed), as Python's tables measure it
-  int moved = memcmp(d->qpos, m->qpos0, sizeof(mjtNum) * m->nq) != 0;
-  mjtNum* saved = NULL;
-  if (moved) {
-    saved = malloc(sizeof(mjtNum) * (m->nq ? m->nq : 1));
-    if (!saved) return init_fail(m, d, instance, in, "mjflex: out of memory");
-    memcpy(saved, d->qpos, sizeof(mjtNum) * m->nq);
-    memcpy(d->qpos, m->qpos0, sizeof(mjtNum) * m->nq);
-  }
-  mj_kinematics(m, d);
-  double dist, angle;
-  mjfx_rest_offset(d, e->site_a, e->site_b, e->R0, e->p0, &dist, &angle);
-  if (moved) {
-    memcpy(d->qpos, saved, sizeof(mjtNum) * m->nq);
-    free(saved);
-  }
-  double scale = mjfx_length_scale(m, e->site_a, e->site_b);
-  double tol = MJFX_COINCIDENCE_RTOL * (scale > 1e-9 ? scale : 1e-9);
-  if (dist > tol || angle > MJFX_COINCIDENCE_ANGLE) {
-    snprintf(err, sizeof(err),
-             "mjflex: flexure '%.200s' (plugin instance of %s): sites '%.100s' and '%.100s' are %.3g m apart and "
-             "%.3g rad apart at qpos0 (tolerance %.3g m: %g times the %.3g m of site and body positions that place "
-             "them, which covers their 6-digit rounding in saved files; %g rad). Both frames must coincide in the "
-             "reference configuration: place both at the same world pose",
-             name, MJFX_PLUGIN_NAME, values[0], values[1], dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
-             MJFX_COINCIDENCE_ANGLE);
-    return init_fail(m, d, instance, in, err);
-  }
-  if (check_frame_site(m, d, name, values[MJFX_NATTRIBUTE - 1], e->site_a, tol, err, sizeof(err))) {
-    return init_fail(m, d, instance, in, err);
-  }
-  mjfx_element_prepare(m, e);
-  mjfx_inverse_inertia(m, e->body_a, e->body_b, &e->inv_mass, &e->inv_inertia);
-
-  // generalized-force map: free-joint fast path or the dof chain of each body
-  in->chain = malloc(sizeof(int) * (2 * m->nv + 1));
-  if (!in->chain) return init_fail(m, d, instance, in, "mjflex: out of memory");
-  int count = 0;
-  e->free_a = mjfx_free_dofadr(m, e->body_a);
-  e->chain_a0 = count;
-  if (e->free_a < 0) count += mjfx_dof_chain(m, e->body_a, in->chain + count);
-  e->chain_a1 = count;
-  e->free_b = mjfx_free_dofadr(m, e->body_b);
-  e->chain_b0 = count;
-  if (e->free_b < 0) count += mjfx_dof_chain(m, e->body_b, in->chain + count);
-  e->chain_b1 = count;
-  in->nchain = count;
-
-  in->model = m, in->attr = m->plugin_attr;
-  in->leader = leader_of(m, instance);
-  if (in->leader == instance) {
-    in->watch = malloc(mjfx_watch_size(m->nplugin));
-    if (!in->watch) return init_fail(m, d, instance, in, "mjflex: out of memory");
-    in->watch->exact = 1;
-    mjfx_watch_clear(in->watch, m->nplugin);
-  }
-  d->plugin_data[instance] = (uintptr_t)in;
-  if (last_of(m, instance) == instance) {  // every instance is initialized: the leader takes over the work
-    Instance* leader = (Instance*)d->plugin_data[in->leader];
-    leader->table = gather(m, d, in->leader, instance);
-    if (!leader->table) {
-      d->plugin_data[instance] = 0;
-      return init_fail(m, d, instance, in, "mjflex: out of memory");
-    }
-    mjfx_watch_clear(leader->watch, leader->table->n);
-    warn_sleepy(m, leader->table);
-  }
+  if (instance == s->last && init_table(m, s)) return init_fail(d, "mjflex: out of memory");
+  own_words(d, s);
   return 0;
 }
 
 static void flexure_destroy(mjData* d, int instance) {
-  free_instance((Instance*)d->plugin_data[instance]);
-  d->plugin_data[instance] = 0;
+  mjfx_states_remove(d);  // whatever d->plugin_data holds: only the registry says what is d's
+  if (instance >= 0 && instance < d->nplugin) d->plugin_data[instance] = 0;
 }
 
-static void flexure_copy(mjData* dest, const mjModel* m, const mjData* src, int instance) {
-  Instance* to = (Instance*)dest->plugin_data[instance];
-  const Instance* from = (const Instance*)src->plugin_data[instance];
-  if (to && from && to->watch && from->watch && to->watch->n == from->watch->n && to->table) {
-    memcpy(to->watch, from->watch, mjfx_watch_size(from->watch->n));  // the copy continues the run
+// Elements of a data without a state of its own (see the top): read, evaluated and freed at every call;
+// said once per process (and once more if they cannot be read: NaN forces then).
+static _Atomic int g_warned_stateless = 0, g_warned_unread = 0;
+
+static Table* stateless_table(const mjModel* m, mjData* d) {
+  char err[1000];
+  if (!atomic_exchange(&g_warned_stateless, 1)) {
+    mju_warning("mjflex: a data made from a model without mjflex.flexure instances is stepped with model '%.100s', "
+                "which has them: its elements are read again at every step (slow). Make the data from the model "
+                "you step it with (mujoco.MjData(model)); this is said once per process",
+                m->names[0] ? m->names : "unnamed");
   }
+  Table* t = mjfx_read_model(m, d, g_slot, err, sizeof(err));
+  if (!t && !atomic_exchange(&g_warned_unread, 1)) {
+    mju_warning("%s. mjflex: so the elements of model '%.100s' cannot be read for a data made from another model: "
+                "its forces are NaN", err, m->names[0] ? m->names : "unnamed");
+  }
+  return t;
 }
 
-static void flexure_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
-  Instance* in = (Instance*)plugin_data;
-  if (in && in->watch) in->watch->reset = 1;  // a new run, unless MuJoCo counts a bad state (its auto-reset)
+// The state of d holding model m's elements, reading them when d's table is another model's. NULL, with
+// a warning once per model, when they cannot be read (or d cannot hold a state: *temp gets a table to free).
+static State* state_for(const mjModel* m, mjData* d, Table** temp) {
+  char err[1000];
+  *temp = NULL;
+  State* s = (State*)mjfx_states_find(d, d->buffer);
+  if (!s && !data_has_instance(d)) {
+    *temp = stateless_table(m, d);
+    return NULL;
+  }
+  if (!s && !(s = state_new(d))) return NULL;
+  s->state_base = (uintptr_t)d->plugin_state;
+  if (s->table && key_is(&s->key, m)) {
+    int i = s->table->n ? s->table->instance[0] : -1;  // the model's leader: d's own word, if d has it
+    if (i >= 0 && i < d->nplugin && d->plugin[i] == g_slot && d->plugin_data[i] != (uintptr_t)s) own_words(d, s);
+    return s;
+  }
+  if (key_is(&s->refused, m)) return NULL;
+  Table* t = mjfx_read_model(m, d, g_slot, err, sizeof(err));
+  if (t && !install_table(s, m, t)) {
+    own_words(d, s);
+    return s;
+  }
+  s->refused = key_of(m);
+  mju_warning("%s. mjflex: so the elements of model '%.100s', with which a data made from another model is stepped, "
+              "cannot be read: its forces are NaN with that model (the data's own model still works). Make the data "
+              "from the model you step it with (mujoco.MjData(model))",
+              t ? "mjflex: out of memory" : err, m->names[0] ? m->names : "unnamed");
+  return NULL;
+}
+
+// whether `instance` is the model's first instance of the plugin (the one that does the work)
+static int is_leader(const mjModel* m, int instance) {
+  if (instance > 0 && m->plugin[instance - 1] == g_slot) return 0;  // most models: at once
+  return first_of(m) == instance;
 }
 
 static void report(const mjModel* m, const Table* t, const mjfxVerdict* v) {
-  if (v->element >= 0 && v->element < t->n) mjfx_report(m, v, instance_name(m, t->instance[v->element]));
+  if (v->element >= 0 && v->element < t->n) mjfx_report(m, v, mjfx_instance_name(m, t->instance[v->element]));
 }
 
-// The elements of d again, read from model m as init read them from the model d was made for: d is
-// stepped with another model object (mujoco.batch.Batch.set_models, or a copy of the model with other
-// parameters or geometry). The run's divergence tallies carry over. Init measures the rest offsets at
-// qpos0 in d, so d's kinematics are computed again afterwards (bit for bit what they were). NULL, with
-// a warning, where the elements cannot be read (then qfrc_passive gets NaN: no force is silently lost).
-static Instance* reread(const mjModel* m, mjData* d, int leader) {
-  Instance* old = (Instance*)d->plugin_data[leader];
-  mjfxWatch* watch = old->watch;
-  old->watch = NULL;
-  int last = last_of(m, leader);
-  for (int i = leader; i <= last; i++) {
-    if (m->plugin[i] != m->plugin[leader] || !d->plugin_data[i]) continue;
-    free_instance((Instance*)d->plugin_data[i]);
-    d->plugin_data[i] = 0;
-  }
-  int failed = 0;
-  for (int i = leader; i <= last && !failed; i++) {
-    if (m->plugin[i] == m->plugin[leader]) failed = flexure_init(m, d, i) != 0;
-  }
-  mj_kinematics(m, d);
-  Instance* in = failed ? NULL : (Instance*)d->plugin_data[leader];
-  if (in && in->watch && watch && in->watch->n == watch->n) memcpy(in->watch, watch, mjfx_watch_size(watch->n));
-  free(watch);
-  if (!in) {
-    mju_warning("mjflex: the elements of a data stepped with another model than its own could not be read from that "
-                "model (see the message above); make the data from the model you step it with (mujoco.MjData(model))");
-  }
-  return in;
-}
-
-// The leader's instance for model m (NULL for the other instances: the leader computes every element).
-static Instance* leader_for(const mjModel* m, mjData* d, int instance) {
-  Instance* in = (Instance*)d->plugin_data[instance];
-  if (!in || !in->table) return NULL;
-  if (in->model == m && in->attr == m->plugin_attr) return in;
-  return reread(m, d, instance);
+static void nan_forces(const mjModel* m, mjData* d) {
+  for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;  // so that MuJoCo's checks see it too
 }
 
 static void flexure_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
-  Instance* in = leader_for(m, d, instance);
-  if (!in) {
-    if (d->plugin_data[instance] == 0 && instance == leader_of(m, instance)) {  // reread failed: no silent zero
-      for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;
+  if (!is_leader(m, instance)) return;
+  Table* temp;
+  State* s = state_for(m, d, &temp);
+  if (!s) {
+    if (!temp || mjfx_evaluate(m, d, temp->el, temp->n, temp->chain, temp->exps, temp->coefs, MJFX_APPLY,
+                               d->qfrc_passive, NULL, NULL, NULL) >= 0) {
+      nan_forces(m, d);  // no force is silently lost
     }
+    mjfx_free_table(temp);
     return;
   }
-  Table* t = in->table;
+  Table* t = s->table;
   mjfxVerdict v;
-  mjfx_watch_judge(in->watch, m, d, 1, &v);
+  mjfx_watch_judge(s->watch, m, d, 1, &v);
   report(m, t, &v);
   mjfxScan scan;
   int bad = mjfx_evaluate(m, d, t->el, t->n, t->chain, t->exps, t->coefs, MJFX_APPLY, d->qfrc_passive, NULL, NULL,
                           &scan);
-  if (bad >= 0) {
-    for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;  // so that MuJoCo's checks see it too
-  }
-  mjfx_watch_record(in->watch, m, d, &scan, 1, &v);
+  if (bad >= 0) nan_forces(m, d);
+  mjfx_watch_record(s->watch, m, d, &scan, 1, &v);
   report(m, t, &v);
 }
 
 static void flexure_advance(const mjModel* m, mjData* d, int instance) {
-  Instance* in = leader_for(m, d, instance);
-  if (!in) return;
+  if (!is_leader(m, instance)) return;
+  Table* temp;
+  State* s = state_for(m, d, &temp);
+  mjfx_free_table(temp);
+  if (!s) return;
   mjfxVerdict v;
-  mjfx_watch_judge(in->watch, m, d, 1, &v);
-  mjfx_watch_step_end(in->watch, d);
-  report(m, in->table, &v);
+  mjfx_watch_judge(s->watch, m, d, 1, &v);
+  mjfx_watch_step_end(s->watch, d);
+  report(m, s->table, &v);
+}
+
+// the copy continues the run: the source's tallies, where both datas hold states of the same size
+static void flexure_copy(mjData* dest, const mjModel* m, const mjData* src, int instance) {
+  if (!is_leader(m, instance)) return;
+  State* to = (State*)mjfx_states_find(dest, dest->buffer);
+  const State* from = (const State*)mjfx_states_find(src, src->buffer);
+  if (to && from && to->watch && from->watch && to->watch->n == from->watch->n) {
+    memcpy(to->watch, from->watch, mjfx_watch_size(from->watch->n));
+  }
+  own_words(dest, to);  // not the source's words, which mj_copyData leaves past dest's own
+}
+
+// A reset: MuJoCo passes d->plugin_data[instance] and d's plugin_state, not d: the word counts only if
+// it is a live state whose data has that plugin_state (see the top).
+static void flexure_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+  uintptr_t base = (uintptr_t)plugin_state - (uintptr_t)(sizeof(mjtNum) * (size_t)m->plugin_stateadr[instance]);
+  State* s = (State*)mjfx_states_lock_live((uintptr_t)plugin_data);
+  if (s && s->state_base == base && s->watch) s->watch->reset = 1;  // a new run, unless MuJoCo counts a bad state
+  mjfx_states_unlock();
 }
 
 static int flexure_nstate(const mjModel* m, int instance) {
@@ -497,22 +414,23 @@ static void strain_color(double x, float rgba[4]) {
 // site's pose, coloured by |rotation about z| x strain_per_radian over the full scale (the rotation itself
 // without strain_per_radian); where site a's group is shown, while the scene has room.
 static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
-  Instance* in = leader_for(m, d, instance);
-  if (!in || !in->table->n) return;
-  Table* t = in->table;
-  if (!in->twists && !(in->twists = malloc(sizeof(double) * 6 * t->n))) return;
+  if (!is_leader(m, instance)) return;
+  Table* temp;
+  State* s = state_for(m, d, &temp);
+  mjfx_free_table(temp);
+  if (!s || !s->table->n) return;
+  Table* t = s->table;
+  if (!s->twists && !(s->twists = malloc(sizeof(double) * 6 * t->n))) return;
   mjfxScan scan;
-  mjfx_evaluate(m, d, t->el, t->n, t->chain, t->exps, t->coefs, MJFX_COORDS, NULL, in->twists, NULL, &scan);
+  mjfx_evaluate(m, d, t->el, t->n, t->chain, t->exps, t->coefs, MJFX_COORDS, NULL, s->twists, NULL, &scan);
   for (int k = 0; k < t->n && scn->ngeom < scn->maxgeom; k++) {
     int site = t->el[k].site_a;
     int group = m->site_group[site];
     if (!opt->sitegroup[group < 0 ? 0 : (group >= mjNGROUP ? mjNGROUP - 1 : group)]) continue;
-    const Instance* own = (const Instance*)d->plugin_data[t->instance[k]];
-    double bending = fabs(in->twists[6 * k + 2]);
-    double value = own->strain_per_radian > 0 ? bending * own->strain_per_radian : bending;
-    double full = own->strain_scale > 0 ? own->strain_scale
-                                        : (own->strain_per_radian > 0 ? MJFX_DEFAULT_STRAIN_SCALE
-                                                                      : MJFX_DEFAULT_ROTATION_SCALE);
+    double per_radian = t->strain[2 * k], scale = t->strain[2 * k + 1];
+    double bending = fabs(s->twists[6 * k + 2]);
+    double value = per_radian > 0 ? bending * per_radian : bending;
+    double full = scale > 0 ? scale : (per_radian > 0 ? MJFX_DEFAULT_STRAIN_SCALE : MJFX_DEFAULT_ROTATION_SCALE);
     float rgba[4];
     strain_color(value / full, rgba);
     mjtNum size[3];
@@ -524,33 +442,32 @@ static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt,
     g->objid = t->instance[k];
     g->category = mjCAT_DECOR;
     g->segid = scn->ngeom;
-    if (opt->label == mjLABEL_SITE) snprintf(g->label, sizeof(g->label), "%s", instance_name(m, t->instance[k]));
+    if (opt->label == mjLABEL_SITE) snprintf(g->label, sizeof(g->label), "%s", mjfx_instance_name(m, t->instance[k]));
     scn->ngeom++;
   }
 }
 
 //------------------------------------------------------------------------------ for Python (ctypes)
 
-// The element table row of instance `instance` in d (what Flexures builds from the config), or
-// -1 when the instance is not ours or not initialized.
+// The element table row of instance `instance` in d (what Flexures builds from the config), or -1 when
+// the instance is not the plugin's, or d holds no table of model m.
 int mjfx_plugin_element(const mjModel* m, const mjData* d, int instance, mjfxElement* out) {
-  if (instance < 0 || instance >= m->nplugin || !d->plugin_data[instance]) return -1;
-  const mjpPlugin* p = mjp_getPluginAtSlot(m->plugin[instance]);
-  if (!p || strcmp(p->name, MJFX_PLUGIN_NAME)) return -1;
-  *out = ((const Instance*)d->plugin_data[instance])->el;
-  return 0;
-}
-
-// The divergence watch of d (tallies indexed by plugin instance), or NULL.
-const mjfxWatch* mjfx_plugin_watch(const mjModel* m, const mjData* d) {
-  for (int i = 0; i < m->nplugin; i++) {
-    const mjpPlugin* p = mjp_getPluginAtSlot(m->plugin[i]);
-    if (p && !strcmp(p->name, MJFX_PLUGIN_NAME)) {
-      const Instance* in = (const Instance*)d->plugin_data[i];
-      return in ? in->watch : NULL;
+  if (!is_ours(m, instance)) return -1;
+  const State* s = (const State*)mjfx_states_find(d, d->buffer);
+  if (!s || !s->table || !key_is(&s->key, m)) return -1;
+  for (int k = 0; k < s->table->n; k++) {
+    if (s->table->instance[k] == instance) {
+      *out = s->table->el[k];
+      return 0;
     }
   }
-  return NULL;
+  return -1;
+}
+
+// The divergence watch of d (tallies indexed by the model's instances of the plugin, in order), or NULL.
+const mjfxWatch* mjfx_plugin_watch(const mjModel* m, const mjData* d) {
+  const State* s = (const State*)mjfx_states_find(d, d->buffer);
+  return s && s->table && s->watch && s->table->n == count_of(m) ? s->watch : NULL;
 }
 
 //------------------------------------------------------------------------------ registration
@@ -560,7 +477,8 @@ const mjfxWatch* mjfx_plugin_watch(const mjModel* m, const mjData* d) {
 #define MJFX_HEADER_VERSION mjVERSION_HEADER
 #endif
 
-// 0 until registration ran: 1 registered, -1 refused (header and library versions differ)
+// 0 until registration ran: 1 registered, -1 refused (header and library versions differ), -2 not
+// registered because another copy of the library (loaded from another path) registered the plugin first
 static int g_status = 0;
 
 int mjfx_status(void) {
@@ -581,6 +499,14 @@ mjPLUGIN_LIB_INIT(mjflex_flexure) {
     g_status = -1;
     return;
   }
+  int slot = -1;
+  const mjpPlugin* other = mjp_getPlugin(MJFX_PLUGIN_NAME, &slot);
+  if (other && other->init != flexure_init) {
+    // Registering a different plugin under the same name is a MuJoCo error, which ends a program without
+    // an error handler (a ctypes.CDLL of a copy of this file): the first copy stays the plugin.
+    g_status = -2;
+    return;
+  }
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
   plugin.name = MJFX_PLUGIN_NAME;
@@ -595,6 +521,6 @@ mjPLUGIN_LIB_INIT(mjflex_flexure) {
   plugin.compute = flexure_compute;
   plugin.advance = flexure_advance;
   plugin.visualize = flexure_visualize;
-  mjp_registerPlugin(&plugin);
+  g_slot = mjp_registerPlugin(&plugin);
   g_status = 1;
 }

@@ -1,0 +1,348 @@
+// Reading the plugin's elements from a model (see instances.h).
+
+#include "instances.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "config.h"
+
+const char* mjfx_instance_name(const mjModel* m, int instance) {
+  return m->names + m->name_pluginadr[instance];
+}
+
+void mjfx_free_part(Part* p) {
+  free(p->chain);
+  free(p->exps);
+  free(p->coefs);
+  memset(p, 0, sizeof(Part));
+}
+
+void mjfx_free_table(Table* t) {
+  if (!t) return;
+  free(t->el);
+  free(t->chain);
+  free(t->exps);
+  free(t->coefs);
+  free(t->instance);
+  free(t->strain);
+  free(t);
+}
+
+// Gather parts (in instance order) into one table, the chain and term ranges shifted into the
+// concatenated arrays. NULL: out of memory.
+Table* mjfx_gather(const Part* parts, const int* instance, int n) {
+  Table* t = calloc(1, sizeof(Table));
+  if (!t) return NULL;
+  int nchain = 0, nterms = 0;
+  for (int k = 0; k < n; k++) nchain += parts[k].nchain, nterms += parts[k].nterms;
+  t->el = malloc(sizeof(mjfxElement) * (n ? n : 1));
+  t->instance = malloc(sizeof(int) * (n ? n : 1));
+  t->strain = malloc(sizeof(double) * 2 * (n ? n : 1));
+  t->chain = malloc(sizeof(int) * (nchain ? nchain : 1));
+  t->exps = calloc((size_t)(nterms ? nterms : 1) * MJFX_TERM_COLUMNS, sizeof(int));
+  t->coefs = calloc(nterms ? nterms : 1, sizeof(double));
+  if (!t->el || !t->instance || !t->strain || !t->chain || !t->exps || !t->coefs) {
+    mjfx_free_table(t);
+    return NULL;
+  }
+  int c = 0, r = 0;
+  for (int k = 0; k < n; k++) {
+    const Part* p = parts + k;
+    mjfxElement* e = t->el + k;
+    *e = p->el;
+    e->chain_a0 += c, e->chain_a1 += c, e->chain_b0 += c, e->chain_b1 += c;
+    e->terms_lo += r, e->terms_hi += r;
+    if (p->nchain) memcpy(t->chain + c, p->chain, sizeof(int) * p->nchain);
+    if (p->nterms) {
+      memcpy(t->exps + MJFX_TERM_COLUMNS * r, p->exps, sizeof(int) * MJFX_TERM_COLUMNS * p->nterms);
+      memcpy(t->coefs + r, p->coefs, sizeof(double) * p->nterms);
+    }
+    t->instance[k] = instance[k];
+    t->strain[2 * k] = p->strain[0], t->strain[2 * k + 1] = p->strain[1];
+    c += p->nchain, r += p->nterms;
+  }
+  t->n = n;
+  return t;
+}
+
+// the text record of the same element, if the model has one (a model must hold each element once)
+static const char* record_of(const mjModel* m, const char* name) {
+  static const char prefix[] = "mjflex:";
+  for (int t = 0; t < m->ntext; t++) {
+    const char* tname = m->names + m->name_textadr[t];
+    const char* at = strstr(tname, prefix);
+    if (!at) continue;
+    size_t head = (size_t)(at - tname), len = strlen(name);
+    if (strlen(tname) == len + sizeof(prefix) - 1 && !strncmp(tname, name, head) &&
+        !strcmp(at + sizeof(prefix) - 1, name + head)) {
+      return tname;
+    }
+  }
+  return NULL;
+}
+
+// Id of the site a configuration names: `value` itself or, in a model composed with MjSpec.attach
+// (which prefixes and suffixes every name but leaves configuration strings as written), P + value + S
+// where the instance's name is P + E + S (mjflex.mj.schema.attached_name, the same rule). -1: none.
+static int config_site(const mjModel* m, const char* instance_name, const char* value) {
+  int id = mj_name2id(m, mjOBJ_SITE, value);
+  if (id >= 0 || !value[0]) return id;
+  size_t nlen = strlen(instance_name), vlen = strlen(value);
+  for (int i = 0; i < m->nsite; i++) {
+    const char* s = m->names + m->name_siteadr[i];
+    size_t slen = strlen(s);
+    for (const char* at = strstr(s, value); at; at = strstr(at + 1, value)) {
+      size_t pre = (size_t)(at - s), suf = slen - pre - vlen;
+      if (pre + suf < nlen && !strncmp(instance_name, s, pre) && !strcmp(instance_name + nlen - suf, at + vlen)) {
+        return i;
+      }
+    }
+  }
+  return -1;
+}
+
+// Whether a distance and an angle are within the coincidence tolerances; NaN is not (a NaN or
+// infinite position or orientation in the model would otherwise pass: NaN > tol is false).
+static int coincide(double dist, double angle, double tol) {
+  return dist <= tol && angle <= MJFX_COINCIDENCE_ANGLE;
+}
+
+static const char NONFINITE[] =
+    "Their pose at qpos0 is not finite: a position, orientation or joint reference (qpos0) that places them "
+    "is NaN or infinite; give finite numbers";
+
+// The optional frame site (attribute "site", written by add_flexure(..., site=...)): it must exist and
+// coincide with frame a at qpos0 (d holds the kinematics at qpos0). Returns 0 or -1 with a message.
+static int check_frame_site(const mjModel* m, const mjData* d, const char* name, const char* value, int site_a,
+                            double tol, char* err, int errsz) {
+  if (!value[0]) return 0;
+  int id = config_site(m, name, value);
+  if (id < 0) {
+    snprintf(err, errsz,
+             "mjflex: flexure '%.200s' (plugin instance of %s): its site attribute names the frame site '%.200s', "
+             "which the model does not have. Restore the site, or drop the site attribute if site_a and site_b are "
+             "right", name, MJFX_PLUGIN_NAME, value);
+    return -1;
+  }
+  double R[9], p[3], dist, angle;
+  mjfx_rest_offset(d, id, site_a, R, p, &dist, &angle);
+  if (!coincide(dist, angle, tol)) {
+    snprintf(err, errsz,
+             "mjflex: flexure '%.200s' (plugin instance of %s): its frame is %.3g m and %.3g rad away from the site "
+             "'%.200s' its site attribute names (at qpos0). %s", name, MJFX_PLUGIN_NAME, dist, angle, value,
+             isfinite(dist) && isfinite(angle)
+                 ? "The site was moved without the element: place the element again at the site "
+                   "(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop the site attribute"
+                 : NONFINITE);
+    return -1;
+  }
+  return 0;
+}
+
+// the two sites of an instance (ids into sites[2]); 0 or -1 with a message
+static int read_sites(const mjModel* m, const char* name, const char* const* values, int sites[2], char* err,
+                      int errsz) {
+  for (int k = 0; k < 2; k++) {
+    const char* key = k ? "site_b" : "site_a";
+    const char* site = values[k];
+    if (!site[0]) {
+      snprintf(err, errsz,
+               "mjflex: flexure '%.200s' (plugin instance of %s): %s is missing. Add <config key=\"%s\" "
+               "value=\"SITE\"/> naming the site of the element frame on body %s",
+               name, MJFX_PLUGIN_NAME, key, key, k ? "B" : "A");
+      return -1;
+    }
+    sites[k] = config_site(m, name, site);
+    if (sites[k] < 0) {
+      snprintf(err, errsz,
+               "mjflex: flexure '%.200s' (plugin instance of %s): %s '%.200s' is not a site of the model. Add <site "
+               "name=\"%.200s\"/> at the element frame (body %s) or fix the name",
+               name, MJFX_PLUGIN_NAME, key, site, site, k ? "B" : "A");
+      return -1;
+    }
+  }
+  if (m->site_bodyid[sites[0]] == m->site_bodyid[sites[1]]) {
+    snprintf(err, errsz,
+             "mjflex: flexure '%.200s' (plugin instance of %s): both sites are on body '%.200s'. Put site_a on one "
+             "body and site_b on the other (a site of the world body grounds the element)",
+             name, MJFX_PLUGIN_NAME, m->names + m->name_bodyadr[m->site_bodyid[sites[0]]]);
+    return -1;
+  }
+  return 0;
+}
+
+// The rest offset of the sites (d holds the kinematics of the reference configuration): it must be the
+// identity within the coincidence tolerance. 0 or -1 with a message.
+static int read_rest_offset(const mjModel* m, const mjData* d, const char* name, const char* const* values,
+                            mjfxElement* e, char* err, int errsz) {
+  double dist, angle;
+  mjfx_rest_offset(d, e->site_a, e->site_b, e->R0, e->p0, &dist, &angle);
+  double scale = mjfx_length_scale(m, e->site_a, e->site_b);
+  double tol = MJFX_COINCIDENCE_RTOL * (scale > 1e-9 ? scale : 1e-9);
+  if (!coincide(dist, angle, tol)) {
+    int finite = isfinite(dist) && isfinite(angle) && isfinite(scale);
+    snprintf(err, errsz,
+             "mjflex: flexure '%.200s' (plugin instance of %s): sites '%.100s' and '%.100s' are %.3g m apart and "
+             "%.3g rad apart at qpos0 (tolerance %.3g m: %g times the %.3g m of site and body positions that place "
+             "them, which covers their 6-digit rounding in saved files; %g rad). %s",
+             name, MJFX_PLUGIN_NAME, values[0], values[1], dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
+             MJFX_COINCIDENCE_ANGLE,
+             finite ? "Both frames must coincide in the reference configuration: place both at the same world pose"
+                    : NONFINITE);
+    return -1;
+  }
+  return check_frame_site(m, d, name, values[MJFX_NATTRIBUTE - 1], e->site_a, tol, err, errsz);
+}
+
+// Read instance `instance` of m into p, d holding the kinematics of the reference configuration
+// (measure_begin). 0, or -1 with a message in err (p holds nothing then).
+int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, char* err, int errsz) {
+  memset(p, 0, sizeof(Part));
+  const char* name = mjfx_instance_name(m, instance);
+  if (!name[0]) {
+    snprintf(err, errsz,
+             "mjflex: an instance of plugin %s (instance %d) has no name; an element is known by its name: declare it "
+             "as <instance name=\"...\"> under <extension><plugin plugin=\"%s\">",
+             MJFX_PLUGIN_NAME, instance, MJFX_PLUGIN_NAME);
+    return -1;
+  }
+  const char* values[MJFX_NATTRIBUTE];
+  for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
+    values[i] = mj_getPluginConfig(m, instance, MJFX_ATTRIBUTES[i]);
+    if (!values[i]) values[i] = "";
+  }
+  mjfxParsed parsed;
+  memset(&parsed, 0, sizeof(parsed));
+  if (mjfx_parse_config(name, values, &parsed, err, errsz)) return -1;
+  p->el = parsed.el;
+  p->exps = parsed.exps, p->coefs = parsed.coefs, p->nterms = parsed.nterms;
+  p->strain[0] = parsed.strain_per_radian, p->strain[1] = parsed.strain_scale;
+  mjfxElement* e = &p->el;
+  const char* record = record_of(m, name);
+  int sites[2];
+  if (record) {
+    snprintf(err, errsz,
+             "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
+             "added twice. Keep one of them (python -m mjflex convert writes either form)",
+             name, record);
+  } else if (!read_sites(m, name, values, sites, err, errsz)) {
+    e->site_a = sites[0], e->site_b = sites[1];
+    e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
+    if (!read_rest_offset(m, d, name, values, e, err, errsz)) {
+      mjfx_element_prepare(m, e);
+      mjfx_inverse_inertia(m, e->body_a, e->body_b, &e->inv_mass, &e->inv_inertia);
+      // generalized-force map: free-joint fast path or the dof chain of each body
+      p->chain = malloc(sizeof(int) * (2 * m->nv + 1));
+      if (p->chain) {
+        int count = 0;
+        e->free_a = mjfx_free_dofadr(m, e->body_a);
+        e->chain_a0 = count;
+        if (e->free_a < 0) count += mjfx_dof_chain(m, e->body_a, p->chain + count);
+        e->chain_a1 = count;
+        e->free_b = mjfx_free_dofadr(m, e->body_b);
+        e->chain_b0 = count;
+        if (e->free_b < 0) count += mjfx_dof_chain(m, e->body_b, p->chain + count);
+        e->chain_b1 = count;
+        p->nchain = count;
+        return 0;
+      }
+      snprintf(err, errsz, "mjflex: flexure '%.200s': out of memory", name);
+    }
+  }
+  mjfx_free_part(p);
+  return -1;
+}
+
+// The reference configuration in d's kinematics, for reading elements: qpos0 and the mocap bodies at
+// their model poses (what mj_resetData sets). The caller's qpos and mocap poses are saved in *saved
+// (NULL: out of memory) and put back by measure_end. init runs before MuJoCo resets the data: every
+// input of mj_kinematics is set here, none is read uninitialized.
+double* mjfx_measure_begin(const mjModel* m, mjData* d) {
+  size_t nq = (size_t)m->nq, nm = (size_t)m->nmocap;
+  double* saved = malloc(sizeof(double) * (nq + 7 * nm + 1));
+  if (!saved) return NULL;
+  memcpy(saved, d->qpos, sizeof(double) * nq);
+  memcpy(saved + nq, d->mocap_pos, sizeof(double) * 3 * nm);
+  memcpy(saved + nq + 3 * nm, d->mocap_quat, sizeof(double) * 4 * nm);
+  memcpy(d->qpos, m->qpos0, sizeof(double) * nq);
+  for (int b = 0; b < m->nbody; b++) {
+    int id = m->body_mocapid[b];
+    if (id < 0 || id >= m->nmocap) continue;
+    memcpy(d->mocap_pos + 3 * id, m->body_pos + 3 * b, 3 * sizeof(double));
+    memcpy(d->mocap_quat + 4 * id, m->body_quat + 4 * b, 4 * sizeof(double));
+  }
+  mj_kinematics(m, d);
+  return saved;
+}
+
+// Put back what measure_begin saved; with `kinematics`, the data's kinematics too (bit for bit).
+void mjfx_measure_end(const mjModel* m, mjData* d, double* saved, int kinematics) {
+  size_t nq = (size_t)m->nq, nm = (size_t)m->nmocap;
+  memcpy(d->qpos, saved, sizeof(double) * nq);
+  memcpy(d->mocap_pos, saved + nq, sizeof(double) * 3 * nm);
+  memcpy(d->mocap_quat, saved + nq + 3 * nm, sizeof(double) * 4 * nm);
+  free(saved);
+  if (kinematics) mj_kinematics(m, d);
+}
+
+// Every element of m read on d (its kinematics are put back bit for bit): the table, or NULL with a
+// message in err.
+Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz) {
+  int n = 0;
+  for (int i = 0; i < m->nplugin; i++) n += m->plugin[i] == slot;
+  Part* parts = calloc(n ? n : 1, sizeof(Part));
+  int* instance = malloc(sizeof(int) * (n ? n : 1));
+  double* saved = parts && instance ? mjfx_measure_begin(m, d) : NULL;
+  if (!saved) {
+    free(parts), free(instance);
+    snprintf(err, errsz, "mjflex: out of memory");
+    return NULL;
+  }
+  int k = 0, failed = 0;
+  for (int i = 0; i < m->nplugin && !failed; i++) {
+    if (m->plugin[i] != slot) continue;
+    failed = mjfx_read_part(m, d, i, parts + k, err, errsz);
+    instance[k++] = i;
+  }
+  mjfx_measure_end(m, d, saved, 1);
+  Table* t = failed ? NULL : mjfx_gather(parts, instance, n);
+  if (!failed && !t) snprintf(err, errsz, "mjflex: out of memory");
+  for (int j = 0; j < k; j++) mjfx_free_part(parts + j);
+  free(parts), free(instance);
+  return t;
+}
+
+// Sleeping: whether tree `t` may sleep: its policy lets MuJoCo put it to sleep.
+static int may_sleep(const mjModel* m, int t) {
+  int policy = m->tree_sleep_policy[t];
+  return policy != mjSLEEP_NEVER && policy != mjSLEEP_AUTO_NEVER;
+}
+
+// With sleeping enabled, warn (once per mjData) about an element that joins a tree which may sleep to
+// another tree or a mocap body: MuJoCo ignores forces on sleeping trees, and only the compiled model's
+// policies count (mjflex.add_flexure and python -m mjflex convert write sleep="never" on such trees).
+void mjfx_warn_sleepy(const mjModel* m, const Table* t) {
+  if (!mjENABLED(mjENBL_SLEEP)) return;
+  int first = -1, tree = -1, count = 0;
+  for (int k = 0; k < t->n; k++) {
+    int ba = t->el[k].body_a, bb = t->el[k].body_b;
+    int ta = m->body_treeid[ba], tb = m->body_treeid[bb];
+    int mocap = m->body_mocapid[ba] >= 0 || m->body_mocapid[bb] >= 0;
+    if (ta == tb || ((ta < 0 || tb < 0) && !mocap)) continue;
+    int sleepy = ta >= 0 && may_sleep(m, ta) ? ta : (tb >= 0 && may_sleep(m, tb) ? tb : -1);
+    if (sleepy < 0) continue;
+    if (first < 0) first = k, tree = sleepy;
+    count++;
+  }
+  if (first < 0) return;
+  const char* root = m->names + m->name_bodyadr[m->tree_bodyadr[tree]];
+  mju_warning(
+      "mjflex: flexure '%.200s' (and %d more) joins the tree of body '%.200s', which may sleep: sleeping is enabled, "
+      "and MuJoCo ignores forces on sleeping trees, so the element's force would be lost while it sleeps. Set "
+      "sleep=\"never\" on that body (mjflex.add_flexure and python -m mjflex convert write it), or disable sleeping",
+      mjfx_instance_name(m, t->instance[first]), count - 1, root[0] ? root : "(unnamed)");
+}
+

@@ -1,0 +1,60 @@
+// Reading the plugin's elements from a model (plugin.c's instances): each instance's configuration
+// parsed and checked (config.c), its sites found (also under MjSpec.attach's prefixes), its rest
+// offset measured at the reference configuration, its dof chains; and the gathered table of a
+// model's elements that the per-step loop evaluates. Nothing here keeps state between calls.
+
+#ifndef MJFLEX_NATIVE_INSTANCES_H_
+#define MJFLEX_NATIVE_INSTANCES_H_
+
+#include <mujoco/mujoco.h>
+
+#include "elements.h"
+
+// One instance's element as its init reads it (own dof chain and terms, indices from 0).
+typedef struct Part_ {
+  mjfxElement el;
+  int *chain, *exps;
+  double* coefs;
+  int nchain, nterms;
+  double strain[2];  // strain_per_radian, strain_scale (0: not given)
+} Part;
+
+// All elements of a model, gathered.
+typedef struct Table_ {
+  int n;
+  mjfxElement* el;
+  int* chain;
+  int* exps;
+  double* coefs;
+  int* instance;   // plugin instance of each element
+  double* strain;  // 2 per element: strain_per_radian, strain_scale
+} Table;
+
+// the name of plugin instance `instance` (its element's name)
+const char* mjfx_instance_name(const mjModel* m, int instance);
+
+void mjfx_free_part(Part* p);
+void mjfx_free_table(Table* t);
+
+// Gather parts (in instance order; instance[k] is part k's plugin instance) into one table, the chain and
+// term ranges shifted into the concatenated arrays. NULL: out of memory.
+Table* mjfx_gather(const Part* parts, const int* instance, int n);
+
+// The reference configuration in d's kinematics, for reading elements: qpos0 and the mocap bodies at their
+// model poses (what mj_resetData sets). The caller's qpos and mocap poses are saved in what it returns (NULL:
+// out of memory) and put back by mjfx_measure_end, with `kinematics`, d's kinematics too (bit for bit).
+double* mjfx_measure_begin(const mjModel* m, mjData* d);
+void mjfx_measure_end(const mjModel* m, mjData* d, double* saved, int kinematics);
+
+// Read instance `instance` of m into p, d holding the kinematics of the reference configuration
+// (mjfx_measure_begin). 0, or -1 with a message in err (p holds nothing then).
+int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, char* err, int errsz);
+
+// Every instance of the plugin at `slot` in m, read on d (d's kinematics are put back bit for bit): the
+// table, or NULL with a message in err.
+Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz);
+
+// With sleeping enabled, warn about an element that joins a tree which may sleep (see instances.c).
+void mjfx_warn_sleepy(const mjModel* m, const Table* t);
+
+#endif  // MJFLEX_NATIVE_INSTANCES_H_
