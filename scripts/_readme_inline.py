@@ -165,7 +165,7 @@ def inline_operating_pose_arm(results):
                      f"to {_ms(ran)}")  # fmt: skip
     return (
         f"{'; '.join(parts)} (`{r['command']}`, recorded {r['date'][:10]}: runs of {r['run_steps']} steps from the "
-        f"operating pose, knocked on every joint, the step bisected to {pct(r['rtol'], 1)})"
+        f"operating pose, knocked on every degree of freedom, the step bisected to {pct(r['rtol'], 1)})"
     )
 
 
@@ -209,6 +209,8 @@ def inline_operating_pose_spine(results):
 def inline_operating_pose_solref(results):
     """The time constant of the spine's equality constraints (MuJoCo's solref), one for all of them."""
     (solref,) = results["operating_pose"]["spine"]["equality_solref"]
+    if solref[0] <= 0:
+        raise ValueError("operating_pose: the spine's equalities give stiffness and damping directly: reword")
     return f"a {solref[0] * 1e3:g} ms time constant"
 
 
