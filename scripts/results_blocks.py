@@ -55,10 +55,16 @@ from _readme_inline import (
     inline_fit_reach,
     inline_long_run_divergence,
     inline_method_difference,
+    inline_operating_pose_arm,
+    inline_operating_pose_blind,
+    inline_operating_pose_servo,
+    inline_operating_pose_solref,
+    inline_operating_pose_spine,
     inline_stop_cost,
     inline_stop_instructions,
     row_count_step_instructions,
     row_encoder_quality,
+    row_operating_pose,
 )
 from _readme_speed import (
     LONG_RUNS,
@@ -594,6 +600,7 @@ MEASURED = [
     ("modes", row_modes),
     ("step_limits", row_step_limits),
     ("timestep_study", row_timestep_study),
+    ("operating_pose", row_operating_pose),
     ("study_arcade", row_study_arcade),
     ("compare_native", row_compare_native),
     ("reduce_arcade", row_reduce_arcade),
@@ -656,6 +663,11 @@ BLOCKS = {
     "fit-reach": (["fit_flexure"], inline_fit_reach),
     "long-run-divergence": (["long_run_arcade", "long_run_arcade_1e-5"], inline_long_run_divergence),
     "method-difference": (["study_arcade"], inline_method_difference),
+    "operating-pose-servo": (["operating_pose"], inline_operating_pose_servo),
+    "operating-pose-arm": (["operating_pose"], inline_operating_pose_arm),
+    "operating-pose-blind": (["operating_pose"], inline_operating_pose_blind),
+    "operating-pose-spine": (["operating_pose"], inline_operating_pose_spine),
+    "operating-pose-solref": (["operating_pose"], inline_operating_pose_solref),
 }
 
 

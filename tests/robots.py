@@ -9,13 +9,21 @@
 * :func:`solve_statics` (Newton on chosen dofs, the forces of ``mj_forward`` and the provider) and
   :func:`subtree_wrench` (the load on a subtree about a frame, from masses and positions alone),
   :func:`decay_ratio` (a free vibration's logarithmic decrement).
+* :func:`servo_held_arm` (the arm with its servo-held last joint replaced by an element, at its
+  operating pose), :func:`arm_advice` (its step advice there, without the servo, unloaded) and
+  :func:`diverges` (a knocked run from a state: does it leave any bound?), the model and the
+  check of the advised time step: used by tests/test_operating_pose.py and by
+  scripts/operating_pose.py, which records the figures of the how-to from them.
 """
 
 import importlib.util
 import os
+import warnings
 
 import mujoco
 import numpy as np
+
+import mjflex
 
 ARM = """<mujoco model="arm">
   <compiler angle="radian"/>
@@ -174,3 +182,62 @@ def free_vibration(model, flex, element, dofs, mode, keyframe=None, periods=8.0,
             mujoco.mj_step(model, data)
             y[t] = flex.displacements(data)[e] @ psi
     return y
+
+
+#: The servo-held arm's j3 replaced by an element soft in bending and torsion: its servo (a3, kp 5000) makes the
+#: torsion mode the stiffest. Keyframe "level": the servo's target is the element's rest (no preload).
+K_WRIST = [100.0, 300.0, 100.0, 2e4, 2e4, 2e4]
+
+
+def servo_held_arm(integrator):
+    """``(model, flex, qpos)``: the arm (``integrator``: ``"Euler"`` or ``"RK4"``) with keyframe ``"level"`` and its
+    link3 made compliant (``K_WRIST``, ``replace_joints=True``: j3 and its servo a3 stay, on the element's
+    rotation), and its operating pose, the static equilibrium of ``"level"`` under gravity and the servos."""
+    spec = arm_spec()
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+    spec.add_key(name="level", qpos=[0.3, -0.5, 0.0], ctrl=[0.3, -0.5, 0.0])
+    mjflex.make_compliant(spec, "link3", K_WRIST, replace_joints=True)
+    model = spec.compile()
+    flex = mjflex.Flexures(model)
+    return model, flex, mjflex.static_equilibrium(model, flex, keyframe="level")
+
+
+def arm_advice(model, flex, qpos):
+    """:func:`mjflex.step_advice` for :func:`servo_held_arm`, by name: ``"operating"`` at its operating pose ``qpos``
+    with everything that holds it there (the defaults: gravity, the servos' stiffness, the springs),
+    ``"without_servo"`` there without the servos' stiffness, ``"reference"`` at the unloaded ``qpos0`` (no
+    gravity, servos or springs)."""
+    return {
+        "operating": mjflex.step_advice(model, flex, keyframe="level", qpos=qpos),
+        "without_servo": mjflex.step_advice(model, flex, keyframe="level", qpos=qpos, actuator_stiffness=False),
+        "reference": mjflex.step_advice(model, flex, gravity=False, actuator_stiffness=False, joint_springs=False),
+    }
+
+
+#: A run that reaches this speed on any dof [rad/s or m/s] has left its bound: diverged.
+RUNAWAY_SPEED = 1e3
+
+
+def diverges(model, qpos, timestep, steps=3000, keyframe=None, xfrc_applied=None, knock=1e-2):
+    """A run of ``steps`` steps of ``timestep`` [s] from ``qpos``, knocked on every dof (``knock`` times a standard
+    normal velocity, seed 0), with the controls of ``keyframe`` and the load ``xfrc_applied`` (nbody, 6): does it
+    leave any bound (MuJoCo's bad-acceleration check, or ``RUNAWAY_SPEED``)? ``model.opt.timestep`` is restored;
+    mjflex's DivergenceWarning, expected here, is silenced."""
+    saved = model.opt.timestep
+    model.opt.timestep = timestep
+    try:
+        data = mujoco.MjData(model)
+        if keyframe is not None:
+            mujoco.mj_resetDataKeyframe(model, data, model.key(keyframe).id)
+        data.qpos[:], data.qvel[:] = qpos, knock * np.random.default_rng(0).normal(size=model.nv)
+        if xfrc_applied is not None:
+            data.xfrc_applied[:] = xfrc_applied
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mjflex.DivergenceWarning)
+            for _ in range(steps):
+                mujoco.mj_step(model, data)
+                if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.abs(data.qvel).max() < RUNAWAY_SPEED:
+                    return True
+        return False
+    finally:
+        model.opt.timestep = saved

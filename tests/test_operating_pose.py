@@ -7,8 +7,10 @@ ratios measured by the logarithmic decrement of free vibrations, and the stable 
 either side of the advised limit.
 """
 
+import importlib.util
+import json
 import math
-import warnings
+import os
 
 import mujoco
 import numpy as np
@@ -18,8 +20,10 @@ import scipy.optimize
 import mjflex
 from mjflex.mj.damping import displacement_jacobian
 from mjflex.mj.linearize import state
-from tests.robots import arm_spec, decay_ratio
+from tests.robots import arm_advice, decay_ratio, diverges, servo_held_arm
 from tests.spine import spine_spec
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 K_ROD = 1.0  # N m/rad about y; everything else stiff
 ROD = """<mujoco><option timestep="1e-4"/><worldbody><body name="rod"><freejoint/>
@@ -107,56 +111,64 @@ def test_damping_ratios_of_a_disc_in_a_coupled_spine_are_measured():
     assert blind.min() < 0.9 * 0.05
 
 
-#: The servo-held arm's j3 replaced by an element soft in bending and torsion: its servo (kp 5000) makes the
-#: torsion mode the stiffest. Keyframe "level": the servo's target is the element's rest (no preload).
-K_WRIST = [100.0, 300.0, 100.0, 2e4, 2e4, 2e4]
-
-
-def _servo_held_arm(integrator):
-    spec = arm_spec()
-    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
-    spec.add_key(name="level", qpos=[0.3, -0.5, 0.0], ctrl=[0.3, -0.5, 0.0])
-    mjflex.make_compliant(spec, "link3", K_WRIST, replace_joints=True)
-    model = spec.compile()
-    flex = mjflex.Flexures(model)
-    return spec, model, flex, mjflex.static_equilibrium(model, flex, keyframe="level")
-
-
-def _diverges(spec, qpos, timestep, steps=3000):
-    """A run from ``qpos`` knocked on every dof: does it leave any bound (MuJoCo's bad-state check, 1e3)?"""
-    model = spec.compile()
-    model.opt.timestep = timestep
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("level").id)
-    data.qpos[:], data.qvel[:] = qpos, 1e-2 * np.random.default_rng(0).normal(size=model.nv)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", mjflex.DivergenceWarning)
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.abs(data.qvel).max() < 1e3:
-                return True
-    return False
-
-
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])
 def test_the_advised_limit_is_the_measured_stable_step(integrator):
     """Runs at 0.95 and 1.05 times the advised limit bracket the measured one; the recommendation runs; the advice
-    without the servo's stiffness (or at the unloaded reference) would have been 2.4x too long."""
-    spec, model, flex, qpos = _servo_held_arm(integrator)
-    advice = mjflex.step_advice(model, flex, keyframe="level", qpos=qpos)
-    assert advice.integrator == integrator
-    assert not _diverges(spec, qpos, 0.95 * advice.limit) and _diverges(spec, qpos, 1.05 * advice.limit)
-    assert not _diverges(spec, qpos, advice.recommended, steps=int(0.5 / advice.recommended))
-    blind = mjflex.step_advice(model, flex, keyframe="level", qpos=qpos, actuator_stiffness=False)
-    reference = mjflex.step_advice(model, flex, gravity=False, actuator_stiffness=False, joint_springs=False)
-    assert blind.limit > 2 * advice.limit and reference.limit > 2 * advice.limit
-    assert _diverges(spec, qpos, blind.recommended)  # even its "safe" half diverges
+    without the servo's stiffness (or at the unloaded reference) is more than twice too long (the recorded figures:
+    docs/results/operating_pose.json, checked below)."""
+    model, flex, qpos = servo_held_arm(integrator)
+    advice = arm_advice(model, flex, qpos)
+    at = advice["operating"]
+    assert at.integrator == integrator
+    assert not diverges(model, qpos, 0.95 * at.limit, keyframe="level")
+    assert diverges(model, qpos, 1.05 * at.limit, keyframe="level")
+    assert not diverges(model, qpos, at.recommended, steps=int(0.5 / at.recommended), keyframe="level")
+    assert advice["without_servo"].limit > 2 * at.limit and advice["reference"].limit > 2 * at.limit
+    assert diverges(model, qpos, advice["without_servo"].recommended, keyframe="level")  # even its "safe" half
 
 
 def test_a_state_that_is_not_a_stable_equilibrium_is_said():
     """Keyframe "home" holds j3 at 0.8 rad: the servo bends the element 0.75 rad against 226 N m, across its soft
     bending axes; the loaded element buckles (negative stiffness), which step_advice says."""
-    _, model, flex, _ = _servo_held_arm("Euler")
+    model, flex, _ = servo_held_arm("Euler")
     qpos = mjflex.static_equilibrium(model, flex, keyframe="home")
     with pytest.warns(UserWarning, match=r"1 of 8 modes have negative stiffness at this state .*not a stable"):
         mjflex.step_advice(model, flex, keyframe="home", qpos=qpos)
+
+
+def _operating_pose_script():
+    """scripts/operating_pose.py as a module: the command that records the how-to's figures."""
+    path = os.path.join(ROOT, "scripts", "operating_pose.py")
+    spec = importlib.util.spec_from_file_location("operating_pose", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_recorded_figures_are_what_the_code_advises_today():
+    """docs/results/operating_pose.json holds the figures of the how-to's "Advice at the operating pose"
+    (``python scripts/operating_pose.py``, on the arm above and on the spine tutorial, run as it is): its advice,
+    recomputed with today's code, is the recorded one, and its measured steps are what the test above brackets.
+
+    Tolerance 1e-6 relative, as for the recorded modes (tests/test_readme.py): the stiffness comes from central
+    differences (~1e-9 relative) and the limits from eigenvalues, which machines and library versions move at
+    round-off; a change of the models or of the advice that matters moves them by 1e-4 or more. The bisections are
+    not rerun here (the test above runs the bracket); the damping ratios are not compared (some are round-off)."""
+    now = _operating_pose_script().figures(measure=False)
+    with open(os.path.join(ROOT, "docs", "results", "operating_pose.json")) as f:
+        recorded = json.load(f)
+    pairs = [(now["arm"][i][k], recorded["arm"][i][k]) for i in ("Euler", "RK4")
+             for k in ("operating", "without_servo", "reference")]  # fmt: skip
+    pairs += [(now["spine"][k], recorded["spine"][k]) for k in ("unloaded", "pushed")]
+    for a, b in pairs:
+        assert a["integrator"] == b["integrator"] and a["safety"] == b["safety"]
+        for key in ("limit_s", "recommended_s", "limiting_frequency_hz", "stiffest_frequency_hz"):
+            assert a[key] == pytest.approx(b[key], rel=1e-6), (a["integrator"], key)
+    for key in ("element", "push_n", "push_body", "engaged_at_pushed_pose", "equality_solref"):
+        assert json.loads(json.dumps(now["spine"][key])) == recorded["spine"][key], key
+    for integrator in ("Euler", "RK4"):
+        assert now["arm"][integrator]["servo"] == recorded["arm"][integrator]["servo"]
+        e = recorded["arm"][integrator]
+        assert 0.95 < e["measured"]["largest_stable_s"] / e["operating"]["limit_s"] < 1.05, integrator
+        assert e["measured"]["smallest_unstable_s"] / e["operating"]["limit_s"] < 1.05, integrator
+        assert e["without_servo_recommended_diverges"], integrator
