@@ -335,6 +335,9 @@ PROSE_CONSTANTS = {
         "0.3 rad": "the example's free swing, closed form from its parameters (I ω² = k θ²)",
         "2 steps": "MuJoCo's refsafe rule: a solref time constant of at least two time steps",
     },
+    "docs/background/known_issues.md": {
+        "64 bytes": "the alignment MuJoCo pads mjData's buffers to (mj_makeData), not a measurement",
+    },
     "docs/background/measured.md": {
         "1500 steps": "the test's run length",
         "> 1 rad": "the rotations the test reaches (its parameter)",
