@@ -8,8 +8,9 @@ the build requires the same ``mujoco`` as the runtime (both pinned in ``pyprojec
 file name carries the header version (``libmjflex-mj4000000.so``): ``mjflex_plugin`` refuses a
 library built for another MuJoCo before loading it.
 
-The extension is optional: without a C compiler, or when the build fails, mjflex installs without
-it and runs its Python fallback (slow), saying so once per process (see ``mjflex_plugin``).
+mjflex does not work without the library (every flexure force comes from it); issue 23's packaging
+makes a build without a compiler stop. Until then the build warns and goes on, and mjflex raises
+``mjflex_plugin.NativeLibraryError`` saying how to install it when it is used.
 """
 
 import importlib.util
@@ -62,14 +63,14 @@ class BuildNative(build_ext):
         ext.extra_link_args = [f"-l:{libs[-1]}", "-Wl,-rpath,$ORIGIN/../../mujoco", "-lm"]
         try:
             super().build_extension(ext)
-        except Exception as exc:  # no compiler, or it failed: the Python fallback still installs
+        except Exception as exc:  # no compiler, or it failed: mjflex says so when it is used
             self._skip(f"{type(exc).__name__}: {exc}")
 
     def _skip(self, why):
         bar = "=" * 78
         print(
             f"\n{bar}\nmjflex: the native library (engine plugin mjflex.flexure and the fast per-step path) was NOT "
-            f"built:\n  {why}\nmjflex still works through its Python fallback (slow); plugin models will not load. "
+            f"built:\n  {why}\nmjflex does not work without it. "
             "To build it, install a C compiler (e.g. apt-get install gcc) and reinstall mjflex:\n"
             f"  pip install --force-reinstall --no-deps <mjflex source>\n{bar}\n",
             file=sys.stderr,

@@ -169,8 +169,6 @@ def set_lanes(lanes):
     from mjflex.mj import _native
 
     native = _native.lib()
-    if native is None:
-        raise SystemExit("error: the native library is not available (mjflex runs its Python fallback)")
     if native.mjfx_set_lanes(0 if lanes == "auto" else int(lanes)) < 0:
         raise SystemExit(f"error: --lanes {lanes}: this CPU or build has no {lanes}-lane evaluation (try --lanes 2)")
     return _native.lanes()

@@ -68,23 +68,21 @@ def test_add_flexure_writes_plugin_elements_by_default():
 
 
 def test_without_the_native_library_plugin_elements_are_refused_by_name(monkeypatch):
-    """The Python fallback cannot load plugin models: add_flexure's default says so, naming kind="record"."""
-    monkeypatch.setattr(_native, "loaded", lambda: None)
+    """A broken install (no library): add_flexure's default refuses, naming the element and how to install it."""
 
     def missing():
         raise mjflex_plugin.NativeLibraryError("mjflex's native library is not built here (no C compiler)")
 
+    monkeypatch.setattr(_native, "_STATE", {})
     monkeypatch.setattr(mjflex_plugin, "library", missing)
     spec = two_body_spec(B=B_DEMO)  # a text record still builds
     before = spec.to_xml()
-    with pytest.raises(RuntimeError, match=r"flexure 'x': plugin elements \(kind=\"plugin\", add_flexure's default\) "
-                       r"need mjflex's native library.*no C compiler.*Or pass kind=\"record\""):  # fmt: skip
+    with pytest.raises(RuntimeError, match=r"flexure 'x': flexure elements need mjflex's native library, the engine "
+                       r"plugin mjflex.flexure: .*no C compiler"):  # fmt: skip
         mjflex.add_flexure(spec, "x", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO)
     assert spec.to_xml() == before  # refused before anything was added
-    from mjflex.app.cli import arcade_source
-
-    source, label = arcade_source()  # the demo's model: built with text records instead
-    assert isinstance(source, mujoco.MjSpec) and "text records" in label and source.texts
+    with pytest.raises(RuntimeError, match=r"native library is not built here"):
+        mjflex.Flexures(spec.compile())  # a text record's forces come from the same library
 
 
 def test_remove_flexure_removes_plugin_elements_and_their_body_references():

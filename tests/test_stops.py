@@ -8,7 +8,6 @@ well inside, so that no difference step crosses a limit (where the energy's seco
 """
 
 import itertools
-import os
 
 import mujoco
 import numpy as np
@@ -19,11 +18,7 @@ from mjflex.mj import _native
 from tests.helpers import ridders
 from tests.plugin_models import as_plugins, as_records, planar_spec
 
-# end stops need the native library (the Python fallback refuses them, tested below): not run on the fallback
-pytestmark = [
-    pytest.mark.usefixtures("clean_callback"),
-    pytest.mark.skipif(os.environ.get("MJFLEX_NATIVE") == "0", reason="MJFLEX_NATIVE=0: the fallback has no stops"),
-]
+pytestmark = [pytest.mark.usefixtures("clean_callback")]
 INF = np.inf
 K_BUSH = np.diag([0.4, 0.5, 0.3, 2e3, 3e3, 1e3])  # a bushing: N m/rad, N/m
 
@@ -508,23 +503,6 @@ def test_conversion_between_the_forms_keeps_the_stops_exactly(tmp_path):
     mjflex.convert_file(target, back, to="plugin")
     for path in (target, back):
         assert [r.stops for r in mjflex.Flexures(mujoco.MjModel.from_xml_path(str(path))).records] == expected
-
-
-def test_the_python_fallback_refuses_elements_with_stops(monkeypatch):
-    model = stops_spec(kind="record").compile()
-    mjflex.Flexures(model)  # without stops: fine
-    rng = np.random.default_rng(1)
-    with_stops = stops_spec(_random_state(model, rng), kind="record").compile()
-    flex = mjflex.Flexures(with_stops)
-    monkeypatch.setitem(_native.FORCE_FALLBACK, "reason", "a test forces it")
-    with pytest.warns(RuntimeWarning, match="Python fallback"):
-        with pytest.raises(mjflex.ModelError, match=r"flexure 'grounded': it has end stops, which mjflex's Python "
-                           r"fallback does not implement \(the fallback runs: a test forces it\)"):  # fmt: skip
-            mjflex.Flexures(with_stops)
-    for call in (flex.install, lambda: flex.potential_energies(mujoco.MjData(with_stops))):
-        with pytest.raises(mjflex.ModelError, match="end stops"):
-            call()
-    assert not flex.installed
 
 
 def test_variants_say_what_becomes_of_the_stops():

@@ -242,14 +242,10 @@ def _simulate_command(args):
 def arcade_source():
     """``(source, label)``: the path of ``models/arcade.xml`` in the source tree, or an ``MjSpec`` of the same model.
 
-    Its elements are plugin instances; without mjflex's native library (the Python fallback)
-    MuJoCo cannot load them, and the same model is built with text records instead.
+    Its elements are plugin instances.
     """
-    from ..mj import _native
     from .arcade import build_arcade_spec
 
-    if _native.loaded() is None:
-        return build_arcade_spec(kind="record"), "arcade (text records, built in memory: no native library)"
     path = os.path.join(REPO_MODELS, "arcade.xml")
     if os.path.exists(path):
         return path, path

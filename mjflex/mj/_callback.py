@@ -27,8 +27,8 @@ The native dispatcher (``mjfx_passive`` in ``mjflex/native/callback.c``)
   once per run with a count of the repeats.
 
 A Python dispatcher is used instead when a Python callback was already installed (it is chained;
-MuJoCo then cannot compile models while installed, and ``Batch`` refuses Python callbacks) or when
-the native library is not available (:mod:`._fallback`). It follows the same reporting rules.
+MuJoCo then cannot compile models while installed, and ``Batch`` refuses Python callbacks). It
+calls the same C code (``mjfx_dispatch``) and follows the same reporting rules.
 """
 
 import ctypes
@@ -51,12 +51,12 @@ _STATE = {"callback": None, "previous": None, "native_pointer": None}
 _PROTO = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
 
 
-def native_available() -> bool:
-    """Whether the native dispatcher can be used (the library is built for the running MuJoCo)."""
+def _checked_lib():
+    """The native library, its registry's capacity checked against :data:`CAPACITY`."""
     native = _native.lib()
-    if native is not None and native.mjfx_registry_capacity() != CAPACITY:
+    if native.mjfx_registry_capacity() != CAPACITY:
         raise RuntimeError("mjflex: the native registry's capacity differs from _callback.CAPACITY; rebuild mjflex")
-    return native is not None
+    return native
 
 
 # --------------------------------------------------------------------------- reporting
@@ -64,10 +64,7 @@ def native_available() -> bool:
 
 def errors_caught_here() -> bool:
     """Whether ``mju_error`` in the calling thread would be caught (not end the process)."""
-    native = _native.loaded()
-    if native is not None:
-        return bool(native.mjfx_errors_caught_here())
-    return ctypes.pythonapi.PyGILState_GetThisThreadState() is not None
+    return bool(_native.lib().mjfx_errors_caught_here())
 
 
 def report_raises(model) -> bool:
@@ -102,11 +99,7 @@ def _python_dispatcher(m, d):
     served = _IN_SLOT.get(m._address)
     if served is None:
         return
-    provider = served[1]
-    native = _native.lib()
-    if native is None:
-        provider._apply_in_python(m, d)
-        return
+    provider, native = served[1], _native.lib()
     verdicts = (_native.Verdict * 2)()
     native.mjfx_dispatch(m._address, d._address, 0, ctypes.byref(verdicts))
     for v in verdicts:
@@ -134,12 +127,12 @@ def _install_dispatcher():
     if _is_ours(current):
         return
     _STATE["previous"] = current
-    if (current is None or isinstance(current, ctypes._CFuncPtr)) and native_available():
-        _native.lib().mjfx_set_previous(None if current is None else ctypes.cast(current, ctypes.c_void_p).value)
+    native = _checked_lib()
+    if current is None or isinstance(current, ctypes._CFuncPtr):
+        native.mjfx_set_previous(None if current is None else ctypes.cast(current, ctypes.c_void_p).value)
         callback = _native_pointer()
     else:
-        if _native.lib() is not None:
-            _native.lib().mjfx_set_previous(None)
+        native.mjfx_set_previous(None)
         callback = _python_dispatcher
     mujoco.set_mjcb_passive(callback)
     _STATE["callback"] = callback
@@ -150,8 +143,7 @@ def _restore_dispatcher():
         mujoco.set_mjcb_passive(_STATE["previous"])
     # else: the user replaced our callback meanwhile; theirs stays
     _STATE["callback"] = _STATE["previous"] = None
-    if _native.loaded() is not None:
-        _native.loaded().mjfx_set_previous(None)
+    _native.lib().mjfx_set_previous(None)
 
 
 def _publish(model, provider):
@@ -164,19 +156,16 @@ def _publish(model, provider):
             "mjflex.flexure plugin instances, whose forces need no registry)"
         )
     slot = _FREE.pop(0)
-    keep = ()
-    native = _native.lib()
-    if native is not None:
-        t, n = provider._tables, provider._tables.served
-        names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in provider.names[:n]))
-        records = provider._records_for(model)
-        if native.mjfx_registry_publish(
-            slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, len(t.chain), t.exps.ctypes.data,
-            t.coefs.ctypes.data, len(t.coefs), ctypes.cast(names, ctypes.c_void_p), records.ctypes.data,
-        ):  # fmt: skip
-            _FREE.insert(0, slot)
-            raise RuntimeError("mjflex: the element table does not fit the model (an index out of range); rebuild it")
-        keep = (t, names, records)
+    t, n = provider._tables, provider._tables.served
+    names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in provider.names[:n]))
+    records = provider._records_for(model)
+    if _native.lib().mjfx_registry_publish(
+        slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, len(t.chain), t.exps.ctypes.data,
+        t.coefs.ctypes.data, len(t.coefs), ctypes.cast(names, ctypes.c_void_p), records.ctypes.data,
+    ):  # fmt: skip
+        _FREE.insert(0, slot)
+        raise RuntimeError("mjflex: the element table does not fit the model (an index out of range); rebuild it")
+    keep = (t, names, records)
     old = _IN_SLOT.get(model._address)
     _IN_SLOT[model._address] = (slot, provider, model, keep)
     if old is not None:
@@ -184,9 +173,7 @@ def _publish(model, provider):
 
 
 def _clear(slot):
-    native = _native.lib()
-    if native is not None:
-        native.mjfx_registry_clear(slot)  # the model pointer first: no dispatcher matches the slot any more
+    _native.lib().mjfx_registry_clear(slot)  # the model pointer first: no dispatcher matches the slot any more
     _FREE.append(slot)
     _FREE.sort()
 
@@ -249,9 +236,8 @@ def models_served() -> int:
 
 
 def slots_in_use() -> int:
-    """How many registry slots are in use (the native registry's count, else this module's)."""
-    native = _native.lib()
-    return native.mjfx_registry_used() if native is not None else len(_IN_SLOT)
+    """How many registry slots are in use (the native registry's count)."""
+    return _native.lib().mjfx_registry_used()
 
 
 def dispatcher_installed() -> bool:

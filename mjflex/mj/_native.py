@@ -5,9 +5,13 @@ The library is found and loaded once per process by :mod:`mjflex_plugin` (the sa
 ``mjModel`` / ``mjData`` through the MuJoCo headers they were compiled against (the version is
 checked before loading), so Python passes ``model._address`` and ``data._address``.
 
-When the library is missing (no C compiler at install) or cannot be used, :func:`lib` returns
-None after one ``RuntimeWarning`` per process naming the cause and the fix, and mjflex runs its
-Python fallback (:mod:`._fallback`): same results, much slower, no plugin models.
+Every force, of both element forms, comes from this library; there is no other implementation
+(``mjflex.core`` is the independent reference the tests hold it to). ``import mjflex`` does not
+need it: the core, the stiffness from geometry and reading or writing records in a spec work
+without it. The first call that does (building a :class:`mjflex.Flexures`, adding a plugin
+element, ...) gets :func:`lib`, which raises :class:`NativeLibraryError` saying how to install it
+(mjflex's binary wheel, or a C compiler for a source build) when it is missing or was built for
+another MuJoCo.
 
 The element table
 -----------------
@@ -17,11 +21,11 @@ per element, built once by :mod:`._tables`. Its offsets are checked against the 
 """
 
 import ctypes
-import os
 import threading
-import warnings
 
 import numpy as np
+
+from mjflex_plugin import NativeLibraryError
 
 #: Modes of :func:`evaluate` (bits, as ``MJFX_*`` in elements.h).
 APPLY, WRENCH, ENERGY, POWER, COORDS = 1, 2, 4, 8, 16
@@ -44,9 +48,6 @@ ELEMENT_DTYPE = np.dtype(
      ("stop_lo", np.float64, (6,)), ("stop_hi", np.float64, (6,)), ("stop_k", np.float64, (6,))],
     align=True,
 )  # fmt: skip
-
-#: Set to a reason to force the Python fallback (tests, or ``MJFLEX_NATIVE=0`` in the environment).
-FORCE_FALLBACK = {"reason": "MJFLEX_NATIVE=0 in the environment" if os.environ.get("MJFLEX_NATIVE") == "0" else None}
 
 _LOCK = threading.Lock()
 _STATE = {}
@@ -117,43 +118,28 @@ def _bind(lib):
     size = lib.mjfx_element_field(None)
     for name in ELEMENT_DTYPE.names:
         if lib.mjfx_element_field(name.encode()) != ELEMENT_DTYPE.fields[name][1]:
-            raise RuntimeError(
+            raise NativeLibraryError(
                 f"mjflex: the native mjfxElement.{name} is not where ELEMENT_DTYPE has it; rebuild mjflex"
             )
     if size != ELEMENT_DTYPE.itemsize:
-        raise RuntimeError(f"mjflex: the native mjfxElement has {size} bytes, ELEMENT_DTYPE {ELEMENT_DTYPE.itemsize}")
+        raise NativeLibraryError(
+            f"mjflex: the native mjfxElement has {size} bytes, ELEMENT_DTYPE {ELEMENT_DTYPE.itemsize}; rebuild mjflex"
+        )
     return lib
 
 
-def loaded():
-    """The native library if it loads, whether or not mjflex uses it (it registers the plugin)."""
+def lib():
+    """The native library (ctypes), loaded and bound once per process; raises :class:`NativeLibraryError`.
+
+    The error names the cause (not built, built for another MuJoCo, another copy registered
+    first) and the fix: install mjflex's binary wheel, or a C compiler and install from source.
+    """
     with _LOCK:
-        if "loaded" not in _STATE:
+        if "lib" not in _STATE:
             import mjflex_plugin
 
-            try:
-                _STATE["loaded"] = _bind(mjflex_plugin.library())
-            except (mjflex_plugin.NativeLibraryError, RuntimeError, AttributeError) as exc:
-                _STATE["loaded"], _STATE["why"] = None, str(exc)
-        return _STATE["loaded"]
-
-
-def lib():
-    """The native library (ctypes), or None when mjflex runs its Python fallback (warned once per process)."""
-    native = loaded()
-    if native is not None and not FORCE_FALLBACK["reason"]:
-        return native
-    with _LOCK:
-        why = FORCE_FALLBACK["reason"] or _STATE.get("why")
-        if _STATE.get("warned") != why:
-            _STATE["warned"] = why
-            warnings.warn(
-                f"mjflex: using the Python fallback for the flexure forces (much slower; models with mjflex.flexure "
-                f"plugin elements cannot load without the native library): {why}",
-                RuntimeWarning,
-                stacklevel=3,
-            )
-    return None
+            _STATE["lib"] = _bind(mjflex_plugin.library())  # raises NativeLibraryError (not kept: may be fixed)
+        return _STATE["lib"]
 
 
 def lanes() -> int:
@@ -161,24 +147,19 @@ def lanes() -> int:
     return int(lib().mjfx_lanes())
 
 
-def available() -> bool:
-    """Whether the native library is in use."""
-    return lib() is not None
-
-
 def plugin_instances(model) -> list[int]:
-    """Ids of the model's mjflex.flexure plugin instances (none can exist without the library)."""
-    native = loaded() if model.nplugin else None
-    if native is None:
+    """Ids of the model's mjflex.flexure plugin instances."""
+    if not model.nplugin:
         return []
+    native = lib()
     return [i for i in range(model.nplugin) if native.mjfx_is_instance(model._address, i)]
 
 
 def plugin_attributes() -> tuple[str, ...]:
     """The configuration attributes of the plugin, in the order MuJoCo stores their values."""
-    native = loaded()
+    native = lib()
     out, i = [], 0
-    while native is not None and (name := native.mjfx_attribute(i)) is not None:
+    while (name := native.mjfx_attribute(i)) is not None:
         out.append(name.decode())
         i += 1
     return tuple(out)

@@ -166,16 +166,10 @@ def rest_offset(ref, sa, sb):
     """Relative pose ``(R0, p0)`` of site b seen from site a in data ``ref`` (at ``qpos0``), and
     its distance [m] and angle [rad].
 
-    Computed by the native library when it is in use, exactly as the engine plugin's ``init``
-    computes it, so that a text record and a plugin instance of one element are bit-identical.
+    Computed by the native library, exactly as the engine plugin's ``init`` computes it, so that a
+    text record and a plugin instance of one element are bit-identical.
     """
-    if _native.available():
-        return _native.rest_offset(ref, sa, sb)
-    R_a, R_b = ref.site_xmat[sa].reshape(3, 3), ref.site_xmat[sb].reshape(3, 3)
-    R0 = R_a.T @ R_b
-    p0 = R_a.T @ (ref.site_xpos[sb] - ref.site_xpos[sa])
-    angle = float(np.linalg.norm(twist_from_transform(R0, p0, check=False)[:3]))
-    return R0, p0, float(np.linalg.norm(p0)), angle
+    return _native.rest_offset(ref, sa, sb)
 
 
 def _coincide(dist, angle, tol):
@@ -331,8 +325,7 @@ def derive(model) -> Tables:
         if rec.stops:
             row["stops"] = 1
             row["stop_lo"], row["stop_hi"], row["stop_k"] = rec.stops.element_rows(rec.K)
-        if _native.available():  # the derived fields exactly as the plugin's init computes them
-            _native.prepare(m, elements, e)
+        _native.prepare(m, elements, e)  # the derived fields exactly as the plugin's init computes them
         _lay_out_terms(row, rec.terms, terms)
         trees = [int(m.body_treeid[b]) for b in (ba, bb)]
         mocap = any(m.body_mocapid[b] >= 0 for b in (ba, bb))

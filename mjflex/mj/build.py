@@ -538,22 +538,17 @@ def _record_text(record):
 
 
 def require_native_library(element=None) -> None:
-    """RuntimeError saying how to build it, unless mjflex's native library (the engine plugin) loads.
+    """:class:`mjflex_plugin.NativeLibraryError` saying how to install it, unless mjflex's native library loads.
 
     ``element``: the name of the element being added, for the message.
     """
-    if _native.loaded() is None:
-        import mjflex_plugin
-
-        try:
-            mjflex_plugin.library()
-        except mjflex_plugin.NativeLibraryError as exc:
-            who = f"flexure {element!r}: " if element else ""
-            raise RuntimeError(
-                f"{who}plugin elements (kind=\"plugin\", add_flexure's default) need mjflex's native library, the "
-                f'engine plugin {schema.PLUGIN_NAME}: {exc}. Or pass kind="record": a text record, whose forces '
-                "mjflex.Flexures adds through mjcb_passive (no native library needed)"
-            ) from None
+    try:
+        _native.lib()
+    except _native.NativeLibraryError as exc:
+        who = f"flexure {element!r}: " if element else ""
+        raise _native.NativeLibraryError(
+            f"{who}flexure elements need mjflex's native library, the engine plugin {schema.PLUGIN_NAME}: {exc}"
+        ) from None
 
 
 def activate_plugin(spec, element=None) -> None:

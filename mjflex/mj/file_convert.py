@@ -165,13 +165,10 @@ def _one_line(exc):
 
 
 def _to_plugins(source, root, records):
-    if _native.loaded() is None:
-        import mjflex_plugin
-
-        try:
-            mjflex_plugin.library()
-        except mjflex_plugin.NativeLibraryError as exc:
-            raise ConversionError(f"plugin elements need mjflex's native library: {_one_line(exc)}") from None
+    try:
+        _native.lib()
+    except _native.NativeLibraryError as exc:
+        raise ConversionError(f"plugin elements need mjflex's native library: {_one_line(exc)}") from None
     model, tables = _compile(source, source)
     sites = set(_tables.names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite)) - {""}
     expected, plugin, unit = {}, None, _unit(root)

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core import validation
 from ..core.stops import stop_coordinates
-from . import _callback, _fallback, _native, _tables
+from . import _callback, _native, _tables
 from ._tables import ModelError
 from .divergence import Divergence, step_index
 
@@ -166,8 +166,6 @@ class Flexures:
         self._copies = ()
         self._depth = 0
         self._tables = _tables.derive(model)
-        if not _native.available():
-            _fallback.check_supported(self._tables)
         t = self._tables
         self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
@@ -176,7 +174,6 @@ class Flexures:
         self._warn_contacts(model)
         self._sleep_policy(model)
         self._fingerprints[model._address] = _tables.fingerprint(model)
-        self._watches = {}  # the Python fallback's divergence records, by data address
         self._records = {}  # model address -> the native per-mjData divergence records of a served model
 
     def __reduce__(self):
@@ -354,8 +351,6 @@ class Flexures:
         """
         with _callback._LOCK:
             if self._depth == 0 and self._served:
-                if not _native.available():
-                    _fallback.check_supported(self._tables)
                 for i, model in enumerate(self.models):
                     self._check_model(model, "flex.model" if i == 0 else f"served model {i - 1}")
                     self._warn_sleepy(model)
@@ -416,10 +411,8 @@ class Flexures:
     def _evaluate(self, data, mode, out6=None, out1=None, qfrc=None, model=None):
         """Evaluate the elements on ``data``; returns -1 or the index of the first non-finite wrench."""
         t, model = self._tables, model or self.model
-        if _native.available():
-            return _native.evaluate(model, data, t.elements, t.chain, t.exps, t.coefs, mode, qfrc=qfrc, out6=out6,
-                                    out1=out1, n=len(self))  # fmt: skip
-        return _fallback.evaluate(model, data, t, mode, qfrc=qfrc, out6=out6, out1=out1, n=len(self))
+        return _native.evaluate(model, data, t.elements, t.chain, t.exps, t.coefs, mode, qfrc=qfrc, out6=out6,
+                                out1=out1, n=len(self))  # fmt: skip
 
     def _query(self, data, mode, out6=None, out1=None, qfrc=None):
         self._check_data(data)
@@ -433,10 +426,6 @@ class Flexures:
                 "step (mjflex.normal_modes gives the stiffest mode)."
             )
 
-    def _apply_in_python(self, model, data):
-        """The Python fallback dispatcher's work: add the served forces; report like the native one."""
-        _fallback.apply_and_watch(self, model, data)
-
     def divergences(self, data) -> dict[str, Divergence]:
         """The divergences of each element in the current run of ``data`` (those that diverged at least once).
 
@@ -447,7 +436,7 @@ class Flexures:
         reports it. Elements not installed on ``data``'s model count nothing.
         """
         self._check_data(data)
-        return _fallback.divergences(self, data) if not _native.available() else _divergences(self, data)
+        return _divergences(self, data)
 
     def index(self, name) -> int:
         """Row of element ``name`` (or the row ``name`` itself, an int) in the per-element arrays."""
