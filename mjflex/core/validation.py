@@ -47,6 +47,10 @@ from ._kernels import DUALQUAT, TWIST
 
 SYMMETRY_RTOL = 1e-8
 PSD_RTOL = 1e-10
+#: Largest magnitude of a K or B entry (and of a stop's stiffness): an element's energy ``x^T K x / 2``
+#: and power stay finite in float64 for every displacement and velocity MuJoCo accepts
+#: (``|x| <= 1e10``, its ``mjMAXVAL``). The C library's ``MJFX_MAX_MATRIX_ENTRY``, held equal by a test.
+MAX_MATRIX_ENTRY = 1e280
 ORTHONORMAL_ATOL = 1e-9
 ORTHONORMAL_EPS_FACTOR = 16
 UNIT_ATOL = 1e-9

@@ -16,8 +16,9 @@ another MuJoCo.
 The element table
 -----------------
 ``ELEMENT_DTYPE`` mirrors the C struct ``mjfxElement`` (``mjflex/native/elements.h``): one row
-per element, built once by :mod:`._tables`. Its offsets are checked against the library's
-(``mjfx_element_field``) when the library loads, so Python and C cannot drift apart.
+per element, laid out once by the C library for both forms (:func:`read_table`). Its offsets are
+checked against the library's (``mjfx_element_field``) when the library loads, so Python and C
+cannot drift apart.
 """
 
 import ctypes
@@ -76,8 +77,13 @@ _SIGNATURES = {
     "mjfx_evaluate": (_I, [_P, _P, _P, _I, _P, _P, _P, _I, _P, _P, _P, _P]),
     "mjfx_evaluate_checked": (_I, [_P, _P, _P, _I, _P, _I, _P, _P, _I, _I, _P, _P, _P, _P]),
     "mjfx_check_rows": (_I, [_P, _P, _I, _P, _I, _P, _P, _I]),
-    "mjfx_site_rest_offset": (_I, [_P, _P, _I, _I, _P, _P, _DP, _DP]),
-    "mjfx_matrix_structure": (_I, [_P]),
+    "mjfx_read_table": (_P, [_P, _P, _I, _P, _P, ctypes.c_char_p, _I]),
+    "mjfx_table_sizes": (None, [_P, _P]),
+    "mjfx_table_copy": (None, [_P, _P, _P, _P, _P, _P]),
+    "mjfx_free_table": (None, [_P]),
+    "mjfx_check_config": (_I, [ctypes.c_char_p, _P, ctypes.c_char_p, _I]),
+    "mjfx_constant": (_D, [ctypes.c_char_p]),
+    "mjfx_offsets_coincide": (_I, [_P, _P, _P, _P]),
     "mjfx_registry_capacity": (_I, []),
     "mjfx_registry_records_size": (ctypes.c_size_t, [_I]),
     "mjfx_registry_publish": (_I, [_I, _P, _I, _P, _P, _I, _P, _P, _I, _P, _P]),
@@ -90,7 +96,6 @@ _SIGNATURES = {
     "mjfx_report_text": (_I, [_P, _P, ctypes.c_char_p, ctypes.c_char_p, _I]),
     "mjfx_errors_caught_here": (_I, []),
     "mjfx_plugin_watch": (_P, [_P, _P]),
-    "mjfx_plugin_element": (_I, [_P, _P, _I, _P]),
     "mjfx_watch_size_of": (_I, [_P]),
     "mjfx_watch_first": (_I, [_P, _I, _P]),
     "mjfx_watch_peek": (None, [_P, _P, _P, _P]),
@@ -101,7 +106,6 @@ _SIGNATURES = {
     "mjfx_series_coefficients": (_I, [_P, _P, _I]),
     "mjfx_header_version": (_I, []),
     "mjfx_is_instance": (_I, [_P, _I]),
-    "mjfx_prepare_row": (_I, [_P, _P]),
     "mjfx_live_instances": (ctypes.c_long, []),
     "mjfx_states_count": (ctypes.c_long, []),
     "mjfx_set_lanes": (_I, [_I]),
@@ -188,20 +192,60 @@ def evaluate(model, data, elements, chain, exps, coefs, mode, *, qfrc=None, out6
     return status
 
 
-def rest_offset(data, sa, sb):
-    """``(R0 (3, 3), p0 (3,), distance, angle)`` of site b seen from site a in ``data`` (the C computation)."""
-    R0, p0, dist, angle = np.empty(9), np.empty(3), ctypes.c_double(), ctypes.c_double()
-    if lib().mjfx_site_rest_offset(data.model._address, data._address, int(sa), int(sb), R0.ctypes.data,
-                                   p0.ctypes.data, dist, angle):  # fmt: skip
-        raise ValueError(f"mjflex: site ids {sa}, {sb} are not sites of the data's model")
-    return R0.reshape(3, 3), p0, dist.value, angle.value
+def _strings(texts):
+    return (ctypes.c_char_p * max(len(texts), 1))(*(t.encode() for t in texts))
 
 
-def prepare(model, elements, i):
-    """Fill row ``i``'s derived fields (``mjfx_element_prepare``: offset, qa, qb, levers, structures, diagonals)."""
-    row = elements.ctypes.data + i * elements.itemsize
-    if not 0 <= i < len(elements) or lib().mjfx_prepare_row(model._address, row):
-        raise ValueError(f"mjflex: row {i} of the element table does not name sites of the model")
+def read_table(model, data, records):
+    """The element table of ``model``, read by the C library (``mjfx_read_table``): its text records, then its plugin
+    instances in order. ``records``: ``[(element, configuration)]`` of the text records, each as the plugin
+    configuration it is equal to (attribute -> string). ``data`` (of ``model``) gives the reference configuration's
+    kinematics (put back after). Returns ``(elements, chain, exps, coefs, instances)``: ``instances[e]`` the plugin
+    instance of row ``e`` (-1 for a record); the arrays are never empty (one zero row or a trailing 0: valid
+    addresses for the C loop). Raises ValueError with the message of the first element that C refuses.
+    """
+    native, attributes = lib(), plugin_attributes()
+    names = _strings([name for name, _ in records])
+    values = _strings([str(config.get(a, "")) for _, config in records for a in attributes])
+    err = ctypes.create_string_buffer(4096)
+    table = native.mjfx_read_table(model._address, data._address, len(records), ctypes.cast(names, _P),
+                                   ctypes.cast(values, _P), err, len(err))  # fmt: skip
+    if not table:
+        raise ValueError(err.value.decode(errors="replace"))
+    try:
+        sizes = (ctypes.c_int * 3)()
+        native.mjfx_table_sizes(table, sizes)
+        n, nchain, nterms = sizes
+        elements = np.zeros(max(n, 1), dtype=ELEMENT_DTYPE)
+        chain = np.zeros(nchain + 1, dtype=np.int32)
+        exps = np.zeros((max(nterms, 1), TERM_COLUMNS), dtype=np.int32)
+        coefs, instances = np.zeros(max(nterms, 1)), np.zeros(max(n, 1), dtype=np.int32)
+        native.mjfx_table_copy(table, *(_ptr(a) for a in (elements, chain, exps, coefs, instances)))
+    finally:
+        native.mjfx_free_table(table)
+    return elements, chain, exps, coefs, tuple(int(i) for i in instances[:n])
+
+
+def check_config(element: str, config) -> None:
+    """ValueError with the C library's message unless ``config`` (attribute -> string) is a valid configuration of
+    element ``element`` (``mjfx_check_config``: the rules of the plugin's compile errors, without a model)."""
+    values = _strings([str(config.get(a, "")) for a in plugin_attributes()])
+    err = ctypes.create_string_buffer(4096)
+    if lib().mjfx_check_config(element.encode(), ctypes.cast(values, _P), err, len(err)):
+        raise ValueError(err.value.decode(errors="replace"))
+
+
+def constant(name: str) -> float:
+    """A constant of the C library (``mjfx_constant``: tolerances, limits, codes), NaN for an unknown name."""
+    return float(lib().mjfx_constant(name.encode()))
+
+
+def offsets_coincide(model, mine, other) -> tuple[bool, float, float]:
+    """Whether the rest offsets of one element in two tables (rows ``mine``, ``other``) coincide within the
+    element's tolerances in ``model``, and their distance [m] and angle [rad]."""
+    a, b, gap = np.ascontiguousarray(mine), np.ascontiguousarray(other), np.zeros(2)
+    same = lib().mjfx_offsets_coincide(model._address, a.ctypes.data, b.ctypes.data, gap.ctypes.data)
+    return bool(same), float(gap[0]), float(gap[1])
 
 
 def report_text(model, verdict, element: str) -> str:

@@ -5,6 +5,15 @@ An element is written in a model file either as a text record with two sites
 (:mod:`mjflex.mj.schema`) or as an instance of the engine plugin ``mjflex.flexure``
 (``schema.PLUGIN_ATTRIBUTES``); both give the same table row, so every analysis works on both.
 
+The set-up of an element exists once, in C (``mjflex/native/instances.c``, ``mjfx_read_element``):
+its configuration's checks, its sites on two bodies, the rest offset and the coincidence checks,
+the frame site, the derived fields, inverse inertias and dof chains. The plugin's ``init`` runs
+it on its instances; :func:`derive` runs it on every element of a model (``_native.read_table``):
+a text record is found here by its sites' names, read from its JSON (:func:`schema.parse_text`,
+the record's own rules) and given to C as the configuration it is equal to
+(:func:`schema.config_from_record`). So a check has one message, in the words of the element's
+form, and a record and a plugin instance of one element lay out the same row.
+
 :func:`derive` is the single place where a model is read; the provider runs it once at
 construction, and again on a model it is asked to serve (a copy) to check that the copy holds
 the same elements in the same places.
@@ -19,8 +28,6 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from ..core import validation
-from ..core.transforms import twist_from_transform
 from . import _contacts, _native, schema
 
 RECORD, PLUGIN = "record", "plugin"
@@ -52,7 +59,6 @@ class Tables:
     instances: tuple[int, ...]  # element -> plugin instance id (-1 for a record)
     elements: np.ndarray
     chain: np.ndarray
-    tolerance: np.ndarray  # (n,) coincidence tolerance [m] of each element
     joined_trees: dict[int, str]  # tree -> an element that joins it to another tree or a mocap body
     exps: np.ndarray
     coefs: np.ndarray
@@ -129,124 +135,8 @@ def _site_id(model, element, name, role, all_sites, others):
     return sid
 
 
-def _dof_chain(model, body):
-    """Dofs whose motion moves ``body``, from its own last dof to the root."""
-    while body > 0 and model.body_dofnum[body] == 0:
-        body = model.body_parentid[body]
-    if body == 0:
-        return []
-    j, chain = model.body_dofadr[body] + model.body_dofnum[body] - 1, []
-    while j >= 0:
-        chain.append(int(j))
-        j = model.dof_parentid[j]
-    return chain
-
-
-def _free_dofadr(model, body):
-    """Dof address of a free joint that is the only joint of a child of the world, else -1."""
-    if body > 0 and model.body_parentid[body] == 0 and model.body_jntnum[body] == 1:
-        j = model.body_jntadr[body]
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
-            return int(model.jnt_dofadr[j])
-    return -1
-
-
-def _length_scale(model, sa, sb):
-    """Summed lengths [m] of the site and body positions that place sites ``sa`` and ``sb``."""
-    total = float(np.linalg.norm(model.site_pos[sa]) + np.linalg.norm(model.site_pos[sb]))
-    for site in (sa, sb):
-        body = int(model.site_bodyid[site])
-        while body > 0:
-            total += float(np.linalg.norm(model.body_pos[body]))
-            body = int(model.body_parentid[body])
-    return total
-
-
-def rest_offset(ref, sa, sb):
-    """Relative pose ``(R0, p0)`` of site b seen from site a in data ``ref`` (at ``qpos0``), and
-    its distance [m] and angle [rad].
-
-    Computed by the native library, exactly as the engine plugin's ``init`` computes it, so that a
-    text record and a plugin instance of one element are bit-identical.
-    """
-    return _native.rest_offset(ref, sa, sb)
-
-
-def _coincide(dist, angle, tol):
-    """Whether a distance and an angle are within the coincidence tolerances (NaN is not: ``NaN > tol`` is false)."""
-    return dist <= tol and angle <= schema.COINCIDENCE_ANGLE
-
-
-_NONFINITE = (
-    "Their pose at qpos0 is not finite: a position, orientation or joint reference (qpos0) that places them is NaN "
-    "or infinite; give finite numbers."
-)
-
-
-def _check_coincident(element, sites, dist, angle, tol):
-    if not np.isfinite([dist, angle, tol]).all():
-        raise model_error(element, f"sites '{sites[0]}' and '{sites[1]}' are {dist:.3g} m and {angle:.3g} rad apart "
-                          "at qpos0", _NONFINITE)  # fmt: skip
-    if not _coincide(dist, angle, tol):
-        raise model_error(
-            element,
-            f"sites '{sites[0]}' and '{sites[1]}' are {dist:.3g} m apart and {angle:.3g} rad apart at qpos0 "
-            f"(tolerance {tol:.3g} m: {schema.COINCIDENCE_RTOL:g} times the {tol / schema.COINCIDENCE_RTOL:.3g} m "
-            f"of site and body positions that place them, which covers their 6-digit rounding in saved files; "
-            f"{schema.COINCIDENCE_ANGLE:g} rad)",
-            "Both frames must coincide in the reference configuration: place both at the same world "
-            "pose (mjflex.add_flexure does this).",
-        )
-
-
-def _frame_site_id(model, element, site, site_a):
-    """Id of the record's frame site ``site``, or -1: under ``MjSpec.attach`` it carries the element's
-    prefix and suffix (``element = P + E + S``, ``site_a = P + E + "/a" + S``), so ``P + site + S``
-    is tried for every split of ``P + E``."""
-    c = next((i for i, (x, y) in enumerate(zip(element, site_a, strict=False)) if x != y), len(element))
-    names = [element[:i] + site + t for i in range(c, -1, -1) for t in (element[c:], "")]
-    for name in dict.fromkeys(names):
-        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
-        if sid >= 0:
-            return sid
-    return -1
-
-
-def _check_frame_site(model, ref, element, site, site_a, tol):
-    """The record names the site that gives the element frame: frame a must still coincide with it."""
-    sid = _frame_site_id(model, element, site, site_a[0])
-    if sid < 0:
-        raise model_error(
-            element, f"its record names the frame site '{site}', which the model does not have",
-            "Restore the site, or drop \"site\" from the record if the element's own sites are right.",
-        )  # fmt: skip
-    R_s, R_a = ref.site_xmat[sid].reshape(3, 3), ref.site_xmat[site_a[1]].reshape(3, 3)
-    dist = float(np.linalg.norm(ref.site_xpos[sid] - ref.site_xpos[site_a[1]]))
-    angle = float(np.linalg.norm(twist_from_transform(R_s.T @ R_a, np.zeros(3), check=False)[:3]))
-    if not _coincide(dist, angle, tol):
-        raise model_error(
-            element,
-            f"its frame is {dist:.3g} m and {angle:.3g} rad away from the site '{site}' its record names (at qpos0)",
-            "The site was moved without the element: place the element again at the site "
-            '(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop "site" from its record.'
-            if np.isfinite([dist, angle]).all()
-            else _NONFINITE,
-        )
-
-
-def _inverse_inertia(model, bodies):
-    """Largest inverse mass and inverse principal inertia of the non-world bodies (0 when massless)."""
-    inv_m = inv_i = 0.0
-    for b in bodies:
-        if b > 0 and model.body_mass[b] > 0:
-            inv_m = max(inv_m, 1.0 / float(model.body_mass[b]))
-        if b > 0 and model.body_inertia[b].min() > 0:
-            inv_i = max(inv_i, 1.0 / float(model.body_inertia[b].min()))
-    return inv_m, inv_i
-
-
 def _plugin_elements(model, all_sites):
-    """``[(element, config text, site a, site b, record, instance)]`` of the model's mjflex.flexure instances."""
+    """``[(element, config text, site a, site b, record)]`` of the model's mjflex.flexure instances, in order."""
     ours = _native.plugin_instances(model)
     if not ours:
         return []
@@ -260,11 +150,9 @@ def _plugin_elements(model, all_sites):
         try:
             record = schema.record_from_config(element, config)
         except ValueError as exc:
-            problem = f"its plugin configuration is malformed: {str(exc).rstrip('.')}"
-            raise model_error(element, problem, "Fix its <config> attributes (see mjflex.mj.schema).") from None
-        text = schema.config_text(config)
+            raise ModelError(str(exc)) from None
         site_a, site_b = schema.config_sites(config, element, all_sites)
-        out.append((element, text, site_a, site_b, record, i))
+        out.append((element, schema.config_text(config), site_a, site_b, record))
     return out
 
 
@@ -273,106 +161,39 @@ def derive(model) -> Tables:
     m = model
     all_sites = names(m, mujoco.mjtObj.mjOBJ_SITE, m.nsite)
     plugins = _plugin_elements(m, all_sites)
-    claimed = {p[2] for p in plugins}
-    found = [(e, text, a, b, None, -1) for e, text, a, b, _ in _records(m, {s for s in all_sites if s}, claimed)]
-    twice = sorted({e for e, *_ in found} & {e for e, *_ in plugins})
-    if twice:
-        raise model_error(
-            twice[0], "it is both a text record and an mjflex.flexure plugin instance (its forces would be added "
-            "twice)", "Keep one of them (python -m mjflex convert writes either form).",
-        )  # fmt: skip
-    found += plugins
-    n = len(found)
-    elements = np.zeros(n, dtype=_native.ELEMENT_DTYPE)
-    tolerance, chain, joined, records, sites, terms = np.zeros(n), [], {}, [], [], []
-    ref = mujoco.MjData(m)
-    ref.qpos[:] = m.qpos0
-    mujoco.mj_kinematics(m, ref)
-    for e, (element, data, site_a, site_b, rec, _) in enumerate(found):
-        rec = parse(element, data) if rec is None else rec
-        records.append(rec)
-        sites.append((site_a, site_b))
-        sa, sb = (
+    found, configs = [], []
+    for element, data, site_a, site_b, _ in _records(m, {s for s in all_sites if s}, {p[2] for p in plugins}):
+        record = parse(element, data)
+        for s, role in ((site_a, "body A"), (site_b, "body B")):
             _site_id(m, element, s, role, all_sites, {site_a, site_b})
-            for s, role in ((site_a, "body A"), (site_b, "body B"))
-        )
-        ba, bb = int(m.site_bodyid[sa]), int(m.site_bodyid[sb])
-        if ba == bb:
-            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, ba) or f"#{ba}"
-            fix = "Put site a on one body and site b on the other (use 'world' to ground)."
-            raise model_error(element, f"both sites are on body '{body}'", fix)
-        R0, p0, dist, angle = rest_offset(ref, sa, sb)
-        tolerance[e] = schema.COINCIDENCE_RTOL * max(_length_scale(m, sa, sb), 1e-9)
-        _check_coincident(element, (site_a, site_b), dist, angle, tolerance[e])
-        if rec.site is not None:
-            _check_frame_site(m, ref, element, rec.site, (site_a, sa), tolerance[e])
-        row = elements[e]
-        row["site_a"], row["site_b"], row["body_a"], row["body_b"] = sa, sb, ba, bb
-        row["method"] = validation.METHOD_CODES[rec.method]
-        row["enabled"], row["viscous"] = rec.enabled, rec.viscous and rec.B is not None
-        row["offset"] = not (np.array_equal(R0, np.eye(3)) and not p0.any())
-        for body, side in ((ba, "a"), (bb, "b")):
-            row[f"free_{side}"] = _free_dofadr(m, body)
-            dofs = [] if row[f"free_{side}"] >= 0 else _dof_chain(m, body)
-            row[f"chain_{side}0"], row[f"chain_{side}1"] = len(chain), len(chain) + len(dofs)
-            chain.extend(dofs)
-        K = schema.embed_planar(rec.K) if rec.planar else rec.K
-        B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
-        row["K"], row["B"], row["R0"], row["p0"] = K.ravel(), B.ravel(), R0.ravel(), p0
-        row["kstruct"], row["bstruct"] = matrix_structure(K), matrix_structure(B)
-        row["inv_mass"], row["inv_inertia"] = _inverse_inertia(m, (ba, bb))
-        row["stop_lo"], row["stop_hi"] = -np.inf, np.inf  # as the plugin's init lays out an element without stops
-        if rec.stops:
-            row["stops"] = 1
-            row["stop_lo"], row["stop_hi"], row["stop_k"] = rec.stops.element_rows(rec.K)
-        _native.prepare(m, elements, e)  # the derived fields exactly as the plugin's init computes them
-        _lay_out_terms(row, rec.terms, terms)
+        found.append((element, data, site_a, site_b, record))
+        configs.append((element, schema.config_from_record(record, site_a, site_b)))
+    ref = mujoco.MjData(m)
+    try:
+        elements, chain, exps, coefs, instances = _native.read_table(m, ref, configs)
+    except ValueError as exc:
+        raise ModelError(str(exc)) from None
+    found += plugins
+    joined = {}
+    for e, row in enumerate(elements[: len(found)]):
+        ba, bb = int(row["body_a"]), int(row["body_b"])
         trees = [int(m.body_treeid[b]) for b in (ba, bb)]
         mocap = any(m.body_mocapid[b] >= 0 for b in (ba, bb))
         if trees[0] != trees[1] and (min(trees) >= 0 or mocap):
-            joined.update({t: element for t in trees if t >= 0})
+            joined.update({t: found[e][0] for t in trees if t >= 0})
     return Tables(
         names=tuple(r[0] for r in found),
         texts={r[0]: r[1] for r in found},
-        records=records,
-        sites=sites,
-        kinds=tuple(RECORD if r[5] < 0 else PLUGIN for r in found),
-        instances=tuple(r[5] for r in found),
-        elements=elements if n else np.zeros(1, dtype=_native.ELEMENT_DTYPE),
-        chain=np.array(chain + [0], dtype=np.int32),  # never empty: a valid address
-        tolerance=tolerance,
+        records=[r[4] for r in found],
+        sites=[(r[2], r[3]) for r in found],
+        kinds=tuple(RECORD if i < 0 else PLUGIN for i in instances),
+        instances=instances,
+        elements=elements,
+        chain=chain,
         joined_trees=joined,
-        **_terms_table(terms),
+        exps=exps,
+        coefs=coefs,
     )
-
-
-def matrix_structure(M: np.ndarray) -> int:
-    """``_native.DIAGONAL``, ``ZERO`` or ``FULL`` for a 6x6 matrix (as ``mjfx_matrix_structure``)."""
-    off = M[~np.eye(6, dtype=bool)]
-    if off.any():
-        return _native.FULL
-    return _native.DIAGONAL if np.diagonal(M).any() else _native.ZERO
-
-
-def _lay_out_terms(row, terms, tables):
-    """Give element ``row`` the next rows of the terms' table (``tables``: the (exps, coefs) so far)."""
-    lo = sum(len(c) for _, c in tables)
-    row["terms_lo"] = row["terms_hi"] = lo
-    if terms is None or len(terms) == 0:
-        return
-    exps = np.zeros((len(terms), _native.TERM_COLUMNS), dtype=np.int32)
-    exps[:, : terms.exponents.shape[1]] = terms.exponents
-    tables.append((exps, terms.coefficients))
-    row["terms_hi"] = lo + len(terms)
-    row["terms_top"] = int(terms.exponents.max())
-
-
-def _terms_table(tables):
-    """The terms of all elements as ``exps`` (M, 8) and ``coefs`` (M,); one zero row when there are none."""
-    if not tables:
-        return {"exps": np.zeros((1, _native.TERM_COLUMNS), dtype=np.int32), "coefs": np.zeros(1)}
-    exps = np.ascontiguousarray(np.concatenate([e for e, _ in tables]), dtype=np.int32)
-    return {"exps": exps, "coefs": np.ascontiguousarray(np.concatenate([c for _, c in tables]))}
 
 
 class Touch(NamedTuple):
@@ -454,21 +275,11 @@ def difference(mine: Tables, other: Tables, mine_model, other_model) -> str | No
             return f"the text record of flexure '{name}' differs"
         if mine.elements[STRUCTURE][e] != other.elements[STRUCTURE][e]:
             return f"flexure '{name}' joins other sites, bodies or dofs"
-        moved = _rest_moved(mine, other, e)
-        if moved:
-            return f"the sites of flexure '{name}' moved by {moved}"
+        same, dist, angle = _native.offsets_coincide(mine_model, mine.elements[e : e + 1], other.elements[e : e + 1])
+        if not same:
+            return f"the sites of flexure '{name}' moved by {dist:.3g} m and {angle:.3g} rad"
     if not (
         np.array_equal(mine.chain, other.chain) and np.array_equal(mine_model.body_rootid, other_model.body_rootid)
     ):
         return "its kinematic trees differ"
-    return None
-
-
-def _rest_moved(mine, other, e):
-    R = mine.elements["R0"][e].reshape(3, 3).T @ other.elements["R0"][e].reshape(3, 3)
-    dp = other.elements["p0"][e] - mine.elements["p0"][e]
-    angle = float(np.linalg.norm(twist_from_transform(R, np.zeros(3), check=False)[:3]))
-    dist = float(np.linalg.norm(dp))
-    if not _coincide(dist, angle, mine.tolerance[e]):
-        return f"{dist:.3g} m and {angle:.3g} rad"
     return None

@@ -152,7 +152,8 @@ import numpy as np
 
 from ..core import validation
 from ..core.polynomial import MAX_EXPONENT, PolynomialTerms
-from ..core.validation import shorten
+from ..core.stops import PLANAR_INDEX
+from ..core.validation import MAX_MATRIX_ENTRY, shorten
 from .stops import Stops
 
 PREFIX = "mjflex:"
@@ -180,16 +181,10 @@ TERMS_KEYS = ("exponents", "coefficients")
 #: whose 6-significant-digit rounding by MuJoCo's XML writers (relative error <= 5e-6 per
 #: number) is what the rest offset absorbs.
 COINCIDENCE_RTOL = 1e-5
-#: Largest magnitude of a K or B entry: the element's energy ``x^T K x / 2`` and power stay
-#: finite in float64 for every displacement and velocity MuJoCo accepts (``|x| <= 1e10``,
-#: its ``mjMAXVAL``).
-MAX_MATRIX_ENTRY = 1e280
 #: Angle [rad] below which the two site frames count as aligned.
 COINCIDENCE_ANGLE = 1e-5
 #: Highest ``"order"`` of a record's potential: every variable at its highest exponent (8 x 16).
 MAX_ORDER = 8 * MAX_EXPONENT
-#: Indices of the planar coordinates ``[theta_z; x; y]`` within ``[rx, ry, rz, x, y, z]``.
-PLANAR_INDEX = (2, 3, 4)
 
 
 @dataclass
@@ -534,83 +529,45 @@ def order_and_terms(payload, method, K):
 # ------------------------------------------------------------------------------ plugin instances
 
 
-def _numbers(text: str, key: str) -> list[float]:
-    try:
-        return [float(t) for t in text.split()]
-    except ValueError:
-        bad = next(t for t in text.split() if not _is_float(t))
-        raise ValueError(f"{key} has {bad[:40]!r}, which is not a number") from None
+def _numbers(text: str) -> list[float]:
+    return [float(t) for t in text.split()]
 
 
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
-
-
-def _square(values: list[float]) -> list:
-    n = {9: 3, 36: 6}.get(len(values))
-    return values if n is None else [values[i * n : (i + 1) * n] for i in range(n)]
+def _matrix(text: str) -> np.ndarray:
+    """A K or B given as 3, 6, 9 or 36 numbers (checked by the C library) as its 3x3 or 6x6 matrix."""
+    values = np.array(_numbers(text))
+    n = {3: 3, 6: 6, 9: 3, 36: 6}[len(values)]
+    return np.diag(values) if len(values) == n else values.reshape(n, n)
 
 
 def record_from_config(element: str, config: dict) -> FlexureRecord:
-    """The record of a plugin instance from its configuration strings; raises ValueError (as a record would).
+    """The record of a plugin instance from its configuration strings; raises ValueError saying what to fix.
 
     ``config`` maps attribute names (``PLUGIN_ATTRIBUTES``) to their values; missing ones are
-    empty. The plugin's ``init`` has validated them already when the model compiled; this
-    applies the record's rules again in Python (they agree).
+    empty. The configuration is checked by the native library's reader of configurations (the
+    plugin's own rules and messages, ``mjflex/native/config.c``: one implementation of them), then
+    decoded into the record.
     """
+    from . import _native  # the C library's bindings import numpy only; kept out of import mjflex.mj.schema's way
+
     get = {a: str(config.get(a, "")).strip() for a in PLUGIN_ATTRIBUTES}
-    payload = {"mjflex": SCHEMA_VERSION, "method": get["method"] or "twist"}
-    if not get["K"]:
-        raise ValueError("the stiffness K is missing")
-    for key in ("K", "B"):
-        if get[key]:
-            values = _numbers(get[key], key)
-            if len(values) not in (3, 6, 9, 36):
-                raise ValueError(f"{key} has {len(values)} numbers; give 3, 6, 9 or 36")
-            payload[key] = _square(values)
-    if get["order"]:
-        try:
-            payload["order"] = int(get["order"])
-        except ValueError:
-            raise ValueError(f"order must be an integer; got {get['order'][:40]!r}") from None
-    if get["exponents"] or get["coefficients"]:
-        cols = 6 if payload["method"] == "twist" else 8
-        try:
-            flat = [int(t) for t in get["exponents"].split()]
-        except ValueError:
-            raise ValueError("exponents must be integers") from None
-        if len(flat) % cols:
-            raise ValueError(f"exponents has {len(flat)} integers, not a multiple of {cols} (one row per term)")
-        payload["terms"] = {
-            "exponents": [flat[i : i + cols] for i in range(0, len(flat), cols)],
-            "coefficients": _numbers(get["coefficients"], "coefficients"),
-        }
-    for key in ("enabled", "viscous"):
-        if get[key]:
-            if get[key] not in ("true", "false"):
-                raise ValueError(f"{key} must be true or false; got {get[key][:40]!r}")
-            payload[key] = get[key] == "true"
-    for key in ("strain_per_radian", "strain_scale"):
-        if get[key]:
-            values = _numbers(get[key], key)
-            if len(values) != 1:
-                raise ValueError(f"{key} must be one number")
-            payload[key] = values[0]
-    if get["source"]:
-        try:
-            payload["source"] = json.loads(get["source"])
-        except (json.JSONDecodeError, RecursionError):
-            raise ValueError("source must be a JSON object") from None
-    if get["site"]:
-        payload["site"] = get["site"]
-    stops = Stops.from_config(get)
-    if stops is not None:
-        payload["stops"] = stops.to_dict()
-    return parse_payload(element, payload)
+    _native.check_config(element, get)
+    method = get["method"] or "twist"
+    terms, order = None, int(get["order"]) if get["order"] else 2
+    if get["exponents"]:
+        cols = 6 if method == "twist" else 8
+        flat = [int(t) for t in get["exponents"].split()]
+        rows = [flat[i : i + cols] for i in range(0, len(flat), cols)]
+        terms = PolynomialTerms.from_dict({"method": method, "exponents": rows,
+                                           "coefficients": _numbers(get["coefficients"])})  # fmt: skip
+    flags = {key: get[key] != "false" for key in ("enabled", "viscous")}
+    strain = {key: float(get[key]) if get[key] else None for key in ("strain_per_radian", "strain_scale")}
+    return FlexureRecord(
+        element, method, _matrix(get["K"]), _matrix(get["B"]) if get["B"] else None, **flags,
+        strain_per_radian=strain["strain_per_radian"], source=json.loads(get["source"]) if get["source"] else None,
+        terms=terms, order=order, site=get["site"] or None, strain_scale=strain["strain_scale"],
+        stops=Stops.from_config(get) or None,
+    )  # fmt: skip
 
 
 def _number_text(values) -> str:

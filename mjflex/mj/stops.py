@@ -28,18 +28,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import validation
-from ..core.stops import PLANAR_COORDINATES, SPATIAL_COORDINATES, derived_stop_stiffness
-from ..core.validation import shorten
+from ..core.stops import PLANAR_COORDINATES, PLANAR_INDEX, SPATIAL_COORDINATES, derived_stop_stiffness
+from ..core.validation import MAX_MATRIX_ENTRY, shorten
 
 #: Largest magnitude of a rotation limit [rad]: pi, with room for the round-off of pi written in any way.
 MAX_ROTATION_LIMIT = math.pi * (1.0 + 1e-12)
-#: Largest stop stiffness (the limit of K's entries, mjflex.mj.schema.MAX_MATRIX_ENTRY).
-MAX_STIFFNESS = 1e280
+#: Largest stop stiffness: the limit of K's entries.
+MAX_STIFFNESS = MAX_MATRIX_ENTRY
 #: Keys of a record's ``"stops"`` object and the plugin attributes that hold the same.
 KEYS = ("lower", "upper", "stiffness")
 ATTRIBUTES = ("stop_lower", "stop_upper", "stop_stiffness")
-#: Indices of the planar coordinates ``[theta, x, y]`` within ``[rx, ry, rz, x, y, z]``.
-PLANAR_INDEX = (2, 3, 4)
 
 
 def _coordinates(n):
