@@ -29,11 +29,18 @@
 #define MJFX_CAPACITY 1024
 #define MJFX_WATCHES 64
 
+// A watch record: this header, then the watch with its tallies at WATCH_AT (ISO C allows no member
+// of a type with a flexible array, so the watch follows the header instead of being its last field)
 typedef struct Record_ {
   _Atomic uintptr_t owner;  // the mjData address, 0 when free
   _Atomic uint64_t stamp;   // last use (for reclaiming)
-  mjfxWatch watch;          // followed by its tallies
 } Record;
+
+#define WATCH_AT ((sizeof(Record) + _Alignof(mjfxWatch) - 1) / _Alignof(mjfxWatch) * _Alignof(mjfxWatch))
+
+static mjfxWatch* watch_of(Record* rec) {
+  return (mjfxWatch*)((unsigned char*)rec + WATCH_AT);
+}
 
 typedef struct Slot_ {
   _Atomic(const mjModel*) model;
@@ -52,7 +59,7 @@ static _Atomic uint64_t g_clock = 0;
 static void (*_Atomic g_previous)(const mjModel*, mjData*) = NULL;
 
 static size_t record_size(int n) {
-  size_t size = offsetof(Record, watch) + mjfx_watch_size(n);
+  size_t size = WATCH_AT + mjfx_watch_size(n);
   return (size + 15) & ~(size_t)15;
 }
 
@@ -70,8 +77,8 @@ void mjfx_registry_records_init(unsigned char* records, int n) {
     Record* rec = (Record*)(records + r * record_size(n));
     atomic_store(&rec->owner, 0);
     atomic_store(&rec->stamp, 0);
-    rec->watch.exact = 0;
-    mjfx_watch_clear(&rec->watch, n);
+    watch_of(rec)->exact = 0;
+    mjfx_watch_clear(watch_of(rec), n);
   }
 }
 
@@ -128,7 +135,7 @@ static mjfxWatch* watch_in(unsigned char* records, int n, const mjData* d, int c
     Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
     if (atomic_load_explicit(&rec->owner, memory_order_acquire) == key) {
       atomic_store_explicit(&rec->stamp, now, memory_order_relaxed);
-      return &rec->watch;
+      return watch_of(rec);
     }
   }
   if (!claim) return NULL;
@@ -144,9 +151,9 @@ static mjfxWatch* watch_in(unsigned char* records, int n, const mjData* d, int c
     }
     uintptr_t expected = atomic_load(&oldest->owner);
     if (atomic_compare_exchange_strong(&oldest->owner, &expected, key)) {
-      mjfx_watch_clear(&oldest->watch, n);
+      mjfx_watch_clear(watch_of(oldest), n);
       atomic_store_explicit(&oldest->stamp, now, memory_order_relaxed);
-      return &oldest->watch;
+      return watch_of(oldest);
     }
   }
   return NULL;  // lost every race: no diagnostics for this evaluation
