@@ -79,8 +79,7 @@ class BuildNative(build_ext):
     def get_ext_filename(self, fullname):
         folder = _mujoco_folder()
         version = _header_version(folder) if folder else 0
-        suffix = ".dll" if sys.platform == "win32" else (".dylib" if sys.platform == "darwin" else ".so")
-        return os.path.join(*fullname.split(".")[:-1], f"libmjflex-mj{version}{suffix}")
+        return os.path.join(*fullname.split(".")[:-1], f"libmjflex-mj{version}.so")
 
     def get_export_symbols(self, ext):
         return []  # a C library, not a module: no PyInit_ symbol
@@ -89,15 +88,17 @@ class BuildNative(build_ext):
         folder = _mujoco_folder()
         if folder is None:
             _fail("the mujoco package is not installed in the build environment (pyproject.toml's build-system)")
+        if not sys.platform.startswith("linux"):  # the link step below is GNU ld's, against libmujoco.so
+            _fail(f"building on {sys.platform} is not supported yet: mjflex is built and tested on Linux only "
+                  "(docs/install.md, supported platforms)")  # fmt: skip
         libs = sorted(f for f in os.listdir(folder) if re.fullmatch(r"libmujoco\.so\.\d+\.\d+\.\d+", f))
-        if not libs and sys.platform.startswith("linux"):
+        if not libs:
             _fail(f"no libmujoco.so.X.Y.Z in {folder} (the mujoco-core wheel installs it there)")
-        if sys.platform != "win32":
-            for tool in ("compiler_so", "linker_so"):
-                command = getattr(self.compiler, tool, None) or []
-                if not command or shutil.which(command[0]) is None:
-                    _fail(f"no C compiler: {' '.join(command) or tool!r} is not an executable on PATH")
-            self.compiler.linker_so = [a for a in self.compiler.linker_so if not _not_searched_here(a)]
+        for tool in ("compiler_so", "linker_so"):
+            command = getattr(self.compiler, tool, None) or []
+            if not command or shutil.which(command[0]) is None:
+                _fail(f"no C compiler: {command[0] if command else tool!r} is not an executable on PATH")
+        self.compiler.linker_so = [a for a in self.compiler.linker_so if not _not_searched_here(a)]
         ext.include_dirs = [os.path.join(folder, "include")]
         ext.library_dirs = [folder]
         ext.extra_link_args = [f"-l:{libs[-1]}", "-Wl,-rpath,$ORIGIN/../../mujoco", "-lm"]
@@ -111,8 +112,6 @@ def _cflags():
     """-O3 (about 15 % fewer instructions per element than -O2, measured); -fexceptions so that a MuJoCo error
     raised from a callback (a C++ exception under the Python bindings) unwinds through these C frames;
     -fno-math-errno so that sqrt is one instruction. No -march: the library must run on any x86-64."""
-    if sys.platform == "win32":
-        return ["/O2"]
     return ["-O3", "-std=c11", "-fexceptions", "-fno-math-errno", "-ffp-contract=off", "-Wall"]
 
 
