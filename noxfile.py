@@ -14,6 +14,7 @@ release that installs on that Python (``scripts/tested_versions.py --oldest --py
 ``out/matrix/<python>-<set>.json``: the pass count, the timings, and the row of the README's "Tested with" table.
 """
 
+import datetime
 import os
 
 import nox
@@ -31,7 +32,9 @@ nox.options.error_on_missing_interpreters = True
 def tests(session, python, deps):
     """The wheel in a fresh venv of ``python`` with the ``deps`` set: smoke run and whole suite, no compiler."""
     os.makedirs(OUT, exist_ok=True)
-    command = ["python", "scripts/build_release.py", "--skip-build", "--no-sdist-check", "--python", python]
+    label = "oldest" if deps == "oldest" else f"newest (pip, {datetime.date.today().isoformat()})"
+    command = ["python", "scripts/build_release.py", "--skip-build", "--no-sdist-check", "--python", python, "--label",
+               label]  # fmt: skip
     if deps == "oldest":
         constraints = os.path.join(OUT, f"oldest-{python}.txt")
         with open(constraints, "w") as f:

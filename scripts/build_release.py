@@ -267,7 +267,7 @@ def check_sdist_without_compiler(sdist, python, work):
     return {"exit": done.returncode, "wall_s": round(time.perf_counter() - t0, 1), "message": said}
 
 
-def check_install(wheel, python, sdist, work, *, constraints=None, suite=True):
+def check_install(wheel, python, sdist, work, *, constraints=None, suite=True, label="tested"):
     """A fresh venv of ``python``, the wheel installed without a compiler, the smoke run and the suite."""
     version = subprocess.run([python, "-c", "import platform; print(platform.python_version())"], capture_output=True,
                              text=True, check=True).stdout.strip()  # fmt: skip
@@ -287,7 +287,7 @@ def check_install(wheel, python, sdist, work, *, constraints=None, suite=True):
     if not all(p.startswith(venv) for p in (where[0], where[2])) or where[1] != source_version():
         sys.exit(f"[build_release] the installed wheel is not what runs: {where}")
     log(f"Python {version}: mjflex {where[1]} from {where[0]}; native library {os.path.basename(where[2])}")
-    result["versions_row"] = run(["python", os.path.join("scripts", "tested_versions.py"), "--label", "tested"],
+    result["versions_row"] = run(["python", os.path.join("scripts", "tested_versions.py"), "--label", label],
                                  env=env, cwd=tree, capture_output=True).stdout.strip().splitlines()[-1]  # fmt: skip
     t0 = time.perf_counter()
     result["smoke"] = run(["python", "-c", SMOKE], env=env, cwd=tree, capture_output=True).stdout.strip()
@@ -322,6 +322,7 @@ def main():
     ap.add_argument("--skip-build", action="store_true", help="check the artifacts already in --out")
     ap.add_argument("--python", action="append", help="Python to install the wheel into (repeat; default: this one)")
     ap.add_argument("--constraints", help="pip constraints for the install (e.g. tested_versions.py --oldest)")
+    ap.add_argument("--label", default="tested", help="first cell of the README table's row of each install")
     ap.add_argument("--no-suite", action="store_true", help="the smoke run only, not the whole test suite")
     ap.add_argument("--no-sdist-check", action="store_true", help="skip pip install of the sdist without a compiler")
     ap.add_argument("--json", help="write what was checked, with timings, to this file")
@@ -345,7 +346,7 @@ def main():
         if not args.no_sdist_check:
             record["sdist_without_compiler"] = check_sdist_without_compiler(sdist, pythons[0], work)
         record["installs"] = [check_install(wheel, p, sdist, work, constraints=args.constraints,
-                                            suite=not args.no_suite) for p in pythons]  # fmt: skip
+                                            suite=not args.no_suite, label=args.label) for p in pythons]  # fmt: skip
     finally:
         if args.keep:
             log(f"kept {work}")
