@@ -119,7 +119,7 @@ def test_the_entry_point_refuses_a_library_built_for_another_mujoco(tmp_path, mo
 
 
 def test_register_is_quiet_without_any_library(tmp_path, monkeypatch):
-    """No compiler at install: `import mujoco` says nothing; mjflex warns once when used (its fallback)."""
+    """No library in the package (a broken install): `import mujoco` says nothing; mjflex says why when used."""
     monkeypatch.setattr(mjflex_plugin, "_folder", lambda: str(tmp_path))
     assert not mjflex_plugin.built()
     mjflex_plugin.register()
