@@ -41,8 +41,8 @@ HOW_TO_FIX = (
     "  * install mjflex's binary wheel, which needs no compiler (Linux x86-64, Python 3.11-3.13): "
     "pip install mjflex-<version>-py3-none-manylinux_*_x86_64.whl (python scripts/build_release.py makes it "
     "where a compiler is), or\n"
-    "  * install a C compiler (Debian/Ubuntu: apt-get install gcc; Fedora: dnf install gcc; macOS: "
-    "xcode-select --install) and install mjflex again."
+    "  * install a C compiler (Debian/Ubuntu: apt-get install gcc; Fedora: dnf install gcc) and install mjflex "
+    "again."
 )
 
 
