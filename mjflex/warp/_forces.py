@@ -10,12 +10,13 @@ import warp as wp
 
 from ..core import validation
 from . import _kernels as kn
+from . import _watch
 from ._mjflex import PLANAR_INDEX, ElementTable
 
 _KIND_TEXT = {
-    kn.NONFINITE: "its wrench is not finite at a finite state",
-    kn.BAD_QPOS: "MuJoCo Warp's qpos became non-finite or beyond 1e10",
-    kn.BAD_QVEL: "MuJoCo Warp's qvel became non-finite or beyond 1e10",
+    _watch.NONFINITE: "its wrench is not finite at a finite state",
+    _watch.BAD_QPOS: "MuJoCo Warp's qpos became non-finite or beyond 1e10",
+    _watch.BAD_QVEL: "MuJoCo Warp's qvel became non-finite or beyond 1e10",
 }
 _SPRING, _DAMPER = int(mujoco.mjtDisableBit.mjDSBL_SPRING), int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
@@ -47,7 +48,7 @@ class _DataState:
         out.accel = wp.zeros(shape, wp.float32, device=device)
         out.finite = wp.ones(shape, wp.int32, device=device)
         self.out = out
-        watch = kn.Watch()
+        watch = _watch.Watch()
         for name, value, dtype in (("last_time", 0.0, wp.float32), ("step", 0, wp.int32), ("evals", -1, wp.int32),
                                    ("cand_element", -1, wp.int32), ("cand_accel", 0.0, wp.float32),
                                    ("cand_step", 0, wp.int32), ("element", -1, wp.int32), ("kind", 0, wp.int32),
@@ -227,7 +228,7 @@ class WarpFlexures:
         state = self._state(d)
         self._launch_wrench(m, d, state)
         wp.launch(
-            kn.watch_kernel, dim=d.nworld, device=self.device,
+            _watch.watch_kernel, dim=d.nworld, device=self.device,
             inputs=[d.time, m.opt.timestep, d.qpos, d.qvel, state.out.accel, state.out.finite], outputs=[state.watch],
         )  # fmt: skip
         self._launch_gather(m, d, state, d.qfrc_passive, True)
@@ -292,13 +293,13 @@ class WarpFlexures:
             name = self.names[e] if 0 <= e < len(self) else ""
             t0 = step * h[i % h.shape[0]]
             reason = _KIND_TEXT[int(kind[i])]
-            if kind[i] == kn.NONFINITE:
+            if kind[i] == _watch.NONFINITE:
                 blame = f"flexure '{name}': {reason}"
             elif name:
                 blame = (f"{reason}, and flexure '{name}''s force alone accelerated one of its bodies at "
                          f"{float(accel[i]):.3g} (m/s^2 or rad/s^2) in that step")  # fmt: skip
             else:
-                blame = f"{reason}; no flexure's force alone exceeded {kn.CANDIDATE_ACCEL:g} m/s^2 there"
+                blame = f"{reason}; no flexure's force alone exceeded {_watch.CANDIDATE_ACCEL:g} m/s^2 there"
             message = (
                 f"mjflex.warp: world {int(i)} diverged in the step from t = {t0:.9g} s (step index {step}, counting "
                 f"from 0): {blame}. Its forces are NaN from then on (until its time runs back: a reset). Reduce the "
