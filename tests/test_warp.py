@@ -63,7 +63,8 @@ def _worlds(model, m, states):
 
 def _warp_queries(m, d):
     return {"wrench": mw.wrenches(m, d), "energy": mw.potential_energies(m, d), "power": mw.dissipation_powers(m, d),
-            "twist": mw.displacements(m, d), "qfrc": mw.generalized_forces(m, d)}  # fmt: skip
+            "twist": mw.displacements(m, d), "qfrc": mw.generalized_forces(m, d),
+            "stops": mw.stop_coordinates(m, d)}  # fmt: skip
 
 
 # ------------------------------------------------------------------------ the element math

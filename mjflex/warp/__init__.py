@@ -12,9 +12,9 @@
 []
 
 What is there: both methods (finite twist, dual quaternion), damping, planar elements,
-polynomial terms, rest offsets, elements on free bodies and on bodies moved by any chain of
+polynomial terms, end stops, rest offsets, elements on free bodies and on bodies moved by any chain of
 joints, MuJoCo's spring/damper disable flags, both forms of elements in MJCF (text records and
-``mjflex.flexure`` plugin instances), per-world K, B and switches (:func:`set_parameters`),
+``mjflex.flexure`` plugin instances), per-world K, B, switches and end stops (:func:`set_parameters`),
 per-world divergence records naming the element and the step (:func:`divergences`), the element
 math in float32 (MuJoCo Warp's precision) or float64. What is not: an element feature the kernels
 do not implement is refused by :func:`put_model` naming the element and the feature; MuJoCo
@@ -51,6 +51,7 @@ __all__ = [
     "potential_energies",
     "put_model",
     "set_parameters",
+    "stop_coordinates",
     "wrenches",
 ]
 
@@ -245,8 +246,10 @@ def flexures(m) -> WarpFlexures:
     return forces
 
 
-def set_parameters(m, *, K=None, B=None, enabled=None, viscous=None) -> None:
-    """Set the elements' stiffness, damping and switches, shared by all worlds or one set per world.
+def set_parameters(
+    m, *, K=None, B=None, enabled=None, viscous=None, stop_lower=None, stop_upper=None, stop_stiffness=None
+) -> None:
+    """Set the elements' stiffness, damping, switches and end stops, shared by all worlds or one set per world.
 
     Parameters
     ----------
@@ -260,14 +263,50 @@ def set_parameters(m, *, K=None, B=None, enabled=None, viscous=None) -> None:
         semi-definite (ValueError naming the element).
     enabled, viscous : array_like of bool, optional
         ``(n,)`` or ``(nworld, n)``: switch elements, or their damping, on and off per world.
+    stop_lower, stop_upper : array_like, optional
+        ``(n, 6)`` or ``(nworld, n, 6)``: the end stops' limits of each element on its stop
+        coordinates ``[rx, ry, rz, x, y, z]`` [rad, m] (:mod:`mjflex.core.stops`; planar elements
+        on ``theta, x, y`` at ``[2, 3, 4]``), ``-inf`` / ``+inf`` where a coordinate has no stop
+        (the model's, ``parameters()["stop_lower"]``, are where to start). An element may get
+        stops here that the model did not give it.
+    stop_stiffness : array_like, optional
+        ``(n, 6)`` or ``(nworld, n, 6)``: the stops' stiffness [N m/rad, N/m], read where a limit
+        is finite (there it must be positive). Until it is set, the model's: a stiffness written
+        in the model as it is, and a derived one (none written) derived from each world's ``K``,
+        ``100 K_ii`` (:func:`mjflex.derived_stop_stiffness`), as editing ``K`` in the model
+        would; once set, these values for every element.
+
+    Raises
+    ------
+    ValueError
+        A parameter of the wrong shape, not finite, a K or B not symmetric positive semi-definite,
+        beyond float32 with ``precision="float32"``; stops that break the rules of
+        :class:`mjflex.Stops` in some world (named with the element, the coordinate and the
+        world). A refused call changes nothing.
+    TypeError
+        ``enabled`` or ``viscous`` not booleans.
 
     Notes
     -----
     The leading size of each parameter must be 1 or the data's ``nworld`` (checked at every
-    step, ValueError otherwise). Parameters not given keep their values. Takes effect at the
-    next step.
+    step, ValueError otherwise; the stops' limits and stiffness must agree among themselves, and
+    a derived stiffness has K's). Parameters not given keep their values. Takes effect at the
+    next step. Which elements run the stops' code is set here: an element without a finite
+    limit in any world skips it at one flag.
+
+    Examples
+    --------
+    Four worlds of the two-body model, the hinge's rotation about z stopped at +-0.1, 0.2, 0.3
+    and 0.4 rad (the stiffness derived from K)::
+
+        forces = mjflex.warp.flexures(m)
+        lower = np.full((4, len(forces), 6), -np.inf)
+        upper = np.full((4, len(forces), 6), np.inf)
+        lower[:, 0, 2], upper[:, 0, 2] = -np.arange(1, 5) / 10, np.arange(1, 5) / 10
+        mjflex.warp.set_parameters(m, stop_lower=lower, stop_upper=upper)
     """
-    flexures(m).set_parameters(K=K, B=B, enabled=enabled, viscous=viscous)
+    flexures(m).set_parameters(K=K, B=B, enabled=enabled, viscous=viscous, stop_lower=stop_lower,
+                               stop_upper=stop_upper, stop_stiffness=stop_stiffness)  # fmt: skip
 
 
 def wrenches(m, d) -> np.ndarray:
@@ -282,7 +321,8 @@ def generalized_forces(m, d) -> np.ndarray:
 
 
 def potential_energies(m, d) -> np.ndarray:
-    """Elastic energy of each element, ``(nworld, n)`` [J] (in the precision of the element math)."""
+    """Elastic energy of each element, end stops included, ``(nworld, n)`` [J] (in the precision of the element
+    math)."""
     return flexures(m).potentials_and_twists(m, d)[0]
 
 
@@ -294,6 +334,18 @@ def dissipation_powers(m, d) -> np.ndarray:
 def displacements(m, d) -> np.ndarray:
     """Finite twist ``[tau; t]`` of frame b relative to frame a of each element, ``(nworld, n, 6)`` [rad; m]."""
     return flexures(m).potentials_and_twists(m, d)[1]
+
+
+def stop_coordinates(m, d) -> np.ndarray:
+    """The coordinates end stops act on, ``(nworld, n, 6)``: ``[rx, ry, rz, x, y, z]`` of each element [rad; m].
+
+    The rotation vector of frame b relative to frame a and the position of frame b's origin in
+    frame a (:mod:`mjflex.core.stops`), for every element (with or without stops; planar ones in
+    ``rz, x, y``), as :meth:`mjflex.Flexures.stop_coordinates`. Compare them with
+    ``flexures(m).parameters()["stop_lower"]`` and ``["stop_upper"]`` to see which stops are
+    engaged; their energy is part of :func:`potential_energies`.
+    """
+    return flexures(m).potentials_and_twists(m, d)[2]
 
 
 def divergences(m, d) -> list[WorldDivergence]:

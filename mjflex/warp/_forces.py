@@ -10,7 +10,7 @@ import warp as wp
 
 from ..core import validation
 from . import _kernels as kn
-from . import _watch
+from . import _stops, _watch
 from ._mjflex import PLANAR_INDEX, ElementTable
 
 _KIND_TEXT = {
@@ -69,12 +69,13 @@ class WarpFlexures:
     MuJoCo Warp was given) and ``adaptations`` (what :func:`~mjflex.warp.put_model` changed on it).
     """
 
-    def __init__(self, table: ElementTable, mjmodel, precision: str, adaptations, device=None):
+    def __init__(self, table: ElementTable, mjmodel, precision: str, adaptations, device=None, with_stops=True):
         self.names, self.kinds, self.records = table.names, table.kinds, table.records
         self.mjmodel, self.precision, self.adaptations = mjmodel, precision, tuple(adaptations)
         self._index = {name: i for i, name in enumerate(self.names)}
         self._table = table
-        self._k = k = kn.kernels(precision)
+        self._with_stops = with_stops
+        self._k = k = kn.kernels(precision, with_stops)
         self.device = wp.get_device(device)
         real = np.float64 if precision == "float64" else np.float32
         d = self.device
@@ -104,7 +105,9 @@ class WarpFlexures:
         self._params = k["Params"]()
         self._real = real
         self._host = {}
-        self.set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous)
+        self._stop_k_given = None  # stop_stiffness as set (None: the model's, derived from K where it is)
+        self.set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous,
+                            stop_lower=table.stop_lower, stop_upper=table.stop_upper)  # fmt: skip
         self._states = {}
         self._no_watch = wp.zeros(0, dtype=wp.int32, device=d)
 
@@ -124,7 +127,9 @@ class WarpFlexures:
 
     # ------------------------------------------------------------------ parameters
 
-    def set_parameters(self, *, K=None, B=None, enabled=None, viscous=None) -> None:
+    def set_parameters(
+        self, *, K=None, B=None, enabled=None, viscous=None, stop_lower=None, stop_upper=None, stop_stiffness=None
+    ) -> None:
         """Set the per-world parameters (see :func:`mjflex.warp.set_parameters`)."""
         n, fields = len(self), {}
         for name, value in (("K", K), ("B", B)):
@@ -140,15 +145,38 @@ class WarpFlexures:
                 if a.ndim != 2 or a.shape[1] != n:
                     raise ValueError(f"{name} must have shape ({n},) or (worlds, {n}); got {np.shape(value)}")
                 fields[name] = a
+        given = self._stop_k_given
+        if stop_stiffness is not None:
+            given = _stops.vectors("stop_stiffness", stop_stiffness, n)
+        stops = {}
+        if K is not None or stop_lower is not None or stop_upper is not None or stop_stiffness is not None:
+            limits = [self._host.get(name) if value is None else _stops.vectors(name, value, n)
+                      for name, value in (("stop_lower", stop_lower), ("stop_upper", stop_upper))]  # fmt: skip
+            k = _stops.stiffness(self._table, fields.get("K", self._host.get("K")), given)
+            big = _FLOAT32_MAX if self.precision == "float32" else np.inf
+            stops = dict(zip(_stops.NAMES, (*limits, _stops.effective(self.names, self._table.planar, *limits, k, big)),
+                             strict=True))  # fmt: skip
+        if stops and not self._with_stops and _stops.flags(stops["stop_lower"], stops["stop_upper"]).any():
+            raise ValueError("these are kernels without the stops' code (a baseline for measuring their cost): they "
+                             "cannot run elements with stops; use mjflex.warp.put_model")  # fmt: skip
+        # everything checked: nothing below raises, so a refused call changes nothing
+        self._stop_k_given = given
+        fields.update(stops)
         k, p = self._k, self._params
         for name, a in fields.items():
             self._host[name] = a
             if len(self) == 0:
-                a = np.zeros((1, 1, 6, 6) if name in "KB" else (1, 1), a.dtype)
+                a = np.zeros({"K": (1, 1, 6, 6), "B": (1, 1, 6, 6)}.get(name, (1, 1, 6) if name in stops else (1, 1)))
             if name in ("K", "B"):
                 setattr(p, name, wp.array(a.astype(self._real), dtype=k["M66"], device=self.device))
+            elif name in stops:
+                field = {"stop_lower": "stop_lo", "stop_upper": "stop_hi", "stop_stiffness": "stop_k"}[name]
+                setattr(p, field, wp.array(np.ascontiguousarray(a, self._real), dtype=k["V6"], device=self.device))
             else:
                 setattr(p, name, wp.array(a.astype(np.int32), dtype=wp.int32, device=self.device))
+        if stops:
+            flags = _stops.flags(stops["stop_lower"], stops["stop_upper"]) if len(self) else np.zeros(1, np.int32)
+            p.stops = wp.array(flags, dtype=wp.int32, device=self.device)
 
     def _matrices(self, name, value):
         n = len(self)
@@ -183,7 +211,9 @@ class WarpFlexures:
             )
 
     def parameters(self) -> dict:
-        """The per-world parameters as set: ``K``, ``B`` ``(worlds or 1, n, 6, 6)``, ``enabled``, ``viscous``."""
+        """The per-world parameters as set: ``K``, ``B`` ``(worlds or 1, n, 6, 6)``, ``enabled``, ``viscous``
+        ``(worlds or 1, n)``, ``stop_lower``, ``stop_upper`` and ``stop_stiffness`` ``(worlds or 1, n, 6)`` (the
+        stiffness as the kernels read it: derived from K where the model derives it, 0 where there is no limit)."""
         return {name: a.copy() for name, a in self._host.items()}
 
     # ------------------------------------------------------------------ evaluation
@@ -258,18 +288,20 @@ class WarpFlexures:
         return qfrc.numpy()
 
     def potentials_and_twists(self, m, d):
+        """``(energy (nworld, n), twist (nworld, n, 6), stop coordinates (nworld, n, 6))`` in ``d``'s state."""
         self._check_worlds(d)
         k, n = self._k, len(self)
         shape = (d.nworld, max(n, 1))
         energy = wp.zeros(shape, k["real"], device=self.device)
         twist = wp.zeros(shape, k["V6"], device=self.device)
+        stop_coords = wp.zeros(shape, k["V6"], device=self.device)
         if n:
             wp.launch(
                 k["potential"], dim=(d.nworld, n), device=self.device,
                 inputs=[self._el, self._params, int(not int(m.opt.disableflags) & _SPRING), d.xquat, d.site_xpos],
-                outputs=[energy, twist],
+                outputs=[energy, twist, stop_coords],
             )  # fmt: skip
-        return energy.numpy()[:, :n], twist.numpy()[:, :n]
+        return energy.numpy()[:, :n], twist.numpy()[:, :n], stop_coords.numpy()[:, :n]
 
     # ------------------------------------------------------------------ divergence
 

@@ -22,7 +22,7 @@ from . import _kernels as kn
 #: Record fields the kernels implement, or that do not change the forces (reports, colours, provenance).
 SUPPORTED_FIELDS = {
     "name", "method", "K", "B", "enabled", "viscous", "terms", "order", "strain_per_radian", "source", "site",
-    "strain_scale",
+    "strain_scale", "stops",
 }  # fmt: skip
 METHODS = {"twist": kn.TWIST, "dualquat": 1}
 
@@ -52,6 +52,10 @@ class ElementTable:
     enabled: np.ndarray  # (n,) bool
     viscous: np.ndarray  # (n,) bool: the record's switch, and it has B
     planar: np.ndarray  # (n,) bool
+    stop_lower: np.ndarray  # (n, 6): end stops' limits on [rx, ry, rz, x, y, z] (planar: at PLANAR_INDEX), -inf: none
+    stop_upper: np.ndarray  # (n, 6), +inf: none
+    stop_stiffness: np.ndarray  # (n, 6): as the C engine reads it (derived or given; 0 where no limit)
+    stop_derived: np.ndarray  # (n,) bool: the stops' stiffness is derived from K (none given; or no stops)
     exps: np.ndarray  # (M, 8) int32
     coefs: np.ndarray  # (M,)
     start: np.ndarray  # (nv + 1,) int32: contributions to dof j are start[j]:start[j + 1]
@@ -157,6 +161,8 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
         K=rows["K"].reshape(n, 6, 6).copy(), B=rows["B"].reshape(n, 6, 6).copy(),
         enabled=rows["enabled"].astype(bool), viscous=rows["viscous"].astype(bool),
         planar=np.array([r.planar for r in t.records], bool),
+        stop_lower=rows["stop_lo"].copy(), stop_upper=rows["stop_hi"].copy(), stop_stiffness=rows["stop_k"].copy(),
+        stop_derived=np.array([r.stops is None or r.stops.stiffness is None for r in t.records], bool),
         exps=t.exps.astype(np.int32), coefs=t.coefs.copy(), start=start,
         element=np.array([c[0] for c in flat], np.int32), code=np.array([c[1] for c in flat], np.int32),
         series_c=series["c"], series_g=series["g"], joined_trees=dict(t.joined_trees),
