@@ -350,7 +350,7 @@ def test_put_model_works_on_a_copy_and_says_what_it_did(two_body):
 
 def test_mujoco_warp_itself_still_fails_on_plugin_instances(two_body):
     """mjflex.warp.put_model works around MuJoCo Warp 4.0.0's put_model on models with non-geom plugin instances;
-    when this fails, MuJoCo Warp was fixed and the work-around (mjflex.warp._plugin_arrays_sized) can go."""
+    when this fails, MuJoCo Warp was fixed and the work-around (mjflex.warp._adapt.plugin_arrays_sized) can go."""
     model = copy.copy(two_body)
     model.tree_sleep_policy[:] = int(mujoco.mjtSleepPolicy.mjSLEEP_AUTO_NEVER)
     with pytest.raises(RuntimeError, match="reshape"):

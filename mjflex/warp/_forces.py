@@ -25,7 +25,40 @@ _OFF_PLANE[np.ix_(PLANAR_INDEX, PLANAR_INDEX)] = False
 
 
 class WorldDivergence(NamedTuple):
-    """The first divergence of one world in its current run (see :func:`mjflex.warp.divergences`)."""
+    """The first divergence of one world in its current run (see :func:`mjflex.warp.divergences`).
+
+    Attributes
+    ----------
+    world : int
+        The world's index in the data.
+    element : str
+        The flexure blamed; ``''`` when no element's force alone was violent enough to blame.
+    step : int
+        Index of the step that diverged, counting from 0 (the step the C engine names).
+    time : float
+        The world's time when it was found [s] (MuJoCo Warp's float32 clock).
+    reason : str
+        What was found: a non-finite wrench at a finite state, or a qpos / qvel not finite or
+        beyond MuJoCo's 1e10.
+    message : str
+        All of it in one sentence, with what to do.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> d = mjw.put_data(mjmodel, mujoco.MjData(mjmodel), nworld=3)
+    >>> qpos = d.qpos.numpy()
+    >>> qpos[2, 0] = np.inf  # world 2 is lost
+    >>> d.qpos.assign(qpos)
+    >>> m.callback.passive(m, d)  # what mujoco_warp.forward and step call
+    >>> (found,) = mjflex.warp.divergences(m, d)
+    >>> found.world, found.step, found.message[:62]
+    (2, 0, 'mjflex.warp: world 2 diverged in the step from t = 0 s (step i')
+    """
 
     world: int
     element: str  # the flexure blamed; '' when none was violent enough to blame
@@ -63,10 +96,49 @@ class WarpFlexures:
     """The flexure elements of a MuJoCo Warp model and the passive callback that adds their forces.
 
     Made by :func:`mjflex.warp.put_model`, which sets it as ``m.callback.passive``; reach it with
-    :func:`mjflex.warp.flexures`. Attributes: ``names``, ``kinds`` (``"record"`` / ``"plugin"``),
-    ``records`` (the :class:`mjflex.FlexureRecord` of each element), ``precision`` of the element
-    math (``"float32"`` or ``"float64"``), ``mjmodel`` (the adapted copy of the MuJoCo model that
-    MuJoCo Warp was given) and ``adaptations`` (what :func:`~mjflex.warp.put_model` changed on it).
+    :func:`mjflex.warp.flexures`. Called with ``(m, d)`` (by ``mujoco_warp.forward`` and
+    ``step``), it adds the elements' generalized forces to ``d.qfrc_passive`` and watches every
+    world for divergence.
+
+    Parameters
+    ----------
+    table : ElementTable
+        The elements (:func:`mjflex.warp.element_table`).
+    mjmodel : mujoco.MjModel
+        The model MuJoCo Warp was given.
+    precision : {"float32", "float64"}
+        Precision of the element math.
+    adaptations : sequence of str
+        What :func:`~mjflex.warp.put_model` changed on ``mjmodel``.
+    device : warp device or str, optional
+        Where the element arrays live (default: Warp's current device).
+    with_stops : bool
+        False: kernels without the end stops' code, which refuse elements with stops (the
+        baseline of ``scripts/bench_warp_stops.py``); mjflex runs the kernels with them.
+
+    Attributes
+    ----------
+    names, kinds : tuple of str
+        The elements' names, and their forms (``"record"`` or ``"plugin"``).
+    records : list of mjflex.FlexureRecord
+        Each element's parameters as written in the model.
+    precision : str
+        ``"float32"`` or ``"float64"``.
+    mjmodel : mujoco.MjModel
+        The adapted copy of the MuJoCo model that MuJoCo Warp was given.
+    adaptations : tuple of str
+        What :func:`~mjflex.warp.put_model` changed on it, and why.
+    device : warp device
+        Where the element arrays live.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> forces = mjflex.warp.flexures(mjflex.warp.put_model(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
+    >>> forces.names, forces.kinds, forces.index("hinge"), forces.parameters()["K"].shape
+    (('hinge',), ('record',), 0, (1, 1, 6, 6))
     """
 
     def __init__(self, table: ElementTable, mjmodel, precision: str, adaptations, device=None, with_stops=True):
@@ -273,14 +345,17 @@ class WarpFlexures:
         return state
 
     def wrenches(self, m, d) -> np.ndarray:
+        """Wrench of each element on its body B, ``(nworld, n, 6)`` (see :func:`mjflex.warp.wrenches`)."""
         out = self._evaluated(m, d).out
         n = len(self)
         return np.concatenate([out.mo.numpy()[:, :n], out.f.numpy()[:, :n]], axis=-1)
 
     def dissipation_powers(self, m, d) -> np.ndarray:
+        """Power dissipated by each element, ``(nworld, n)`` [W] (see :func:`mjflex.warp.dissipation_powers`)."""
         return self._evaluated(m, d).out.power.numpy()[:, : len(self)]
 
     def generalized_forces(self, m, d) -> np.ndarray:
+        """The elements' generalized forces ``(nworld, nv)`` (see :func:`mjflex.warp.generalized_forces`)."""
         state = self._evaluated(m, d)
         qfrc = wp.zeros((d.nworld, m.nv), dtype=wp.float32, device=self.device)
         if len(self):
