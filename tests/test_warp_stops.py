@@ -274,3 +274,26 @@ def test_kernels_without_the_stop_code_give_the_same_bits_to_elements_without_st
         np.testing.assert_array_equal(got[key], bare[key], err_msg=key)
     with pytest.raises(ValueError, match="kernels without the stops' code"):
         WarpFlexures(mw.element_table(copy.copy(stopped)), stopped, "float32", (), with_stops=False)
+
+
+def test_cost_benchmark_writes_its_table_and_json(tmp_path):
+    """scripts/bench_warp_stops.py at its smallest (what the stops' flag costs is measured there, never in a timed
+    test): every case timed in every repeat, each ratio against its own kind's baseline of the same repeat."""
+    import json
+    import os
+    import sys
+
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
+    import bench_warp_stops
+
+    bench_warp_stops.main(["--out", str(tmp_path), "--models", "two_body", "--worlds", "2", "--repeat", "2",
+                           "--target", "0.002"])  # fmt: skip
+    with open(tmp_path / "bench_warp_stops_cpu.json") as f:
+        payload = json.load(f)
+    row = payload["models"]["two_body"]["worlds"]["2"]
+    assert set(row) == set(bench_warp_stops.CASES) and payload["models"]["two_body"]["elements"] == 1
+    for case, base in bench_warp_stops.BASELINE.items():
+        assert row[case]["repeats"] == 2 and row[case]["median_s"] > 0, case
+        np.testing.assert_allclose(row[case]["ratios"], np.divide(row[case]["times_s"], row[base]["times_s"]),
+                                   rtol=1e-4)  # fmt: skip
+    assert {"command", "date", "machine"} <= set(payload)
