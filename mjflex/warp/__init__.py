@@ -1,24 +1,25 @@
 """mjflex on MuJoCo Warp: the flexure forces of thousands of worlds per step, on a GPU or Warp's CPU device.
 
 ``pip install "mjflex[warp]"`` installs MuJoCo Warp (``mujoco-warp``) and NVIDIA Warp
-(``warp-lang``); nothing else in mjflex imports them.
+(``warp-lang``); nothing else in mjflex imports them. :func:`put_model` gives MuJoCo Warp's
+model with mjflex's passive callback; ``mujoco_warp.make_data`` and ``mujoco_warp.step`` do
+the rest::
 
->>> import mujoco, mujoco_warp as mjw, mjflex.warp  # doctest: +SKIP
->>> mjmodel = mujoco.MjModel.from_xml_path("models/two_body.xml")  # doctest: +SKIP
->>> m = mjflex.warp.put_model(mjmodel)  # MuJoCo Warp's model, with mjflex's passive callback  # doctest: +SKIP
->>> d = mjw.make_data(mjmodel, nworld=1024)  # doctest: +SKIP
->>> mjw.step(m, d)  # doctest: +SKIP
->>> mjflex.warp.divergences(m, d)  # doctest: +SKIP
-[]
+    mjmodel = mujoco.MjModel.from_xml_path("models/two_body.xml")
+    m = mjflex.warp.put_model(mjmodel)
+    d = mujoco_warp.make_data(mjmodel, nworld=1024)
+    mujoco_warp.step(m, d)
+    mjflex.warp.divergences(m, d)  # []: no world diverged
 
 What is there: both methods (finite twist, dual quaternion), damping, planar elements,
-polynomial terms, end stops, rest offsets, elements on free bodies and on bodies moved by any chain of
-joints, MuJoCo's spring/damper disable flags, both forms of elements in MJCF (text records and
-``mjflex.flexure`` plugin instances), per-world K, B, switches and end stops (:func:`set_parameters`),
-per-world divergence records naming the element and the step (:func:`divergences`), the element
-math in float32 (MuJoCo Warp's precision) or float64. What is not: an element feature the kernels
-do not implement is refused by :func:`put_model` naming the element and the feature; MuJoCo
-Warp integrates in float32 only (no float64 simulation: use MuJoCo itself for that).
+polynomial terms, end stops, rest offsets, elements on free bodies and on bodies moved by any
+chain of joints, MuJoCo's spring/damper disable flags, both forms of elements in MJCF (text
+records and ``mjflex.flexure`` plugin instances), per-world K, B, switches and end stops
+(:func:`set_parameters`), per-world divergence records naming the element and the step
+(:func:`divergences`), the element math in float32 (MuJoCo Warp's precision) or float64. What
+is not: an element feature the kernels do not implement is refused by :func:`put_model` naming
+the element and the feature; MuJoCo Warp integrates in float32 only (no float64 simulation: use
+MuJoCo itself for that).
 """
 
 import copy
