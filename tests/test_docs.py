@@ -353,6 +353,10 @@ PROSE_CONSTANTS = {
     "docs/background/known_issues.md": {
         "64 bytes": "the alignment MuJoCo pads mjData's buffers to (mj_makeData), not a measurement",
     },
+    "docs/howto/mujoco_warp.md": {
+        "0.1 m": "an illustrative model size in the arithmetic of float32's position resolution (6e-8 × L)",
+        "200 steps": "the two-body trajectory test's length (tests/test_warp.py)",
+    },
     "docs/background/measured.md": {
         "1500 steps": "the test's run length",
         "> 1 rad": "the rotations the test reaches (its parameter)",
