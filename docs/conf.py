@@ -17,6 +17,8 @@ sys.path.insert(0, os.path.dirname(HERE))  # the source checkout's mjflex, also 
 if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
     os.environ.setdefault("MUJOCO_GL", "egl")  # tutorials that render, headless (MUJOCO_GL=osmesa elsewhere)
 
+import mjflex_docs  # noqa: E402
+
 import mjflex  # noqa: E402
 
 project = "mjflex"
@@ -54,6 +56,9 @@ nitpick_ignore_regex = [
 
 # ----------------------------------------------------------------------------- API reference
 autosummary_generate = True
+# mjflex.warp needs the warp extra (warp-lang, mujoco-warp: 149 MB), which the docs extra leaves out: where they are
+# not installed, autodoc and autosummary import it with them mocked, as mjflex_docs does (mjflex_docs.OPTIONAL)
+autodoc_mock_imports = mjflex_docs.missing_dependencies()
 autosummary_imported_members = True
 # class pages: the template (_templates/autosummary/class.rst) documents every public method and property, own or
 # inherited from an mjflex base class, in source order; mjflex_docs.public_members says which must have an entry

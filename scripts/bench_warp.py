@@ -89,7 +89,7 @@ def correctness_check(log):
     import mjflex.warp as mw
 
     out = {}
-    model = features_model("plugin")
+    model = features_model("plugin", stops=True)  # every element feature, end stops engaged in some states
     rng = np.random.default_rng(11)
     states = [random_state(model, rng, angle=2.5) for _ in range(12)]
     m = mw.put_model(model)
@@ -97,8 +97,14 @@ def correctness_check(log):
     d.qpos.assign(np.array([s[0] for s in states], np.float32))
     d.qvel.assign(np.array([s[1] for s in states], np.float32))
     mjw.forward(m, d)
-    got = {"wrench": mw.wrenches(m, d), "energy": mw.potential_energies(m, d), "power": mw.dissipation_powers(m, d),
-           "twist": mw.displacements(m, d), "qfrc": mw.generalized_forces(m, d)}  # fmt: skip
+    got = {
+        "wrench": mw.wrenches(m, d),
+        "energy": mw.potential_energies(m, d),
+        "power": mw.dissipation_powers(m, d),
+        "twist": mw.displacements(m, d),
+        "qfrc": mw.generalized_forces(m, d),
+        "stops": mw.stop_coordinates(m, d),
+    }
     flex, worst = mjflex.Flexures(model), {}
     for i, (qpos, qvel) in enumerate(states):
         data = mujoco.MjData(model)

@@ -678,9 +678,18 @@ def load_results(folder=RESULTS, sources=None):
         with open(path) as f:
             results[os.path.splitext(os.path.basename(path))[0]] = json.load(f)
     for name, path in (SOURCES if sources is None else sources).items():
-        with open(os.path.join(ROOT, path)) as f:
+        with open(_source_file(path)) as f:
             results[name] = json.load(f)
     return results
+
+
+def _source_file(path):
+    """A recorded JSON in the checkout; package data (``mjflex/...``) from the installed mjflex if not (a wheel)."""
+    if os.path.exists(os.path.join(ROOT, path)) or not path.startswith("mjflex/"):
+        return os.path.join(ROOT, path)
+    import mjflex
+
+    return os.path.join(os.path.dirname(mjflex.__file__), *path.split("/")[1:])
 
 
 def pages():

@@ -2,16 +2,19 @@
 
 Usage::
 
-    python scripts/tested_versions.py                 # this venv's row of the table (after a passing test run)
-    python scripts/tested_versions.py --oldest        # pip constraints: every dependency at its lower bound
+    python scripts/tested_versions.py                      # this venv's row of the table (after a passing test run)
+    python scripts/tested_versions.py --oldest             # pip constraints: every dependency at its lower bound
+    python scripts/tested_versions.py --oldest --python 3.13   # the oldest releases that install on Python 3.13
 
-How the two rows of the README were made (Python 3.11, the whole suite each time)::
+The lower bounds of ``pyproject.toml`` all install on Python 3.11, but not on every Python: numpy 1.26 and
+numba 0.60 have no wheels for 3.13, whose oldest set is numpy 2.1 and numba 0.61. ``--python`` asks uv
+(``pip install uv``) for the lowest versions of the direct dependencies that resolve together with binary
+wheels for that Python on manylinux x86-64 (``uv pip compile --resolution lowest-direct``), and prints them
+as pip constraints (transitive dependencies stay free, as pip resolves them).
 
-    python scripts/tested_versions.py --oldest > /tmp/oldest.txt
-    python3 -m venv /tmp/venv-oldest && /tmp/venv-oldest/bin/pip install -c /tmp/oldest.txt -e ".[test]"
-    /tmp/venv-oldest/bin/python -m pytest && /tmp/venv-oldest/bin/python scripts/tested_versions.py
-    python3 -m venv /tmp/venv-new && /tmp/venv-new/bin/pip install -e ".[test]"    # what pip resolves today
-    /tmp/venv-new/bin/python -m pytest && /tmp/venv-new/bin/python scripts/tested_versions.py
+The README's rows are made by ``nox`` (``noxfile.py``): for each Python, a fresh venv with the release wheel
+and what pip resolves today ("newest"), or with ``--oldest --python`` constraints ("oldest"), the whole
+suite, then this script's row of that venv (``out/matrix/*.json``).
 """
 
 import argparse
@@ -20,6 +23,9 @@ import importlib.metadata
 import os
 import platform
 import re
+import shutil
+import subprocess
+import sys
 import tomllib
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -48,6 +54,27 @@ def oldest_constraints():
     return lines
 
 
+def oldest_installable(python):
+    """``name==version`` for every requirement with a lower bound: the lowest that installs on ``python`` (X.Y)."""
+    uv = shutil.which("uv") or os.path.join(os.path.dirname(sys.executable), "uv")
+    if not os.path.exists(uv):
+        raise SystemExit("--python needs uv: pip install uv")
+    command = [uv, "pip", "compile", "-", "--resolution", "lowest-direct", "--python-version", python,
+               "--python-platform", "x86_64-manylinux_2_28", "--only-binary", ":all:", "--no-header", "--no-annotate",
+               "--native-tls", "--quiet"]  # fmt: skip
+    direct = [r.split(";")[0].strip() for r in requirements()]
+    done = subprocess.run(command, input="\n".join(direct), capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"uv could not resolve the oldest set for Python {python}:\n{done.stderr}")
+    resolved = dict(line.split("==") for line in done.stdout.split() if "==" in line)
+    lines = []
+    for constraint in oldest_constraints():
+        name = constraint.split("==")[0]
+        key = re.sub(r"[-_.]+", "-", name).lower()
+        lines.append(f"{name}=={resolved[key]}")
+    return lines
+
+
 def row(label):
     """A markdown row: label, Python, and the installed version of each shown package."""
     versions = []
@@ -62,10 +89,11 @@ def row(label):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--oldest", action="store_true", help="print pip constraints pinning every lower bound")
+    ap.add_argument("--python", help="with --oldest: the oldest releases that install on this Python (X.Y; needs uv)")
     ap.add_argument("--label", help="the row's first cell (default: today's date)")
     args = ap.parse_args()
     if args.oldest:
-        print("\n".join(oldest_constraints()))
+        print("\n".join(oldest_installable(args.python) if args.python else oldest_constraints()))
         return
     print(f"| set | Python | {' | '.join(SHOWN)} |\n|{'---|' * (len(SHOWN) + 2)}")
     print(row(args.label or f"tested {datetime.date.today().isoformat()}"))

@@ -37,3 +37,20 @@ def require(name, available, reason):
     if name in required or "all" in required:
         pytest.fail(f"{reason} (MJFLEX_REQUIRE lists {name!r}, so this must run here)")
     pytest.skip(f"{reason}; set MJFLEX_REQUIRE={name} to make this a failure instead of a skip")
+
+
+def c_compiler():
+    """The C compiler that tests build copies of the native library with: ``$CC``, else Python's, else gcc.
+
+    Skips the calling test where there is none (a machine that installed mjflex's wheel needs none),
+    through :func:`require` (``MJFLEX_REQUIRE=compiler`` makes that a failure).
+    """
+    import shlex
+    import shutil
+    import sysconfig
+
+    words = shlex.split(os.environ.get("CC") or sysconfig.get_config_var("CC") or "gcc")
+    found = shutil.which(words[0]) if words else None
+    require("compiler", found is not None, f"no C compiler ({words[0] if words else '$CC is empty'} is not on PATH; "
+            "install gcc, e.g. apt-get install gcc) to build a test copy of the native library")  # fmt: skip
+    return found

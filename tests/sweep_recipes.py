@@ -2,7 +2,9 @@
 
 import numpy as np
 
+import mjflex
 from mjflex.app.sweep.recipe import edit_flexure, flexure_matrices
+from mjflex.mj import convert
 
 
 def scale_hinge(spec, k_scale=1.0, b_scale=1.0):
@@ -23,3 +25,15 @@ def hinge_state(model, flex, data):
 
 def scaled_copy(spec, k_scale=1.0):
     return scale_hinge(spec, k_scale=k_scale, b_scale=np.sqrt(k_scale))
+
+
+def stop_hinge(spec, limit=0.0, stiffness=0.0):
+    """Give ``models/two_body.xml``'s element ``hinge`` end stops at +-``limit`` rad on its rotation about z (0: no
+    stops), of ``stiffness`` N m/rad (0: derived from K)."""
+    record = convert.element_record(spec, "hinge")
+    none = [None] * 6
+    record.stops = None
+    if limit:
+        record.stops = mjflex.Stops(lower=none[:2] + [-limit] + none[3:], upper=none[:2] + [limit] + none[3:],
+                                    stiffness=stiffness or None)  # fmt: skip
+    convert.write_record(spec, "hinge", record)

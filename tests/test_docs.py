@@ -6,6 +6,7 @@ and of README.md are run by :mod:`tests.codeblocks` (marking and rules in its do
 page in ``DEDICATED`` is run by a test of its own that also checks what it computed.
 """
 
+import contextlib
 import doctest
 import glob
 import html as html_text
@@ -81,7 +82,11 @@ def _requirement_closure(name, extras=()):
 def test_the_docs_extra_holds_everything_the_build_imports():
     """``pip install -e ".[docs]"`` alone is enough to build the site: every distribution that the build imports
     (every module of the package, which the API pages and their references import, and what the tutorials import)
-    is a requirement of mjflex or of its docs extra. scikit-fem, for mjflex.geometry.fe, was not."""
+    is a requirement of mjflex or of its docs extra. scikit-fem, for mjflex.geometry.fe, was not.
+
+    The optional subpackages (mjflex_docs.OPTIONAL: mjflex.warp) are imported as the build imports them where the
+    docs extra alone is installed: with their own dependencies mocked; and those are exactly what their extra (not
+    the docs extra) installs."""
     import ast
     from importlib import metadata
 
@@ -93,12 +98,18 @@ def test_the_docs_extra_holds_everything_the_build_imports():
             tree = ast.parse(f.read())
         imported += [a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names]
         imported += [node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module]
+    extension = _extension()
+    optional = [f"mjflex.{name}" for name in extension.OPTIONAL]
+    mocked = sorted({module for modules in extension.OPTIONAL.values() for module in modules})
+    assert any(name.startswith("mjflex.warp.") for name in imported) and optional == ["mjflex.warp"]
     code = (  # what the imports add to what the interpreter loaded at start-up (site's .pth files)
-        "import importlib, sys\nstart = set(sys.modules)\nfor name in sys.argv[1:]:\n"
-        "    importlib.import_module(name)\nprint(*(set(sys.modules) - start))"
+        "import importlib, sys\nfrom sphinx.ext.autodoc.mock import mock\nstart = set(sys.modules)\n"
+        "optional, mocked = sys.argv[1].split(','), sys.argv[2].split(',')\nfor name in sys.argv[3:]:\n"
+        "    with mock(mocked if any(name == o or name.startswith(o + '.') for o in optional) else []):\n"
+        "        importlib.import_module(name)\nprint(*(set(sys.modules) - start))"
     )
-    done = subprocess.run([sys.executable, "-c", code, *imported], cwd=ROOT, capture_output=True, text=True,
-                          env=codeblocks.environment(), check=True)  # fmt: skip
+    done = subprocess.run([sys.executable, "-c", code, ",".join(optional), ",".join(mocked), *imported], cwd=ROOT,
+                          capture_output=True, text=True, env=codeblocks.environment(), check=True)  # fmt: skip
     owners = metadata.packages_distributions()
     top = {name.split(".")[0] for name in done.stdout.split()} - set(sys.stdlib_module_names)
     needed = {dist for name in top for dist in owners.get(name, [])}
@@ -107,6 +118,10 @@ def test_the_docs_extra_holds_everything_the_build_imports():
 
     missing = sorted(d for d in needed if canonicalize_name(d) not in allowed and canonicalize_name(d) != "mjflex")
     assert "scikit-fem" in needed and not missing, f"the build imports {missing}, which .[docs] does not install"
+    # what the build mocks is the warp extra's own (warp-lang, mujoco-warp), nothing the docs extra installs
+    mocked_by = {canonicalize_name(d) for module in mocked for d in owners.get(module, [])}
+    assert mocked_by == {"warp-lang", "mujoco-warp"}, mocked_by
+    assert mocked_by <= _requirement_closure("mjflex", ["warp"]) - allowed
 
 
 def test_site_builds_without_warnings(site):
@@ -338,6 +353,10 @@ PROSE_CONSTANTS = {
     "docs/background/known_issues.md": {
         "64 bytes": "the alignment MuJoCo pads mjData's buffers to (mj_makeData), not a measurement",
     },
+    "docs/howto/mujoco_warp.md": {
+        "0.1 m": "an illustrative model size in the arithmetic of float32's position resolution (6e-8 × L)",
+        "200 steps": "the two-body trajectory test's length (tests/test_warp.py)",
+    },
     "docs/background/measured.md": {
         "1500 steps": "the test's run length",
         "> 1 rad": "the rotations the test reaches (its parameter)",
@@ -532,6 +551,23 @@ def test_parameter_check_sees_grouped_and_missing_names():
     assert _documented_parameters(documented) == {"a", "b", "**kwargs"}  # c is missing
 
 
+@contextlib.contextmanager
+def _warp_log_quiet():
+    """Warp (mjflex.warp's examples) logs its start-up and every kernel module it loads to stdout at INFO level: its
+    log, not what an example prints; at WARNING level while the examples run."""
+    if importlib.util.find_spec("warp") is None:
+        yield
+        return
+    import warp
+
+    level = warp.config.log_level
+    warp.config.log_level = warp.LOG_WARNING
+    try:
+        yield
+    finally:
+        warp.config.log_level = level
+
+
 def test_docstring_examples_run():
     """The Examples of the public docstrings run and print what they say (doctest)."""
     finder, runner = (
@@ -539,10 +575,11 @@ def test_docstring_examples_run():
         doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE),
     )
     ran = 0
-    for name, obj in _public_objects().items():
-        for test in finder.find(obj, name, globs={}):
-            ran += len(test.examples)
-            runner.run(test)
+    with _warp_log_quiet():
+        for name, obj in _public_objects().items():
+            for test in finder.find(obj, name, globs={}):
+                ran += len(test.examples)
+                runner.run(test)
     assert ran >= 50
     assert runner.failures == 0, f"{runner.failures} docstring example(s) failed (see the output above)"
 

@@ -10,10 +10,8 @@
 
 import ctypes
 import os
-import shutil
 import subprocess
 import sys
-import sysconfig
 from fractions import Fraction
 from math import comb, factorial
 
@@ -25,6 +23,7 @@ from scipy.spatial.transform import Rotation
 
 import mjflex
 from mjflex.mj import _native
+from tests.conftest import c_compiler
 from tests.helpers import random_spd
 from tests.models import hinge_chain_spec
 
@@ -334,9 +333,7 @@ def test_a_one_lane_build_gives_the_same_bits(tmp_path):
     one element at a time: the same bits as the vector builds, for every query and in every branch."""
     folder = os.path.dirname(mujoco.__file__)
     lib = next(f for f in os.listdir(folder) if f.startswith("libmujoco.so."))
-    cc = (sysconfig.get_config_var("CC") or "gcc").split()[0]
-    if shutil.which(cc) is None:
-        pytest.fail(f"no C compiler ({cc}) to build a test copy of the library")
+    cc = c_compiler()
     native = os.path.join(os.path.dirname(_native.__file__), "..", "native")
     sources = sorted(os.path.join(native, f) for f in os.listdir(native) if f.endswith(".c"))
     copy = tmp_path / "libmjflex-scalar.so"

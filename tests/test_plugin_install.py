@@ -5,16 +5,17 @@ import os
 import shutil
 import subprocess
 import sys
-import sysconfig
 
 import mujoco
 import pytest
 
+import mjflex
 import mjflex_plugin
 from mjflex.mj import _native
+from tests.conftest import c_compiler
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-NATIVE = os.path.join(ROOT, "mjflex", "native")
+NATIVE = os.path.join(os.path.dirname(mjflex.__file__), "native")  # the installed sources (the wheel has them)
 
 
 def _run(code, **env):
@@ -68,17 +69,16 @@ print(len(maps))
     assert result.stdout.split()[-1] == "1"
 
 
-def _compile_library(out, *defines):
+def _compile_library(out, *flags):
     folder = os.path.dirname(mujoco.__file__)
     libs = [f for f in os.listdir(folder) if f.startswith("libmujoco.so.")]
-    cc = (sysconfig.get_config_var("CC") or "gcc").split()[0]
-    if shutil.which(cc) is None:
-        pytest.fail(f"no C compiler ({cc}) to build a test copy of the library")
+    cc = c_compiler()
     sources = [os.path.join(NATIVE, f) for f in sorted(os.listdir(NATIVE)) if f.endswith(".c")]
-    cmd = [cc, "-O1", "-shared", "-fPIC", "-std=c11", "-fexceptions", *defines,
+    cmd = [cc, "-O1", "-shared", "-fPIC", "-std=c11", "-fexceptions", *flags,
            f"-I{os.path.join(folder, 'include')}", *sources, "-o", str(out), f"-L{folder}", f"-l:{libs[0]}",
            f"-Wl,-rpath,{folder}", "-lm"]  # fmt: skip
-    subprocess.run(cmd, check=True, capture_output=True)
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
 
 
 def test_a_library_built_for_another_mujoco_refuses_to_register(tmp_path):
@@ -116,7 +116,7 @@ def test_the_entry_point_refuses_a_library_built_for_another_mujoco(tmp_path, mo
 
 
 def test_register_is_quiet_without_any_library(tmp_path, monkeypatch):
-    """No compiler at install: `import mujoco` says nothing; mjflex warns once when used (its fallback)."""
+    """No library in the package (a broken install): `import mujoco` says nothing; mjflex says why when used."""
     monkeypatch.setattr(mjflex_plugin, "_folder", lambda: str(tmp_path))
     assert not mjflex_plugin.built()
     mjflex_plugin.register()
@@ -124,21 +124,36 @@ def test_register_is_quiet_without_any_library(tmp_path, monkeypatch):
         mjflex_plugin.library_path()
 
 
-def test_without_a_compiler_the_build_warns_and_installs_the_rest(tmp_path):
-    """setup.py's extension is optional: a failed compile prints how to get the library and exits 0."""
-    env = {**os.environ, "CC": "false", "LDSHARED": "false"}
-    result = subprocess.run(
-        [sys.executable, "setup.py", "build_ext", "--build-lib", str(tmp_path / "lib"), "--build-temp",
-         str(tmp_path / "tmp")],
-        cwd=ROOT, capture_output=True, text=True, env=env, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    assert "mjflex: the native library (engine plugin mjflex.flexure and the fast per-step path) was NOT built" in (
-        result.stderr
-    )
-    assert "install a C compiler (e.g. apt-get install gcc) and reinstall mjflex" in result.stderr
+@pytest.mark.parametrize("cc", ["/nonexistent/cc", "false"], ids=["no compiler", "compiler fails"])
+def test_without_a_working_compiler_the_build_stops_and_says_what_to_do(tmp_path, cc):
+    """The library is not optional (plugin models need it): setup.py's build_ext fails, naming the two ways out
+    (a binary wheel, or gcc), and builds nothing. Run on a copy: setup.py and the native sources alone."""
+    os.makedirs(tmp_path / "mjflex" / "native")
+    for name in os.listdir(NATIVE):
+        if name.endswith((".c", ".h")):
+            shutil.copy(os.path.join(NATIVE, name), tmp_path / "mjflex" / "native")
+    shutil.copy(os.path.join(ROOT, "setup.py"), tmp_path)
+    env = {k: v for k, v in os.environ.items() if k not in ("LDSHARED", "CFLAGS", "LDFLAGS")}
+    command = [sys.executable, "setup.py", "build_ext", "--build-lib", "lib", "--build-temp", "tmp"]
+    result = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, env={**env, "CC": cc}, timeout=300)
+    assert result.returncode != 0, result.stdout
+    out = result.stderr
+    assert "mjflex: cannot build the native library: " in out
+    assert ("no C compiler: '/nonexistent/cc" in out) if cc.startswith("/") else ("CompileError" in out)
+    assert "install mjflex's binary wheel, which needs no compiler" in out and "apt-get install gcc" in out
     built = [f for _, _, files in os.walk(tmp_path) for f in files if f.startswith("libmjflex")]
     assert built == []
+
+
+def test_the_scalar_path_is_iso_c11(tmp_path):
+    """The C compiles without GNU extensions in its one-lane path (what a compiler without GNU C builds,
+    flexure_kernel.h): -std=c11 -pedantic-errors -DMJFX_SCALAR, and that library loads and runs one lane."""
+    copy = tmp_path / "libmjflex-iso.so"
+    # another header version: the copy does not register the plugin a second time (its functions still work)
+    _compile_library(copy, "-pedantic-errors", "-Wall", "-DMJFX_SCALAR", "-DMJFX_HEADER_VERSION=3999999")
+    lib = ctypes.CDLL(str(copy))
+    assert lib.mjfx_header_version() == 3999999
+    assert lib.mjfx_lanes() == 1 and lib.mjfx_set_lanes(2) == -1
 
 
 def test_the_element_struct_is_mirrored_exactly():

@@ -47,16 +47,26 @@ def test_readme_test_command_is_what_ci_runs():
     assert command in readme and command in ci
 
 
-def test_tested_with_table_states_the_lower_bounds_of_pyproject():
-    """The README's oldest tested set is what pyproject.toml allows at the least (raise both together)."""
+def test_tested_with_table_states_each_python_with_its_oldest_and_newest_sets():
+    """The README's table has an oldest and a newest row for each Python that pyproject.toml declares (and nox runs);
+    no oldest row goes below pyproject's lower bounds, and one states them exactly (the bounds themselves passed)."""
+    import tomllib
+
     sys.path.insert(0, os.path.join(ROOT, "scripts"))
     from tested_versions import SHOWN, oldest_constraints
 
     readme = _readme()
     head = f"| set | Python | {' | '.join(SHOWN)} |"
     assert head in readme, "the Tested-with table has the columns of scripts/tested_versions.py"
-    oldest = next(x for x in readme.splitlines() if x.startswith("| oldest allowed |"))
-    stated = dict(zip(SHOWN, [c.strip() for c in oldest.split("|")[3:-1]], strict=True))
+    rows = [[c.strip() for c in line.split("|")[1:-1]] for line in readme.splitlines()
+            if line.startswith(("| oldest", "| newest"))]  # fmt: skip
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        classifiers = tomllib.load(f)["project"]["classifiers"]
+    pythons = sorted(c.rsplit(" ", 1)[1] for c in classifiers if re.fullmatch(r".*Python :: 3\.\d+", c))
+    assert pythons == ["3.11", "3.12", "3.13"]
+    for kind in ("oldest", "newest"):
+        stated = sorted(".".join(r[1].split(".")[:2]) for r in rows if r[0].startswith(kind))
+        assert stated == pythons, f"{kind} rows for Pythons {stated}, pyproject declares {pythons}"
     bounds = dict(c.split("==") for c in oldest_constraints())
 
     def padded(version):
@@ -64,8 +74,13 @@ def test_tested_with_table_states_the_lower_bounds_of_pyproject():
 
     checked = [name for name in SHOWN if name in bounds]
     assert len(checked) >= 7
-    for name in checked:
-        assert padded(stated[name]) == padded(bounds[name]), f"{name}: README {stated[name]}, pyproject {bounds[name]}"
+    exact = 0
+    for row in (r for r in rows if r[0].startswith("oldest")):
+        versions = dict(zip(SHOWN, row[2:], strict=True))
+        for name in checked:
+            assert padded(versions[name]) >= padded(bounds[name]), f"{name}: README {versions[name]} < {bounds[name]}"
+        exact += all(padded(versions[name]) == padded(bounds[name]) for name in checked)
+    assert exact >= 1, "no oldest row states pyproject's lower bounds: raise the bounds, or test them"
 
 
 def _generator():

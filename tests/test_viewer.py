@@ -1,7 +1,8 @@
 """MuJoCo's own viewer runs the committed plugin model, on a virtual X display.
 
-Needs ``Xvfb`` (Debian's ``xvfb``), which ``.ci/run`` installs when it runs as root; these tests
-fail, not skip, without it. The viewer draws with GLFW on the display (Mesa's software GL here).
+Needs ``Xvfb`` (Debian's ``xvfb``). On a machine without it these tests skip, saying how to run
+them; ``.ci/run`` installs it (as root) and sets ``MJFLEX_REQUIRE=xvfb``, so in CI a missing Xvfb
+fails them instead. The viewer draws with GLFW on the display (Mesa's software GL here).
 """
 
 import importlib.util
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 
 import mjflex
+from tests.conftest import require
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 MODELS = os.path.join(ROOT, "models")
@@ -24,7 +26,12 @@ SCRIPT = os.path.join(ROOT, "scripts", "viewer_screenshot.py")
 
 @pytest.fixture(scope="module")
 def screenshot():
-    assert shutil.which("Xvfb"), "the viewer tests need Xvfb: apt-get install xvfb (.ci/run installs it as root)"
+    require(
+        "xvfb",
+        shutil.which("Xvfb") is not None,
+        "MuJoCo's viewer needs a display: no Xvfb on PATH (install "
+        "Debian's xvfb, e.g. apt-get install xvfb, then run pytest tests/test_viewer.py)",
+    )
     spec = importlib.util.spec_from_file_location("viewer_screenshot", SCRIPT)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

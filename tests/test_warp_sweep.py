@@ -12,7 +12,7 @@ import xarray as xr
 
 import mjflex
 from tests import warp_bounds as wb
-from tests.sweep_recipes import hinge_state, scale_hinge
+from tests.sweep_recipes import hinge_state, scale_hinge, stop_hinge
 from tests.test_sweep import DURATION, GRID, MODEL, RECIPE, SAMPLES
 
 
@@ -103,6 +103,34 @@ def test_variants_that_cannot_share_a_model_run_in_groups_of_their_own():
         (bound,) = wb.observation_bounds(model, mjflex.Flexures(model), data.qpos, data.qvel, [20], hinge_state)
         for name, limit in bound.items():
             assert (np.abs(ds[name].values[i] - ref[name].values[i]) <= limit).all(), (i, name)
+
+
+def test_variants_with_different_end_stops_share_one_batch():
+    """Variants that differ in their element's end stops (none; +-0.02 rad on the hinge's rotation with the derived
+    and with a given stiffness; +-0.03 rad) are the worlds of one batch, with per-world stops; the swing runs into
+    them (the stops change the motion), and every variant agrees with Batch within the float32 bound of
+    test_same_labelled_results_as_batch."""
+    recipe = mjflex.Recipe(MODEL, stop_hinge, keyframe="swing")
+    grid = [{"limit": 0.0, "stiffness": 0.0}, {"limit": 0.02, "stiffness": 0.0}, {"limit": 0.02, "stiffness": 250.0},
+            {"limit": 0.03, "stiffness": 250.0}]  # fmt: skip
+    steps = (50, 100, 150)
+    duration = steps[-1] * 2e-5
+    ds = mjflex.sweep(recipe, grid, duration, hinge_state, executor="warp", progress=False, samples=len(steps) + 1)
+    ref = mjflex.sweep(recipe, grid, duration, hinge_state, progress=False, samples=len(steps) + 1)
+    assert ds.attrs["warp_batches"] == 1 and (ds["status"] == "ok").all()
+    final = ds["qvel"].values[:, -1]
+    assert all(not np.allclose(final[0], final[i], rtol=1e-3) for i in (1, 2, 3)), "the stops did not act"
+    for i, params in enumerate(grid):
+        spec = mujoco.MjSpec.from_file(MODEL)
+        stop_hinge(spec, **params)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+        bounds = wb.observation_bounds(model, mjflex.Flexures(model), data.qpos, data.qvel, steps, hinge_state)
+        for t, bound in enumerate(bounds, start=1):
+            for name, limit in bound.items():
+                err = np.abs(ds[name].values[i][t] - ref[name].values[i][t])
+                assert (err <= limit).all(), (i, t, name, err, limit)
 
 
 def test_command_line_sweep_on_arcade(tmp_path, capsys):

@@ -14,6 +14,12 @@ result computed from float32 kinematics differs from it by
   the magnitudes it combines, ``gamma = N_ARITH u`` (Higham's gamma_n) times :func:`arithmetic_scale`,
   the absolute sums of the terms (``|K| |xi| + |B| |V|`` and the result, times ``(1 + |xi|)^2`` for
   the maps).
+
+End stops (:func:`stop_terms`) add, on each coordinate ``z_i`` with a limit, the magnitudes their
+math combines, ``k_i (|z_i| + |limits|)`` (the overshoot is a difference of the two), to the
+arithmetic scale, and two terms the first-order sensitivity misses: the energy's second-order
+``1/2 k_i dz_i^2`` (``dz`` the bound of the stop coordinates), and, within ``dz_i`` of a limit, the kink
+of the force (``k_i dz_i``: the central difference of ``S_in`` sees half of it at best there).
 """
 
 import mujoco
@@ -50,7 +56,7 @@ def c_queries(flex, data) -> dict:
     return {
         "wrench": flex.wrenches(data), "energy": flex.potential_energies(data),
         "power": flex.dissipation_powers(data), "twist": flex.displacements(data),
-        "qfrc": flex.generalized_forces(data),
+        "qfrc": flex.generalized_forces(data), "stops": flex.stop_coordinates(data),
     }  # fmt: skip
 
 
@@ -98,18 +104,43 @@ def arithmetic_scale(model, data, flex) -> dict:
         V[e, :3] = np.abs(ca[:3]) + np.abs(cb[:3])
         V[e, 3:] = np.abs(ca[3:]) + np.abs(cb[3:]) + lever * (V[e, :3].max())
     products = np.einsum("eij,ej->ei", K, xi) + np.einsum("eij,ej->ei", B, V)
+    stops = stop_terms(flex, data)
+    reach = stops["reach"]  # k_i (|z_i| + |limits|): rotated into world axes, so any component may take all
+    products[:, :3] += np.linalg.norm(reach[:, :3], axis=1)[:, None]
+    products[:, 3:] += np.linalg.norm(reach[:, 3:], axis=1)[:, None]
     wrench = grow[:, None] * (products + np.abs(W))
     energy = np.einsum("ei,eij,ej->e", xi, K, xi) + np.abs(flex.potential_energies(data))
+    energy += np.sum(reach * stops["overshoot"], axis=1)
     power = grow * np.einsum("ei,eij,ej->e", V, B, V)
     twist = xi * (1.0 + np.linalg.norm(xi, axis=1))[:, None] + np.linalg.norm(xi, axis=1)[:, None]
+    z = np.abs(stops["z"])
+    stop_coords = z * (1.0 + np.linalg.norm(z, axis=1))[:, None] + np.linalg.norm(z, axis=1)[:, None]
+    qfrc = _through_jacobians(model, data, flex, wrench)
+    return {"wrench": wrench, "energy": energy, "power": power, "twist": twist, "qfrc": qfrc, "stops": stop_coords}
+
+
+def _through_jacobians(model, data, flex, wrench):
+    """``sum_e |J_e|^T |wrench_e|`` over both bodies of each element (at frame b's origin): a bound's qfrc part."""
     qfrc = np.zeros(model.nv)
     jp, jr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
-    for e in range(n):
+    for e in range(len(flex)):
         point = data.site_xpos[flex.site_ids[e, 1]]
         for body in flex.body_ids[e]:
             mujoco.mj_jac(model, data, jp, jr, point, int(body))
             qfrc += np.abs(jp).T @ wrench[e, 3:] + np.abs(jr).T @ wrench[e, :3]
-    return {"wrench": wrench, "energy": energy, "power": power, "twist": twist, "qfrc": qfrc}
+    return qfrc
+
+
+def stop_terms(flex, data) -> dict:
+    """The end stops' quantities the bounds need, ``(n, 6)`` each: the stop coordinates ``z``, their stiffness
+    ``k`` (0 without a limit), ``reach`` = ``k (|z| + |finite limits|)`` and the ``overshoot`` beyond a limit."""
+    n = len(flex)
+    el = flex._elements[:n]
+    z = flex.stop_coordinates(data)
+    lo, hi, k = el["stop_lo"], el["stop_hi"], el["stop_k"] * el["stops"][:, None]
+    limits = np.where(np.isfinite(lo), np.abs(lo), 0.0) + np.where(np.isfinite(hi), np.abs(hi), 0.0)
+    over = np.maximum(z - hi, 0.0) + np.maximum(lo - z, 0.0)
+    return {"z": z, "k": k, "reach": k * (np.abs(z) + limits), "overshoot": over, "lo": lo, "hi": hi}
 
 
 def bounds(model, data, flex, unit_arith=U32) -> dict:
@@ -123,6 +154,17 @@ def bounds(model, data, flex, unit_arith=U32) -> dict:
     n = len(flex)
     K = np.abs(flex._elements["K"][:n].reshape(n, 6, 6))
     out["energy"] += 0.5 * np.einsum("ei,eij,ej->e", out["twist"], K, out["twist"])
+    # the end stops: the same second-order term of the energy, and the kink of the force within dz of a limit
+    stops, dz = stop_terms(flex, data), out["stops"]
+    out["energy"] += 0.5 * np.sum(stops["k"] * dz * dz, axis=1)
+    z, lo, hi = stops["z"], stops["lo"], stops["hi"]
+    kink = stops["k"] * dz * ((np.abs(z - lo) <= dz) | (np.abs(z - hi) <= dz))
+    grow = (1.0 + np.linalg.norm(np.abs(flex.displacements(data)), axis=1)) ** 2
+    for part in (slice(0, 3), slice(3, 6)):
+        out["wrench"][:, part] += (grow * np.linalg.norm(kink[:, part], axis=1))[:, None]
+    if kink.any():  # the generalized forces: the kink's wrench through the bodies' Jacobians (rarely non-zero)
+        out["qfrc"] += _through_jacobians(model, data, flex, grow[:, None] * np.linalg.norm(
+            kink.reshape(-1, 2, 3), axis=2).repeat(3, axis=1))  # fmt: skip
     return out
 
 

@@ -1,5 +1,7 @@
 """Models and references for the MuJoCo Warp tests (tests/test_warp*.py)."""
 
+import warnings
+
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -9,12 +11,33 @@ from tests.helpers import random_spd
 from tests.plugin_models import polynomial_terms
 
 
-def features_model(kind="record"):
+def features_model(kind="record", stops=False):
     """:func:`features_xml` compiled."""
-    return mujoco.MjModel.from_xml_string(features_xml(kind))
+    return mujoco.MjModel.from_xml_string(features_xml(kind, stops))
 
 
-def features_xml(kind="record"):
+N, INF = None, np.inf
+#: End stops of the features model's elements (``features_xml(stops=True)``), by element: limits on rotations of
+#: 0.3 ... 2 rad and on positions of 3 ... 80 mm, one- and two-sided, derived and given stiffness, so that random
+#: states of up to 2.5 rad engage some and leave others free; e5 and e10 have none (elements without stops beside
+#: elements with them); e6 is disabled (its stops do nothing).
+STOPS = {
+    "e0": mjflex.Stops(lower=[-0.6, -0.6, -0.6, N, N, N], upper=[0.6, 0.6, 0.6, N, N, N]),
+    "e1": mjflex.Stops(lower=[N, N, N, -0.01, N, N], upper=[0.4, N, 1.0, N, N, N], stiffness=50.0),
+    "e2": mjflex.Stops(
+        lower=[N, N, N, -0.005, -0.02, -INF], upper=[N, N, N, 0.005, 0.02, 0.003], stiffness=[0, 0, 0, 2e4, 1e4, 3e4]
+    ),
+    "e3": mjflex.Stops(lower=[-0.8, N, -0.3, N, N, N], upper=[0.8, 1.0, 0.3, N, N, N]),
+    "e4": mjflex.Stops(lower=[-1.0, N, N, -0.02, N, N], upper=[1.0, N, 1.0, N, 0.025, N]),
+    "e6": mjflex.Stops(upper=[1.0, 1.0, 1.0, 0.03, 0.03, 0.03]),
+    "e7": mjflex.Stops(lower=[-1.0, -0.4, N, N, -0.008, N], upper=[1.0, N, 0.5, 0.008, N, N], stiffness=30.0),
+    "e8": mjflex.Stops(lower=[-0.3, -0.3, -0.3, N, N, N], upper=[0.3, 0.3, 0.3, N, N, N]),
+    "e9": mjflex.Stops(lower=[-0.5, N, -0.5, -0.01, N, N], upper=[0.2, 0.4, N, N, 0.01, N]),
+    "planar": mjflex.Stops(lower=[-2.0, N, -0.05], upper=[2.0, 0.08, N]),
+}
+
+
+def features_xml(kind="record", stops=False):
     """MJCF text of every element feature the Warp kernels implement, in one model.
 
     Six free boxes and the world joined by twist and dual-quaternion elements (diagonal and full K
@@ -22,8 +45,10 @@ def features_xml(kind="record"):
     the world (hinge; slide and hinge; ball) with elements between links and to a free box (dof
     chains on one or both sides); two bodies on planar joints (slide x, slide y, hinge z) joined by
     a planar element. Written out and read back, so that 6-digit site poses leave rest offsets.
-    ``kind``: how the elements are written ("record" or "plugin").
+    ``kind``: how the elements are written ("record" or "plugin"); ``stops``: with the end stops of ``STOPS``
+    (True), or of a dict of the same form.
     """
+    stops = STOPS if stops is True else (stops or {})
     rng = np.random.default_rng(26)
     spec = mujoco.MjSpec()
     spec.modelname = "features"
@@ -75,12 +100,15 @@ def features_xml(kind="record"):
     ]
     for e, (a, b, method, K, B, extra) in enumerate(layout):
         pa = where.get(a, np.zeros(3))
-        mjflex.add_flexure(spec, f"e{e}", a, b, pos=0.5 * (pa + where[b]),
-                           quat=Rotation.random(random_state=rng).as_quat(scalar_first=True), K=K, B=B,
-                           method=method, poses=poses, kind=kind, **extra)  # fmt: skip
+        with warnings.catch_warnings():  # e8, e9 act in parallel with the chain's joints: on purpose (dof chains)
+            warnings.simplefilter("ignore", mjflex.LikelyMistakeWarning)
+            mjflex.add_flexure(spec, f"e{e}", a, b, pos=0.5 * (pa + where[b]),
+                               quat=Rotation.random(random_state=rng).as_quat(scalar_first=True), K=K, B=B,
+                               method=method, poses=poses, kind=kind, stops=stops.get(f"e{e}"),
+                               **extra)  # fmt: skip
     Kp = np.array([[0.4, 0.02, -0.01], [0.02, 90.0, 4.0], [-0.01, 4.0, 120.0]])
     mjflex.add_flexure(spec, "planar", "pA", "pB", pos=[0.05, -0.3, 0.0], quat=[0.9, 0, 0, 0.3], K=Kp, B=0.02 * Kp,
-                       poses=poses, kind=kind)  # fmt: skip
+                       poses=poses, kind=kind, stops=stops.get("planar"))  # fmt: skip
     return spec.to_xml()
 
 

@@ -4,6 +4,11 @@
   reads the sources, so every public name gets a reference page without a hand-kept list: a
   name added to ``__all__`` (or to a public subpackage's ``__all__``) appears in the next build,
   and a public object without a docstring is a build warning (an error in strict mode).
+* Optional subpackages (``OPTIONAL``: ``mjflex.warp``, whose dependencies are the ``warp``
+  extra, which the ``docs`` extra leaves out) are documented from their ``__all__`` too: where
+  their dependencies are not installed, the build imports them with those mocked (autodoc's
+  mock, :func:`missing_dependencies`; ``docs/conf.py`` passes the same to
+  ``autodoc_mock_imports``), so their pages come from their docstrings alone.
 * Resolves cross-references written with a defining module (``mjflex.mj.variant.Variant``) to
   the public name documented for the same object (``mjflex.Variant``).
 * ``reset_mujoco``: run by sphinx-gallery before and after each tutorial, so that no tutorial
@@ -17,6 +22,7 @@
 """
 
 import importlib
+import importlib.util
 import inspect
 import os
 import re
@@ -38,10 +44,20 @@ SECTIONS = (
     ("mjflex.mj", "MuJoCo layer", "Elements in MJCF models, the passive-force provider, model variants."),
     ("mjflex.geometry", "Stiffness from geometry", "Notch hinges, leaf springs and rods (no MuJoCo)."),
     ("mjflex.app", "Studies and sweeps", "Speed against accuracy, and sweeps over model variants."),
+    (
+        "mjflex.warp",
+        "MuJoCo Warp",
+        "The element forces of many worlds per step on MuJoCo Warp: "
+        "``import mjflex.warp`` (the ``warp`` extra, :doc:`../howto/mujoco_warp`).",
+    ),
     ("", "Other", ""),
 )
 #: Public subpackages whose own ``__all__`` is documented under ``mjflex.<name>.``.
 SUBPACKAGES = ("geometry",)
+#: Optional subpackages documented the same way, not in ``mjflex.__all__`` (``import mjflex`` does not import them),
+#: with the modules they need that an extra installs (``pip install "mjflex[warp]"``), not the docs extra: where
+#: those are missing, the build imports the subpackage with them mocked.
+OPTIONAL = {"warp": ("warp", "mujoco_warp")}
 #: Names documented beside the lazy ``mjflex.sweep`` and ``mjflex.study``: the recipe helpers, and what a study
 #: returns and raises.
 EXTRA = (
@@ -55,6 +71,19 @@ EXTRA = (
 )
 
 
+def missing_dependencies():
+    """The optional subpackages' dependencies that are not installed here: the build mocks them (sorted)."""
+    return sorted(m for deps in OPTIONAL.values() for m in deps if importlib.util.find_spec(m) is None)
+
+
+def optional_subpackage(name):
+    """``mjflex.<name>`` of ``OPTIONAL``, imported as the build imports it: its missing dependencies mocked."""
+    from sphinx.ext.autodoc.mock import mock
+
+    with mock(missing_dependencies()):
+        return importlib.import_module(f"mjflex.{name}")
+
+
 def _resolve(qualified):
     module, _, name = qualified.rpartition(".")
     return getattr(importlib.import_module(module), name)
@@ -62,7 +91,8 @@ def _resolve(qualified):
 
 def public_names():
     """Every documented public name, fully qualified, in ``mjflex.__all__`` order, then the lazy
-    ones (``mjflex.study``, ``sweep``, ``Recipe``), then the subpackages' names and ``EXTRA``."""
+    ones (``mjflex.study``, ``sweep``, ``Recipe``), then the subpackages' names, ``EXTRA`` and the
+    optional subpackages' names (``mjflex.warp.put_model``, ...)."""
     import mjflex
 
     names = []
@@ -72,7 +102,8 @@ def public_names():
             names += [f"mjflex.{name}.{n}" for n in sub.__all__]
         else:
             names.append(f"mjflex.{name}")
-    return [*names, *EXTRA]
+    optional = [f"mjflex.{name}.{n}" for name in OPTIONAL for n in optional_subpackage(name).__all__]
+    return [*names, *EXTRA, *optional]
 
 
 def public_members(cls):
@@ -115,8 +146,9 @@ def api_page():
         "===",
         "",
         "Every public name of :mod:`mjflex`, generated from the docstrings. ``import mjflex`` gives the names "
-        "below as ``mjflex.NAME`` (``mjflex.geometry.NAME`` for stiffness from geometry). Units are SI; "
-        "arrays batch-first, 6-vectors angular first (:doc:`conventions`).",
+        "below as ``mjflex.NAME`` (``mjflex.geometry.NAME`` for stiffness from geometry); ``import mjflex.warp`` "
+        "gives ``mjflex.warp.NAME`` (MuJoCo Warp, an optional extra). Units are SI; arrays batch-first, 6-vectors "
+        "angular first (:doc:`conventions`).",
         "",
     ]
     for title, intro, names in sections():
@@ -350,6 +382,8 @@ __all__ = [
     "api_page",
     "check_leaks",
     "leaked_paths",
+    "missing_dependencies",
+    "optional_subpackage",
     "public_members",
     "public_names",
     "reset_mujoco",

@@ -27,7 +27,7 @@ import mjflex
 from mjflex.app.render import RunRenderer
 from mjflex.app.simulate import simulate
 
-MODELS = Path(mjflex.__file__).parents[1] / "models"  # models/ of the source checkout
+MODELS = Path("models") if Path("models").is_dir() else Path("../../models")  # the checkout's (run in docs/tutorials)
 model = mujoco.MjModel.from_xml_path(str(MODELS / "arcade.xml"))
 flex = mjflex.Flexures(model)
 kinds = [name.split("_")[0] for name in flex.names]

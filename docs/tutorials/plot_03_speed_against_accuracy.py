@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt
 
 import mjflex
 
-MODELS = Path(mjflex.__file__).parents[1] / "models"
+MODELS = Path("models") if Path("models").is_dir() else Path("../../models")  # the checkout's (run in docs/tutorials)
 result = mjflex.study(
     str(MODELS / "two_body.xml"), integrators=("rk4", "euler"), steps=(1.2e-4, 6e-5), variants=[], bisect=0,
     repeat=1, progress=False,

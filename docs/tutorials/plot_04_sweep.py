@@ -23,7 +23,7 @@ import mujoco
 import mjflex
 from mjflex.app.sweep import edit_flexure, flexure_matrices
 
-MODELS = Path(mjflex.__file__).parents[1] / "models"
+MODELS = Path("models") if Path("models").is_dir() else Path("../../models")  # the checkout's (run in docs/tutorials)
 
 
 def stiffness_and_damping(spec, k_scale, beta):

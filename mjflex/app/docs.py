@@ -12,8 +12,11 @@ import subprocess
 import sys
 import time
 
-#: The repository root of a source checkout (``docs/`` beside the ``mjflex`` package).
+#: The repository root of a source checkout (``docs/`` beside the ``mjflex`` package); where mjflex is installed
+#: from a wheel (no ``docs/`` beside it), the checkout in the working directory.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+if not os.path.exists(os.path.join(ROOT, "docs", "conf.py")) and os.path.exists(os.path.join("docs", "conf.py")):
+    ROOT = os.path.abspath(os.curdir)
 SOURCE = os.path.join(ROOT, "docs")
 #: What the build imports, as module -> the PyPI name in the ``docs`` extra.
 REQUIRED = {

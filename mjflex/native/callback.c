@@ -34,12 +34,19 @@
 #define MJFX_CAPACITY 1024
 #define MJFX_WATCHES 64
 
+// A watch record: this header, then the watch with its tallies at WATCH_AT (ISO C allows no member
+// of a type with a flexible array, so the watch follows the header instead of being its last field)
 typedef struct Record_ {
   _Atomic uintptr_t owner;  // the mjData address, 0 when free
   _Atomic uint64_t stamp;   // last use (for reclaiming)
   _Atomic int busy;         // 1 while a thread uses the record
-  mjfxWatch watch;          // followed by its tallies
 } Record;
+
+#define WATCH_AT ((sizeof(Record) + _Alignof(mjfxWatch) - 1) / _Alignof(mjfxWatch) * _Alignof(mjfxWatch))
+
+static mjfxWatch* watch_of(Record* rec) {
+  return (mjfxWatch*)((unsigned char*)rec + WATCH_AT);
+}
 
 typedef struct Slot_ {
   _Atomic(const mjModel*) model;
@@ -58,7 +65,7 @@ static _Atomic uint64_t g_clock = 0;
 static void (*_Atomic g_previous)(const mjModel*, mjData*) = NULL;
 
 static size_t record_size(int n) {
-  size_t size = offsetof(Record, watch) + mjfx_watch_size(n);
+  size_t size = WATCH_AT + mjfx_watch_size(n);
   return (size + 15) & ~(size_t)15;
 }
 
@@ -77,8 +84,8 @@ void mjfx_registry_records_init(unsigned char* records, int n) {
     atomic_store(&rec->owner, 0);
     atomic_store(&rec->stamp, 0);
     atomic_store(&rec->busy, 0);
-    rec->watch.exact = 0;
-    mjfx_watch_clear(&rec->watch, n);
+    watch_of(rec)->exact = 0;
+    mjfx_watch_clear(watch_of(rec), n);
   }
 }
 
@@ -174,7 +181,7 @@ static Record* record_in(unsigned char* records, int n, const mjData* d, int cla
     }
     if (oldest && take(oldest)) {
       atomic_store_explicit(&oldest->owner, key, memory_order_release);
-      mjfx_watch_clear(&oldest->watch, n);
+      mjfx_watch_clear(watch_of(oldest), n);
       atomic_store_explicit(&oldest->stamp, now, memory_order_relaxed);
       return oldest;
     }
@@ -195,7 +202,7 @@ int mjfx_dispatch(const mjModel* m, mjData* d, int report, mjfxVerdict out[2]) {
   if (!s) return 0;
   Record* rec = record_in(s->records, s->n, d, 1);
   mjfxVerdict v[2] = {{.element = -1}, {.element = -1}};
-  if (rec) mjfx_watch_judge(&rec->watch, m, d, 1, v);
+  if (rec) mjfx_watch_judge(watch_of(rec), m, d, 1, v);
   mjfxScan scan;
   int bad = mjfx_evaluate(m, d, s->el, s->n, s->chain, s->exps, s->coefs, MJFX_APPLY, d->qfrc_passive, NULL, NULL,
                           &scan);
@@ -203,7 +210,7 @@ int mjfx_dispatch(const mjModel* m, mjData* d, int report, mjfxVerdict out[2]) {
     for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;  // so that MuJoCo's checks see it too
   }
   if (rec) {
-    mjfx_watch_record(&rec->watch, m, d, &scan, 1, v + 1);
+    mjfx_watch_record(watch_of(rec), m, d, &scan, 1, v + 1);
     give(rec);
   }
   for (int k = 0; k < 2; k++) {
@@ -224,5 +231,5 @@ void mjfx_passive(const mjModel* m, mjData* d) {
 const mjfxWatch* mjfx_records_watch(unsigned char* records, int n, const mjData* d) {
   Record* rec = records ? record_in(records, n, d, 0) : NULL;
   if (rec) give(rec);
-  return rec ? &rec->watch : NULL;
+  return rec ? watch_of(rec) : NULL;
 }

@@ -1,42 +1,39 @@
 """mjflex on MuJoCo Warp: the flexure forces of thousands of worlds per step, on a GPU or Warp's CPU device.
 
 ``pip install "mjflex[warp]"`` installs MuJoCo Warp (``mujoco-warp``) and NVIDIA Warp
-(``warp-lang``); nothing else in mjflex imports them.
+(``warp-lang``); nothing else in mjflex imports them. :func:`put_model` gives MuJoCo Warp's
+model with mjflex's passive callback; ``mujoco_warp.make_data`` and ``mujoco_warp.step`` do
+the rest::
 
->>> import mujoco, mujoco_warp as mjw, mjflex.warp  # doctest: +SKIP
->>> mjmodel = mujoco.MjModel.from_xml_path("models/two_body.xml")  # doctest: +SKIP
->>> m = mjflex.warp.put_model(mjmodel)  # MuJoCo Warp's model, with mjflex's passive callback  # doctest: +SKIP
->>> d = mjw.make_data(mjmodel, nworld=1024)  # doctest: +SKIP
->>> mjw.step(m, d)  # doctest: +SKIP
->>> mjflex.warp.divergences(m, d)  # doctest: +SKIP
-[]
+    mjmodel = mujoco.MjModel.from_xml_path("models/two_body.xml")
+    m = mjflex.warp.put_model(mjmodel)
+    d = mujoco_warp.make_data(mjmodel, nworld=1024)
+    mujoco_warp.step(m, d)
+    mjflex.warp.divergences(m, d)  # []: no world diverged
 
 What is there: both methods (finite twist, dual quaternion), damping, planar elements,
-polynomial terms, rest offsets, elements on free bodies and on bodies moved by any chain of
-joints, MuJoCo's spring/damper disable flags, both forms of elements in MJCF (text records and
-``mjflex.flexure`` plugin instances), per-world K, B and switches (:func:`set_parameters`),
-per-world divergence records naming the element and the step (:func:`divergences`), the element
-math in float32 (MuJoCo Warp's precision) or float64. What is not: an element feature the kernels
-do not implement is refused by :func:`put_model` naming the element and the feature; MuJoCo
-Warp integrates in float32 only (no float64 simulation: use MuJoCo itself for that).
+polynomial terms, end stops, rest offsets, elements on free bodies and on bodies moved by any
+chain of joints, MuJoCo's spring/damper disable flags, both forms of elements in MJCF (text
+records and ``mjflex.flexure`` plugin instances), per-world K, B, switches and end stops
+(:func:`set_parameters`), per-world divergence records naming the element and the step
+(:func:`divergences`), the element math in float32 (MuJoCo Warp's precision) or float64. What
+is not: an element feature the kernels do not implement is refused by :func:`put_model` naming
+the element and the feature; MuJoCo Warp integrates in float32 only (no float64 simulation: use
+MuJoCo itself for that).
 """
 
-import contextlib
 import copy
 import logging
-import threading
-import warnings
 
 import mujoco
 import mujoco_warp as mjw
 import numpy as np
 
-from . import _mjflex
+from . import _adapt, _mjflex
 from ._forces import WarpFlexures, WorldDivergence
 from ._mjflex import ElementTable, UnsupportedElementError
 
 __all__ = [
-    "PRECISIONS",
     "ElementTable",
     "UnsupportedElementError",
     "WarpFlexures",
@@ -51,16 +48,13 @@ __all__ = [
     "potential_energies",
     "put_model",
     "set_parameters",
+    "stop_coordinates",
     "wrenches",
 ]
 
 #: Precisions of the element math: MuJoCo Warp's own float32, or float64 inside the kernels.
 PRECISIONS = ("float32", "float64")
 log = logging.getLogger("mjflex.warp")
-_SLEEP = mujoco.mjtSleepPolicy
-_AUTO_OF = {int(_SLEEP.mjSLEEP_NEVER): int(_SLEEP.mjSLEEP_AUTO_NEVER),
-            int(_SLEEP.mjSLEEP_ALLOWED): int(_SLEEP.mjSLEEP_AUTO_ALLOWED),
-            int(_SLEEP.mjSLEEP_INIT): int(_SLEEP.mjSLEEP_AUTO_ALLOWED)}  # fmt: skip
 
 
 def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_sizes: dict | None = None):
@@ -104,6 +98,17 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
     the automatic "never" and ``"allowed"`` the automatic "allowed", which act the same; the
     ``mjflex.flexure`` plugin instances, which MuJoCo Warp ignores, are computed by the callback;
     the autoreset disable flag, which MuJoCo Warp refuses, is cleared (it never resets a world).
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjflex.warp.flexures(m)
+    WarpFlexures(1 elements: hinge; float32)
+    >>> d = mjw.make_data(mjmodel, nworld=1024)  # mjw.step(m, d) steps 1024 worlds with the element's forces
     """
     if not isinstance(mjmodel, mujoco.MjModel):
         raise TypeError(f"put_model expects a mujoco.MjModel; got {type(mjmodel).__name__}")
@@ -112,9 +117,9 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
     model = copy.copy(mjmodel)
     flex = _mjflex.flexures(model)
     table = _mjflex.element_table(model, flex)
-    adaptations = _check_plugins(model, table) + _adapt_sleep(model, table) + _adapt_flags(model)
+    adaptations = _adapt.check_plugins(model, table) + _adapt.adapt_sleep(model, table) + _adapt.adapt_flags(model)
     try:
-        with _plugin_arrays_sized(model):
+        with _adapt.plugin_arrays_sized(model):
             m = mjw.put_model(model, batch_sizes=batch_sizes)
     except (NotImplementedError, ValueError) as exc:
         exc.add_note("mjflex.warp.put_model: MuJoCo Warp cannot run this model (see its message above)")
@@ -125,117 +130,63 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
     return m
 
 
-_PATCH_LOCK = threading.Lock()
-
-
-@contextlib.contextmanager
-def _plugin_arrays_sized(model):
-    """Work around MuJoCo Warp 4.0.0's ``put_model`` on models with non-geom plugin instances.
-
-    It keeps only the geom plugins' instances in ``plugin`` / ``plugin_attr`` but sizes those
-    arrays by the model's ``nplugin``, and fails ("cannot reshape array of size 0"). While it runs,
-    the arrays of the ``nplugin`` dimension are sized by the instances it kept (``nplugin`` is read
-    nowhere else in MuJoCo Warp 4.0.0). Only applied to models that have such instances;
-    ``tests/test_warp.py`` checks that plain MuJoCo Warp still needs it.
-    """
-    if model.nplugin == int((model.geom_plugin >= 0).sum()):
-        yield
-        return
-    from mujoco_warp._src import io
-
-    original = io._create_array
-
-    def create_array(data, spec, sizes, batch_size=1):
-        if getattr(spec, "shape", ())[:1] == ("nplugin",):
-            sizes = {**sizes, "nplugin": len(data)}
-        return original(data, spec, sizes, batch_size)
-
-    with _PATCH_LOCK:
-        io._create_array = create_array
-        try:
-            yield
-        finally:
-            io._create_array = original
-
-
-def _name(model, objtype, i, fallback):
-    return mujoco.mj_id2name(model, objtype, int(i)) or f"{fallback} #{int(i)}"
-
-
-def _check_plugins(model, table) -> list[str]:
-    ours = set(_mjflex.mjflex_instances(model))
-    # geom plugins MuJoCo Warp runs; those of bodies, actuators and sensors it refuses itself, with its own message
-    attached = {int(p) for a in (model.geom_plugin, model.body_plugin, model.actuator_plugin, model.sensor_plugin)
-                for p in a if p >= 0}  # fmt: skip
-    others = [i for i in range(model.nplugin) if i not in ours and i not in attached]
-    if others:
-        names = ", ".join(repr(_name(model, mujoco.mjtObj.mjOBJ_PLUGIN, i, "instance")) for i in others[:5])
-        raise NotImplementedError(
-            f"mjflex.warp.put_model: plugin instance(s) {names} are neither mjflex.flexure elements nor attached to "
-            "a geom, body, actuator or sensor; MuJoCo Warp would drop them silently (their forces or effects would be "
-            "lost). Remove them for MuJoCo Warp, or simulate the model with MuJoCo"
-        )
-    if not ours:
-        return []
-    return [f"the {len(ours)} mjflex.flexure plugin instances, which MuJoCo Warp ignores, are computed by mjflex's "
-            "passive callback (the same elements as the C plugin)"]  # fmt: skip
-
-
-def _adapt_sleep(model, table) -> list[str]:
-    policy = model.tree_sleep_policy
-    sleep_on = bool(model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP)
-    changed = {}
-    for tree, value in enumerate(policy):
-        value = int(value)
-        if value not in _AUTO_OF:
-            continue
-        root = _name(model, mujoco.mjtObj.mjOBJ_BODY, model.tree_bodyadr[tree], "body")
-        if value == int(_SLEEP.mjSLEEP_INIT) and sleep_on:
-            raise NotImplementedError(
-                f"mjflex.warp.put_model: the tree of body '{root}' starts asleep (sleep=\"init\"), which MuJoCo Warp "
-                'does not support; use sleep="allowed" for MuJoCo Warp'
-            )
-        changed.setdefault(_SLEEP(value).name, []).append(root)
-        policy[tree] = _AUTO_OF[value]
-        if sleep_on and value != int(_SLEEP.mjSLEEP_NEVER) and tree in table.joined_trees:
-            warnings.warn(
-                f"mjflex.warp: flexure '{table.joined_trees[tree]}' joins the tree of body '{root}', which may sleep: "
-                'a sleeping tree ignores forces, so the element\'s force is lost while it sleeps. Set sleep="never" '
-                "on its root body, or disable sleeping",
-                UserWarning,
-                stacklevel=3,
-            )
-    out = []
-    for name, roots in changed.items():
-        more = f" and {len(roots) - 3} more" if len(roots) > 3 else ""
-        new = _SLEEP(_AUTO_OF[int(getattr(_SLEEP, name))]).name
-        why = "" if sleep_on else " (sleeping is off in this model: no effect)"
-        out.append(f"sleep policy {name} of the trees of {', '.join(roots[:3])}{more} set to {new}, which MuJoCo "
-                   f"Warp accepts and which acts the same{why}")  # fmt: skip
-    return out
-
-
 def element_table(mjmodel: mujoco.MjModel, flex=None) -> ElementTable:
-    """The elements of ``mjmodel`` as the Warp kernels read them (``flex``: its :class:`mjflex.Flexures`, if made).
+    """The elements of ``mjmodel`` as the Warp kernels read them.
 
-    Raises :class:`UnsupportedElementError` for an element feature the kernels lack. Note that
-    :class:`mjflex.Flexures` sets the automatic sleep policy of trees joined by an element to
-    "never" on the model it reads; pass a copy to leave a model as it is.
+    Parameters
+    ----------
+    mjmodel : mujoco.MjModel
+        A model with mjflex elements (either form). :class:`mjflex.Flexures` sets the automatic
+        sleep policy of trees joined by an element to "never" on the model it reads: pass a copy
+        to leave a model as it is.
+    flex : mjflex.Flexures, optional
+        Its provider, if made (else made here).
+
+    Returns
+    -------
+    ElementTable
+        The elements' arrays, parameters as written in the model.
+
+    Raises
+    ------
+    UnsupportedElementError
+        An element feature the kernels lack (named with the element).
+
+    Examples
+    --------
+    >>> import copy, mujoco
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> table = mjflex.warp.element_table(copy.copy(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
+    >>> table.names, table.K.shape, table.K[0, 2, 2]
+    (('hinge',), (1, 6, 6), np.float64(0.25))
     """
     return _mjflex.element_table(mjmodel, flex if flex is not None else _mjflex.flexures(mjmodel))
 
 
-def _adapt_flags(model) -> list[str]:
-    autoreset = int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
-    if not model.opt.disableflags & autoreset:
-        return []
-    model.opt.disableflags &= ~autoreset
-    return ["the autoreset disable flag, which MuJoCo Warp refuses, cleared: MuJoCo Warp never resets a world "
-            "(what the flag asks for); a diverged world is flagged by mjflex.warp.divergences"]  # fmt: skip
-
-
 def flexures(m) -> WarpFlexures:
-    """The :class:`WarpFlexures` of a model made by :func:`put_model` (its elements, switches and notes)."""
+    """The :class:`~mjflex.warp.WarpFlexures` of a model made by :func:`~mjflex.warp.put_model`: its elements,
+    parameters and notes.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model` (TypeError otherwise).
+
+    Returns
+    -------
+    WarpFlexures
+        The model's passive callback.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> forces = mjflex.warp.flexures(mjflex.warp.put_model(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
+    >>> forces.names, forces.precision, sorted(forces.parameters())
+    (('hinge',), 'float32', ['B', 'K', 'enabled', 'stop_lower', 'stop_stiffness', 'stop_upper', 'viscous'])
+    """
     forces = getattr(getattr(m, "callback", None), "passive", None)
     if not isinstance(forces, WarpFlexures):
         raise TypeError(
@@ -245,8 +196,10 @@ def flexures(m) -> WarpFlexures:
     return forces
 
 
-def set_parameters(m, *, K=None, B=None, enabled=None, viscous=None) -> None:
-    """Set the elements' stiffness, damping and switches, shared by all worlds or one set per world.
+def set_parameters(
+    m, *, K=None, B=None, enabled=None, viscous=None, stop_lower=None, stop_upper=None, stop_stiffness=None
+) -> None:
+    """Set the elements' stiffness, damping, switches and end stops, shared by all worlds or one set per world.
 
     Parameters
     ----------
@@ -260,40 +213,263 @@ def set_parameters(m, *, K=None, B=None, enabled=None, viscous=None) -> None:
         semi-definite (ValueError naming the element).
     enabled, viscous : array_like of bool, optional
         ``(n,)`` or ``(nworld, n)``: switch elements, or their damping, on and off per world.
+    stop_lower, stop_upper : array_like, optional
+        ``(n, 6)`` or ``(nworld, n, 6)``: the end stops' limits of each element on its stop
+        coordinates ``[rx, ry, rz, x, y, z]`` [rad, m] (:mod:`mjflex.core.stops`; planar elements
+        on ``theta, x, y`` at ``[2, 3, 4]``), ``-inf`` / ``+inf`` where a coordinate has no stop
+        (the model's, ``parameters()["stop_lower"]``, are where to start). An element may get
+        stops here that the model did not give it.
+    stop_stiffness : array_like, optional
+        ``(n, 6)`` or ``(nworld, n, 6)``: the stops' stiffness [N m/rad, N/m], read where a limit
+        is finite (there it must be positive). Until it is set, the model's: a stiffness written
+        in the model as it is, and a derived one (none written) derived from each world's ``K``,
+        ``100 K_ii`` (:func:`mjflex.derived_stop_stiffness`), as editing ``K`` in the model
+        would; once set, these values for every element.
+
+    Raises
+    ------
+    ValueError
+        A parameter of the wrong shape, not finite, a K or B not symmetric positive semi-definite,
+        beyond float32 with ``precision="float32"``; stops that break the rules of
+        :class:`mjflex.Stops` in some world (named with the element, the coordinate and the
+        world). A refused call changes nothing.
+    TypeError
+        ``enabled`` or ``viscous`` not booleans.
 
     Notes
     -----
     The leading size of each parameter must be 1 or the data's ``nworld`` (checked at every
-    step, ValueError otherwise). Parameters not given keep their values. Takes effect at the
-    next step.
+    step, ValueError otherwise; the stops' limits and stiffness must agree among themselves, and
+    a derived stiffness has K's). Parameters not given keep their values. Takes effect at the
+    next step. Which elements run the stops' code is set here: an element without a finite
+    limit in any world skips it at one flag.
+
+    Examples
+    --------
+    Four worlds, the hinge turned by 0.1 rad in each, its rotation about z stopped at 0.05, 0.08
+    and 0.12 rad in the first three (the stops' stiffness derived from K: 100 K_zz = 25 N m/rad):
+
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=4)
+    >>> lower, upper = np.full((4, 1, 6), -np.inf), np.full((4, 1, 6), np.inf)  # (worlds, elements, 6)
+    >>> upper[:3, 0, 2] = [0.05, 0.08, 0.12]
+    >>> mjflex.warp.set_parameters(m, stop_lower=lower, stop_upper=upper)
+    >>> print(mjflex.warp.potential_energies(m, d)[:, 0].round(5))  # [J]: K's 0.00125 and the stops'
+    [0.0325  0.00625 0.00125 0.00125]
     """
-    flexures(m).set_parameters(K=K, B=B, enabled=enabled, viscous=viscous)
+    flexures(m).set_parameters(K=K, B=B, enabled=enabled, viscous=viscous, stop_lower=stop_lower,
+                               stop_upper=stop_upper, stop_stiffness=stop_stiffness)  # fmt: skip
 
 
 def wrenches(m, d) -> np.ndarray:
-    """Wrench of each element on its body B, ``(nworld, n, 6)``: moment about the origin of frame b and force,
-    world axes [N m; N], from ``d``'s kinematics as they are (after ``mujoco_warp.forward`` or a step)."""
+    """Wrench of each element on its body B in each world.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray, shape (nworld, n, 6)
+        Moment about the origin of frame b and force, world axes [N m; N], in the precision of
+        the element math.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> print(mjflex.warp.wrenches(m, d)[0, 0].round(4) + 0.0)  # -K_zz 0.1 about z
+    [ 0.     0.    -0.025  0.     0.     0.   ]
+    """
     return flexures(m).wrenches(m, d)
 
 
 def generalized_forces(m, d) -> np.ndarray:
-    """The generalized forces ``(nworld, nv)`` (float32) the elements add to ``qfrc_passive`` in ``d``'s state."""
+    """The generalized forces the elements add to ``qfrc_passive`` in each world.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray, shape (nworld, nv)
+        float32, MuJoCo Warp's precision.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> print(mjflex.warp.generalized_forces(m, d)[0, [5, 11]].round(4) + 0.0)  # on A's and B's rotation about z
+    [ 0.025 -0.025]
+    """
     return flexures(m).generalized_forces(m, d)
 
 
 def potential_energies(m, d) -> np.ndarray:
-    """Elastic energy of each element, ``(nworld, n)`` [J] (in the precision of the element math)."""
+    """Elastic energy of each element in each world, end stops included.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray, shape (nworld, n)
+        [J], in the precision of the element math.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> print(mjflex.warp.potential_energies(m, d)[:, 0].round(6))  # K_zz 0.1^2 / 2
+    [0.00125 0.00125]
+    """
     return flexures(m).potentials_and_twists(m, d)[0]
 
 
 def dissipation_powers(m, d) -> np.ndarray:
-    """Power dissipated by each element's damping, ``(nworld, n)`` [W]."""
+    """Power dissipated by each element's damping in each world.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray, shape (nworld, n)
+        [W], zero for an element without damping (or switched off).
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> B = np.array([1e-3, 1e-3, 1e-3, 1.0, 1.0, 1.0])  # damping (diagonal) of the one element
+    >>> mjflex.warp.set_parameters(m, B=[[B], [2 * B]], viscous=[True])  # world 1's twice world 0's
+    >>> mjdata.qvel[11] = 2.0  # B turning about z at 2 rad/s
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)
+    >>> print(mjflex.warp.dissipation_powers(m, d)[:, 0].round(6))  # B_zz omega^2
+    [0.004 0.008]
+    """
     return flexures(m).dissipation_powers(m, d)
 
 
 def displacements(m, d) -> np.ndarray:
-    """Finite twist ``[tau; t]`` of frame b relative to frame a of each element, ``(nworld, n, 6)`` [rad; m]."""
+    """Finite twist ``[tau; t]`` of frame b relative to frame a of each element in each world.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray, shape (nworld, n, 6)
+        [rad; m] (zero for an element switched off, as :meth:`mjflex.Flexures.displacements`).
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> print(mjflex.warp.displacements(m, d)[0, 0].round(6) + 0.0)
+    [0.  0.  0.1 0.  0.  0. ]
+    """
     return flexures(m).potentials_and_twists(m, d)[1]
+
+
+def stop_coordinates(m, d) -> np.ndarray:
+    """The coordinates end stops act on, ``[rx, ry, rz, x, y, z]`` of each element in each world.
+
+    The rotation vector of frame b relative to frame a and the position of frame b's origin in
+    frame a (:mod:`mjflex.core.stops`), for every element (with or without stops; planar ones in
+    ``rz, x, y``), as :meth:`mjflex.Flexures.stop_coordinates`. Compare them with
+    ``flexures(m).parameters()["stop_lower"]`` and ``["stop_upper"]`` to see which stops are
+    engaged; their energy is part of :func:`potential_energies`.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray, shape (nworld, n, 6)
+        [rad; m].
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> print(mjflex.warp.stop_coordinates(m, d)[0, 0].round(6) + 0.0)
+    [0.  0.  0.1 0.  0.  0. ]
+    """
+    return flexures(m).potentials_and_twists(m, d)[2]
 
 
 def divergences(m, d) -> list[WorldDivergence]:
@@ -304,10 +480,70 @@ def divergences(m, d) -> list[WorldDivergence]:
     in that step or the one before (else on none); a non-finite wrench at a finite state on its
     element. From then on the world's forces are NaN, so its state is too: a diverged world never
     looks like a result. A world's run restarts when its time runs backwards (a reset).
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    list of WorldDivergence
+        In world order; empty when none diverged.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> qvel = d.qvel.numpy()
+    >>> qvel[1, 0] = np.nan  # world 1 blew up
+    >>> d.qvel.assign(qvel)
+    >>> m.callback.passive(m, d)  # what mujoco_warp.forward and step call
+    >>> [(v.world, v.element, v.step, v.reason) for v in mjflex.warp.divergences(m, d)]
+    [(1, '', 0, "MuJoCo Warp's qvel became non-finite or beyond 1e10")]
     """
     return flexures(m).divergences(m, d)
 
 
 def diverged(m, d) -> np.ndarray:
-    """``(nworld,)`` bool: the worlds of ``d`` that diverged in their current run."""
+    """Which worlds of ``d`` diverged in their current run (see :func:`~mjflex.warp.divergences`).
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+
+    Returns
+    -------
+    ndarray of bool, shape (nworld,)
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    >>> qvel = d.qvel.numpy()
+    >>> qvel[0, 0] = 1e12  # beyond MuJoCo's bound on a sane velocity
+    >>> d.qvel.assign(qvel)
+    >>> m.callback.passive(m, d)
+    >>> mjflex.warp.diverged(m, d)
+    array([ True, False])
+    """
     return flexures(m).diverged(d)

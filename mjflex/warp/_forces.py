@@ -10,12 +10,13 @@ import warp as wp
 
 from ..core import validation
 from . import _kernels as kn
+from . import _stops, _watch
 from ._mjflex import PLANAR_INDEX, ElementTable
 
 _KIND_TEXT = {
-    kn.NONFINITE: "its wrench is not finite at a finite state",
-    kn.BAD_QPOS: "MuJoCo Warp's qpos became non-finite or beyond 1e10",
-    kn.BAD_QVEL: "MuJoCo Warp's qvel became non-finite or beyond 1e10",
+    _watch.NONFINITE: "its wrench is not finite at a finite state",
+    _watch.BAD_QPOS: "MuJoCo Warp's qpos became non-finite or beyond 1e10",
+    _watch.BAD_QVEL: "MuJoCo Warp's qvel became non-finite or beyond 1e10",
 }
 _SPRING, _DAMPER = int(mujoco.mjtDisableBit.mjDSBL_SPRING), int(mujoco.mjtDisableBit.mjDSBL_DAMPER)
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
@@ -24,7 +25,40 @@ _OFF_PLANE[np.ix_(PLANAR_INDEX, PLANAR_INDEX)] = False
 
 
 class WorldDivergence(NamedTuple):
-    """The first divergence of one world in its current run (see :func:`mjflex.warp.divergences`)."""
+    """The first divergence of one world in its current run (see :func:`mjflex.warp.divergences`).
+
+    Attributes
+    ----------
+    world : int
+        The world's index in the data.
+    element : str
+        The flexure blamed; ``''`` when no element's force alone was violent enough to blame.
+    step : int
+        Index of the step that diverged, counting from 0 (the step the C engine names).
+    time : float
+        The world's time when it was found [s] (MuJoCo Warp's float32 clock).
+    reason : str
+        What was found: a non-finite wrench at a finite state, or a qpos / qvel not finite or
+        beyond MuJoCo's 1e10.
+    message : str
+        All of it in one sentence, with what to do.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> d = mjw.put_data(mjmodel, mujoco.MjData(mjmodel), nworld=3)
+    >>> qpos = d.qpos.numpy()
+    >>> qpos[2, 0] = np.inf  # world 2 is lost
+    >>> d.qpos.assign(qpos)
+    >>> m.callback.passive(m, d)  # what mujoco_warp.forward and step call
+    >>> (found,) = mjflex.warp.divergences(m, d)
+    >>> found.world, found.step, found.message[:62]
+    (2, 0, 'mjflex.warp: world 2 diverged in the step from t = 0 s (step i')
+    """
 
     world: int
     element: str  # the flexure blamed; '' when none was violent enough to blame
@@ -47,7 +81,7 @@ class _DataState:
         out.accel = wp.zeros(shape, wp.float32, device=device)
         out.finite = wp.ones(shape, wp.int32, device=device)
         self.out = out
-        watch = kn.Watch()
+        watch = _watch.Watch()
         for name, value, dtype in (("last_time", 0.0, wp.float32), ("step", 0, wp.int32), ("evals", -1, wp.int32),
                                    ("cand_element", -1, wp.int32), ("cand_accel", 0.0, wp.float32),
                                    ("cand_step", 0, wp.int32), ("element", -1, wp.int32), ("kind", 0, wp.int32),
@@ -62,18 +96,58 @@ class WarpFlexures:
     """The flexure elements of a MuJoCo Warp model and the passive callback that adds their forces.
 
     Made by :func:`mjflex.warp.put_model`, which sets it as ``m.callback.passive``; reach it with
-    :func:`mjflex.warp.flexures`. Attributes: ``names``, ``kinds`` (``"record"`` / ``"plugin"``),
-    ``records`` (the :class:`mjflex.FlexureRecord` of each element), ``precision`` of the element
-    math (``"float32"`` or ``"float64"``), ``mjmodel`` (the adapted copy of the MuJoCo model that
-    MuJoCo Warp was given) and ``adaptations`` (what :func:`~mjflex.warp.put_model` changed on it).
+    :func:`mjflex.warp.flexures`. Called with ``(m, d)`` (by ``mujoco_warp.forward`` and
+    ``step``), it adds the elements' generalized forces to ``d.qfrc_passive`` and watches every
+    world for divergence.
+
+    Parameters
+    ----------
+    table : ElementTable
+        The elements (:func:`mjflex.warp.element_table`).
+    mjmodel : mujoco.MjModel
+        The model MuJoCo Warp was given.
+    precision : {"float32", "float64"}
+        Precision of the element math.
+    adaptations : sequence of str
+        What :func:`~mjflex.warp.put_model` changed on ``mjmodel``.
+    device : warp device or str, optional
+        Where the element arrays live (default: Warp's current device).
+    with_stops : bool
+        False: kernels without the end stops' code, which refuse elements with stops (the
+        baseline of ``scripts/bench_warp_stops.py``); mjflex runs the kernels with them.
+
+    Attributes
+    ----------
+    names, kinds : tuple of str
+        The elements' names, and their forms (``"record"`` or ``"plugin"``).
+    records : list of mjflex.FlexureRecord
+        Each element's parameters as written in the model.
+    precision : str
+        ``"float32"`` or ``"float64"``.
+    mjmodel : mujoco.MjModel
+        The adapted copy of the MuJoCo model that MuJoCo Warp was given.
+    adaptations : tuple of str
+        What :func:`~mjflex.warp.put_model` changed on it, and why.
+    device : warp device
+        Where the element arrays live.
+
+    Examples
+    --------
+    >>> import mujoco
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> forces = mjflex.warp.flexures(mjflex.warp.put_model(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
+    >>> forces.names, forces.kinds, forces.index("hinge"), forces.parameters()["K"].shape
+    (('hinge',), ('record',), 0, (1, 1, 6, 6))
     """
 
-    def __init__(self, table: ElementTable, mjmodel, precision: str, adaptations, device=None):
+    def __init__(self, table: ElementTable, mjmodel, precision: str, adaptations, device=None, with_stops=True):
         self.names, self.kinds, self.records = table.names, table.kinds, table.records
         self.mjmodel, self.precision, self.adaptations = mjmodel, precision, tuple(adaptations)
         self._index = {name: i for i, name in enumerate(self.names)}
         self._table = table
-        self._k = k = kn.kernels(precision)
+        self._with_stops = with_stops
+        self._k = k = kn.kernels(precision, with_stops)
         self.device = wp.get_device(device)
         real = np.float64 if precision == "float64" else np.float32
         d = self.device
@@ -103,7 +177,9 @@ class WarpFlexures:
         self._params = k["Params"]()
         self._real = real
         self._host = {}
-        self.set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous)
+        self._stop_k_given = None  # stop_stiffness as set (None: the model's, derived from K where it is)
+        self.set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous,
+                            stop_lower=table.stop_lower, stop_upper=table.stop_upper)  # fmt: skip
         self._states = {}
         self._no_watch = wp.zeros(0, dtype=wp.int32, device=d)
 
@@ -123,7 +199,9 @@ class WarpFlexures:
 
     # ------------------------------------------------------------------ parameters
 
-    def set_parameters(self, *, K=None, B=None, enabled=None, viscous=None) -> None:
+    def set_parameters(
+        self, *, K=None, B=None, enabled=None, viscous=None, stop_lower=None, stop_upper=None, stop_stiffness=None
+    ) -> None:
         """Set the per-world parameters (see :func:`mjflex.warp.set_parameters`)."""
         n, fields = len(self), {}
         for name, value in (("K", K), ("B", B)):
@@ -139,15 +217,38 @@ class WarpFlexures:
                 if a.ndim != 2 or a.shape[1] != n:
                     raise ValueError(f"{name} must have shape ({n},) or (worlds, {n}); got {np.shape(value)}")
                 fields[name] = a
+        given = self._stop_k_given
+        if stop_stiffness is not None:
+            given = _stops.vectors("stop_stiffness", stop_stiffness, n)
+        stops = {}
+        if K is not None or stop_lower is not None or stop_upper is not None or stop_stiffness is not None:
+            limits = [self._host.get(name) if value is None else _stops.vectors(name, value, n)
+                      for name, value in (("stop_lower", stop_lower), ("stop_upper", stop_upper))]  # fmt: skip
+            k = _stops.stiffness(self._table, fields.get("K", self._host.get("K")), given)
+            big = _FLOAT32_MAX if self.precision == "float32" else np.inf
+            stops = dict(zip(_stops.NAMES, (*limits, _stops.effective(self.names, self._table.planar, *limits, k, big)),
+                             strict=True))  # fmt: skip
+        if stops and not self._with_stops and _stops.flags(stops["stop_lower"], stops["stop_upper"]).any():
+            raise ValueError("these are kernels without the stops' code (a baseline for measuring their cost): they "
+                             "cannot run elements with stops; use mjflex.warp.put_model")  # fmt: skip
+        # everything checked: nothing below raises, so a refused call changes nothing
+        self._stop_k_given = given
+        fields.update(stops)
         k, p = self._k, self._params
         for name, a in fields.items():
             self._host[name] = a
             if len(self) == 0:
-                a = np.zeros((1, 1, 6, 6) if name in "KB" else (1, 1), a.dtype)
+                a = np.zeros({"K": (1, 1, 6, 6), "B": (1, 1, 6, 6)}.get(name, (1, 1, 6) if name in stops else (1, 1)))
             if name in ("K", "B"):
                 setattr(p, name, wp.array(a.astype(self._real), dtype=k["M66"], device=self.device))
+            elif name in stops:
+                field = {"stop_lower": "stop_lo", "stop_upper": "stop_hi", "stop_stiffness": "stop_k"}[name]
+                setattr(p, field, wp.array(np.ascontiguousarray(a, self._real), dtype=k["V6"], device=self.device))
             else:
                 setattr(p, name, wp.array(a.astype(np.int32), dtype=wp.int32, device=self.device))
+        if stops:
+            flags = _stops.flags(stops["stop_lower"], stops["stop_upper"]) if len(self) else np.zeros(1, np.int32)
+            p.stops = wp.array(flags, dtype=wp.int32, device=self.device)
 
     def _matrices(self, name, value):
         n = len(self)
@@ -182,7 +283,9 @@ class WarpFlexures:
             )
 
     def parameters(self) -> dict:
-        """The per-world parameters as set: ``K``, ``B`` ``(worlds or 1, n, 6, 6)``, ``enabled``, ``viscous``."""
+        """The per-world parameters as set: ``K``, ``B`` ``(worlds or 1, n, 6, 6)``, ``enabled``, ``viscous``
+        ``(worlds or 1, n)``, ``stop_lower``, ``stop_upper`` and ``stop_stiffness`` ``(worlds or 1, n, 6)`` (the
+        stiffness as the kernels read it: derived from K where the model derives it, 0 where there is no limit)."""
         return {name: a.copy() for name, a in self._host.items()}
 
     # ------------------------------------------------------------------ evaluation
@@ -227,7 +330,7 @@ class WarpFlexures:
         state = self._state(d)
         self._launch_wrench(m, d, state)
         wp.launch(
-            kn.watch_kernel, dim=d.nworld, device=self.device,
+            _watch.watch_kernel, dim=d.nworld, device=self.device,
             inputs=[d.time, m.opt.timestep, d.qpos, d.qvel, state.out.accel, state.out.finite], outputs=[state.watch],
         )  # fmt: skip
         self._launch_gather(m, d, state, d.qfrc_passive, True)
@@ -242,14 +345,17 @@ class WarpFlexures:
         return state
 
     def wrenches(self, m, d) -> np.ndarray:
+        """Wrench of each element on its body B, ``(nworld, n, 6)`` (see :func:`mjflex.warp.wrenches`)."""
         out = self._evaluated(m, d).out
         n = len(self)
         return np.concatenate([out.mo.numpy()[:, :n], out.f.numpy()[:, :n]], axis=-1)
 
     def dissipation_powers(self, m, d) -> np.ndarray:
+        """Power dissipated by each element, ``(nworld, n)`` [W] (see :func:`mjflex.warp.dissipation_powers`)."""
         return self._evaluated(m, d).out.power.numpy()[:, : len(self)]
 
     def generalized_forces(self, m, d) -> np.ndarray:
+        """The elements' generalized forces ``(nworld, nv)`` (see :func:`mjflex.warp.generalized_forces`)."""
         state = self._evaluated(m, d)
         qfrc = wp.zeros((d.nworld, m.nv), dtype=wp.float32, device=self.device)
         if len(self):
@@ -257,18 +363,20 @@ class WarpFlexures:
         return qfrc.numpy()
 
     def potentials_and_twists(self, m, d):
+        """``(energy (nworld, n), twist (nworld, n, 6), stop coordinates (nworld, n, 6))`` in ``d``'s state."""
         self._check_worlds(d)
         k, n = self._k, len(self)
         shape = (d.nworld, max(n, 1))
         energy = wp.zeros(shape, k["real"], device=self.device)
         twist = wp.zeros(shape, k["V6"], device=self.device)
+        stop_coords = wp.zeros(shape, k["V6"], device=self.device)
         if n:
             wp.launch(
                 k["potential"], dim=(d.nworld, n), device=self.device,
                 inputs=[self._el, self._params, int(not int(m.opt.disableflags) & _SPRING), d.xquat, d.site_xpos],
-                outputs=[energy, twist],
+                outputs=[energy, twist, stop_coords],
             )  # fmt: skip
-        return energy.numpy()[:, :n], twist.numpy()[:, :n]
+        return energy.numpy()[:, :n], twist.numpy()[:, :n], stop_coords.numpy()[:, :n]
 
     # ------------------------------------------------------------------ divergence
 
@@ -292,13 +400,13 @@ class WarpFlexures:
             name = self.names[e] if 0 <= e < len(self) else ""
             t0 = step * h[i % h.shape[0]]
             reason = _KIND_TEXT[int(kind[i])]
-            if kind[i] == kn.NONFINITE:
+            if kind[i] == _watch.NONFINITE:
                 blame = f"flexure '{name}': {reason}"
             elif name:
                 blame = (f"{reason}, and flexure '{name}''s force alone accelerated one of its bodies at "
                          f"{float(accel[i]):.3g} (m/s^2 or rad/s^2) in that step")  # fmt: skip
             else:
-                blame = f"{reason}; no flexure's force alone exceeded {kn.CANDIDATE_ACCEL:g} m/s^2 there"
+                blame = f"{reason}; no flexure's force alone exceeded {_watch.CANDIDATE_ACCEL:g} m/s^2 there"
             message = (
                 f"mjflex.warp: world {int(i)} diverged in the step from t = {t0:.9g} s (step index {step}, counting "
                 f"from 0): {blame}. Its forces are NaN from then on (until its time runs back: a reset). Reduce the "

@@ -11,6 +11,11 @@ A new implementation of the formulas of the C engine (``mjflex/native/flexure_ke
 * wrench: ``-Gamma_ab (K [tau; t] + B rate + grad terms)`` (twist) or
   ``-2 Lambda_ab (K [xi; x'] + B rate + terms / 4)`` (dual quaternion), the maps applied as
   dual-number maps exactly as in the C kernel;
+* end stops (:mod:`mjflex.core.stops`): on the stop coordinates ``z = [tau; p_ab]`` (both
+  methods), energy ``sum k_i / 2 overshoot_i^2`` and, added to the element's wrench on B,
+  ``m = -P(tau) G_tau``, ``f = -R_ab^T G_p`` (``G`` the energy's gradient in ``z``), as the C
+  kernel's ``mjfx_stop_wrench``; an element without stops in every world skips them at one
+  per-element flag (``Params.stops``), read outside the element math;
 * generalized forces: a free body takes the world force and the moment about its origin in its
   own axes; any other body maps the wrench through its chain of dofs (``cdof``).
 
@@ -27,122 +32,19 @@ import warp as wp
 #: Terms of the series of c and g in alpha^2 (alpha < 2.2 rad: the 21st term is below 1e-17 of the first).
 NSERIES = 20
 SERIES_THRESHOLD = 2.2
-#: An element whose wrench alone accelerates one of its bodies beyond this [m/s^2, rad/s^2] is the
-#: culprit of a bad state found soon after (as the C engine: a hundredth of MuJoCo's 1e10).
-CANDIDATE_ACCEL = 1e8
-#: MuJoCo's bound on a sane qpos / qvel (mjMAXVAL).
-MAXVAL = 1e10
 TWIST = 0
-#: What a world's divergence was: its first non-finite element wrench, or a bad qpos / qvel.
-NONFINITE, BAD_QPOS, BAD_QVEL = 0, 1, 2
 #: Kinds of a contribution to a dof: a free body's force or moment component, or a chain dof.
 FORCE, MOMENT, CHAIN = 0, 1, 2
 #: Integer columns of an element.
 I_BODY_A, I_BODY_B, I_SITE_A, I_SITE_B, I_METHOD, I_ROOT_A, I_ROOT_B, I_FREE_A, I_FREE_B, I_LO, I_HI, I_NCOL = range(12)
 
 
-@wp.struct
-class Watch:
-    """Per-world divergence watch (see ``watch_kernel``)."""
+def build(real, with_stops=True):
+    """The kernels of one precision (``wp.float32`` or ``wp.float64``): a dict of Warp kernels and types.
 
-    last_time: wp.array(dtype=wp.float32)
-    step: wp.array(dtype=wp.int32)
-    evals: wp.array(dtype=wp.int32)
-    cand_element: wp.array(dtype=wp.int32)
-    cand_accel: wp.array(dtype=wp.float32)
-    cand_step: wp.array(dtype=wp.int32)
-    element: wp.array(dtype=wp.int32)  # -1: no flexure to blame
-    kind: wp.array(dtype=wp.int32)
-    at_step: wp.array(dtype=wp.int32)  # -1: the world has not diverged
-    time: wp.array(dtype=wp.float32)
-    accel: wp.array(dtype=wp.float32)
-
-
-@wp.kernel(module="unique", enable_backward=False)
-def watch_kernel(
-    time: wp.array(dtype=wp.float32),
-    timestep: wp.array(dtype=wp.float32),
-    qpos: wp.array2d(dtype=wp.float32),
-    qvel: wp.array2d(dtype=wp.float32),
-    accel: wp.array2d(dtype=wp.float32),
-    finite: wp.array2d(dtype=wp.int32),
-    watch: Watch,
-):
-    """One world: count its steps, then judge the state and the elements' wrenches of this evaluation.
-
-    A step starts when the world's time changes (MuJoCo Warp keeps it through the stages of RK4);
-    time running backwards starts a new run (a reset) and clears the world's record. The first
-    divergence of a run is kept: a qpos or qvel not finite or beyond MuJoCo's 1e10 is blamed on the
-    element whose force alone accelerated a body beyond 1e8 in that step or the one before (-1 if
-    none), else a non-finite wrench at a finite state is blamed on its element.
+    ``with_stops=False`` leaves the end stops' code out of the kernels (what the flag check costs elements without
+    stops is measured against it: ``scripts/bench_warp_stops.py``); mjflex runs the kernels with stops.
     """
-    w = wp.tid()
-    t = time[w]
-    h = timestep[w % timestep.shape[0]]
-    last = watch.last_time[w]
-    if t != last:
-        if watch.evals[w] < 0 or t < last:
-            if t < last:  # a reset: a new run
-                watch.at_step[w] = -1
-                watch.element[w] = -1
-                watch.cand_element[w] = -1
-            watch.step[w] = wp.int32(wp.round(t / h))
-        else:
-            watch.step[w] = watch.step[w] + wp.max(1, wp.int32(wp.round((t - last) / h)))
-        watch.evals[w] = 0
-        watch.last_time[w] = t
-    else:
-        watch.evals[w] = watch.evals[w] + 1
-    if watch.at_step[w] >= 0:
-        return
-    step = watch.step[w]
-    bad = wp.int32(-1)
-    for i in range(qpos.shape[1]):
-        if not (wp.abs(qpos[w, i]) <= MAXVAL):
-            bad = BAD_QPOS
-    if bad < 0:
-        for i in range(qvel.shape[1]):
-            if not (wp.abs(qvel[w, i]) <= MAXVAL):
-                bad = BAD_QVEL
-    if bad >= 0:
-        # found at a step's first evaluation: the step before made it
-        made = step
-        if watch.evals[w] == 0:
-            made = step - 1
-        watch.kind[w] = bad
-        watch.time[w] = t
-        if watch.cand_element[w] >= 0 and watch.cand_step[w] >= made - 1:
-            watch.element[w] = watch.cand_element[w]
-            watch.at_step[w] = watch.cand_step[w]
-            watch.accel[w] = watch.cand_accel[w]
-        else:
-            watch.element[w] = -1
-            watch.at_step[w] = wp.max(made, 0)
-            watch.accel[w] = 0.0
-        return
-    best = wp.float32(0.0)
-    culprit = wp.int32(-1)
-    for e in range(accel.shape[1]):
-        if finite[w, e] == 0:
-            watch.element[w] = e
-            watch.kind[w] = NONFINITE
-            watch.at_step[w] = step
-            watch.time[w] = t
-            watch.accel[w] = wp.inf
-            return
-        if accel[w, e] > best:
-            best = accel[w, e]
-            culprit = e
-    if watch.cand_element[w] >= 0 and watch.cand_step[w] < step - 1:
-        watch.cand_element[w] = -1
-    if culprit >= 0 and best > CANDIDATE_ACCEL and (watch.cand_element[w] < 0 or best >= watch.cand_accel[w]):
-        watch.cand_element[w] = culprit
-        watch.cand_accel[w] = best
-        watch.cand_step[w] = step
-
-
-def build(real):
-    """The kernels of one precision (``wp.float32`` or ``wp.float64``): a dict of Warp kernels and types."""
     V3 = wp.types.vector(3, real)
     V6 = wp.types.vector(6, real)
     V8 = wp.types.vector(8, real)
@@ -173,6 +75,10 @@ def build(real):
         B: wp.array2d(dtype=M66)
         enabled: wp.array2d(dtype=wp.int32)
         viscous: wp.array2d(dtype=wp.int32)
+        stop_lo: wp.array2d(dtype=V6)  # end stops' limits on [tau; p_ab], -inf / +inf: none
+        stop_hi: wp.array2d(dtype=V6)
+        stop_k: wp.array2d(dtype=V6)  # their stiffness (read where a limit is finite)
+        stops: wp.array(dtype=wp.int32)  # (n,): 1 when the element has a stop in some world
 
     @wp.struct
     class Out:
@@ -368,6 +274,33 @@ def build(real):
             return V8(e1[0], e1[1], e1[2], e2[0], e2[1], e2[2], real(0.0), real(0.0))
         return V8(w, e1[0], e1[1], e1[2], s_d, e2[0], e2[1], e2[2])
 
+    @wp.func
+    def stop_rotation(method: int, q: Q4, e1: V3, k0: real, u0: V3, el: Elements):
+        """tau and the scalars of P(tau) x = k0 x - tau x x / 2 + (tau . x) u0: the twist's own, else computed."""
+        if method == TWIST:
+            return e1, k0, u0
+        qv = V3(q[1], q[2], q[3])
+        scal = angle_scalars(wp.dot(qv, qv), q[0], el)
+        tau = scal[0] * qv
+        return tau, real(1.0) - scal[1] * wp.dot(tau, tau), scal[1] * tau
+
+    @wp.func
+    def stop_energy(par: Params, w: int, e: int, tau: V3, p: V3):
+        """The end stops' energy at z = [tau; p] and its gradient G = dU/dz (rotation part, position part)."""
+        lo = par.stop_lo[w % par.stop_lo.shape[0], e]
+        hi = par.stop_hi[w % par.stop_hi.shape[0], e]
+        k = par.stop_k[w % par.stop_k.shape[0], e]
+        z = V6(tau[0], tau[1], tau[2], p[0], p[1], p[2])
+        zero = real(0.0)
+        g = V6()
+        u = zero
+        for i in range(6):
+            over = wp.max(z[i] - hi[i], zero)
+            under = wp.max(lo[i] - z[i], zero)
+            u = u + k[i] * (over * over + under * under)
+            g[i] = k[i] * (over - under)
+        return real(0.5) * u, V3(g[0], g[1], g[2]), V3(g[3], g[4], g[5])
+
     @wp.kernel(module="unique", enable_backward=False)
     def wrench_kernel(
         el: Elements,
@@ -450,6 +383,12 @@ def build(real):
             pwr = real(4.0) * pwr
         mb = scale * mb
         fb = scale * fb
+        if wp.static(with_stops):
+            if spring_on != 0 and par.stops[e] != 0:
+                tau, sk0, su0 = stop_rotation(method, q, e1, k0, u0, el)
+                _us, g1, g2 = stop_energy(par, w, e, tau, p)
+                mb = mb - (sk0 * g1 - real(0.5) * wp.cross(tau, g1) + wp.dot(tau, g1) * su0)
+                fb = fb - qapply(q, g2, True)
         mo = Rb @ mb
         f = Rb @ fb
         out.mo[w, e] = mo
@@ -526,15 +465,21 @@ def build(real):
         site_xpos: wp.array2d(dtype=wp.vec3),
         energy: wp.array2d(dtype=real),
         twist: wp.array2d(dtype=V6),
+        stop_coords: wp.array2d(dtype=V6),
     ):
-        """Elastic energy and finite twist [tau; t] of element e in world w (zeros when disabled)."""
+        """Elastic energy (end stops included) and finite twist [tau; t] of element e in world w (zeros when
+        disabled, as the C engine's), and its stop coordinates [tau; p_ab] (also when disabled, as
+        :meth:`mjflex.Flexures.stop_coordinates`)."""
         w, e = wp.tid()
+        method = el.ints[e, I_METHOD]
+        q, p, _Rb, _pb = pose(el, e, w, xquat, site_xpos)
+        t1, t2, _c0, _c1, _c2, _c3, _c4, _c5 = coords(TWIST, q, p, el)
+        stop_coords[w, e] = V6(t1[0], t1[1], t1[2], p[0], p[1], p[2])
         if par.enabled[w % par.enabled.shape[0], e] == 0:
             energy[w, e] = real(0.0)
             twist[w, e] = V6()
             return
-        method = el.ints[e, I_METHOD]
-        q, p, _Rb, _pb = pose(el, e, w, xquat, site_xpos)
+        twist[w, e] = V6(t1[0], t1[1], t1[2], t2[0], t2[1], t2[2])
         e1, e2, _k0, _k1, _u0, _u1, qw, s_d = coords(method, q, p, el)
         u = real(0.0)
         if spring_on != 0:
@@ -548,9 +493,11 @@ def build(real):
             if hi > lo:
                 value, _grad = terms(method, coords8(method, e1, e2, qw, s_d), lo, hi, el, False)
                 u = u + value
+            if wp.static(with_stops):
+                if par.stops[e] != 0:
+                    us, _g1, _g2 = stop_energy(par, w, e, t1, p)
+                    u = u + us
         energy[w, e] = u
-        t1, t2, _c0, _c1, _c2, _c3, _c4, _c5 = coords(TWIST, q, p, el)
-        twist[w, e] = V6(t1[0], t1[1], t1[2], t2[0], t2[1], t2[2])
 
     @wp.kernel(module="unique", enable_backward=False)
     def scalars_kernel(n2: wp.array(dtype=real), qw: wp.array(dtype=real), el: Elements, out: wp.array(dtype=V3)):
@@ -568,8 +515,9 @@ def build(real):
 _BUILT = {}
 
 
-def kernels(precision: str) -> dict:
+def kernels(precision: str, with_stops: bool = True) -> dict:
     """The kernels of ``"float32"`` or ``"float64"`` (built once per process; compiled on first launch)."""
-    if precision not in _BUILT:
-        _BUILT[precision] = build({"float32": wp.float32, "float64": wp.float64}[precision])
-    return _BUILT[precision]
+    key = (precision, with_stops)
+    if key not in _BUILT:
+        _BUILT[key] = build({"float32": wp.float32, "float64": wp.float64}[precision], with_stops)
+    return _BUILT[key]

@@ -22,44 +22,111 @@ from . import _kernels as kn
 #: Record fields the kernels implement, or that do not change the forces (reports, colours, provenance).
 SUPPORTED_FIELDS = {
     "name", "method", "K", "B", "enabled", "viscous", "terms", "order", "strain_per_radian", "source", "site",
-    "strain_scale",
+    "strain_scale", "stops",
 }  # fmt: skip
 METHODS = {"twist": kn.TWIST, "dualquat": 1}
 
 
 class UnsupportedElementError(NotImplementedError):
-    """An element uses a feature of mjflex that the Warp kernels do not implement."""
+    """An element uses a feature of mjflex that the Warp kernels do not implement (the message names both)."""
 
 
 @dataclass
 class ElementTable:
-    """The elements of one model as the Warp kernels read them (n elements, M polynomial terms)."""
+    """The elements of one model as the Warp kernels read them: ``n`` elements, ``M`` polynomial terms.
+
+    Made by :func:`mjflex.warp.element_table` (and by :func:`mjflex.warp.put_model`) from
+    :class:`mjflex.Flexures`' reading of the model; everything the kernels derive from the model
+    is computed here, independently of the C engine's own set-up. Matrices and 6-vectors are in
+    the element frame, rows ``[rotation; translation]`` (planar elements embedded at rows
+    ``[2, 3, 4]``), SI units.
+
+    Attributes
+    ----------
+    names, kinds : tuple of str
+        Element names; forms (``"record"`` or ``"plugin"``).
+    records : list of mjflex.FlexureRecord
+        Each element's parameters as written.
+    instances : tuple of int
+        Plugin instance id of each element, -1 for a text record.
+    ints : ndarray of int32, shape (n, I_NCOL)
+        Bodies, sites, method, roots, free-body flags and term ranges (the ``I_*`` columns of
+        ``mjflex.warp._kernels``).
+    qa, qb : ndarray, shape (n, 4)
+        Orientation (w-first) of frame a in body A, and of frame b in body B times the rest offset's
+        inverse (frame b*).
+    p0 : ndarray, shape (n, 3)
+        Rest offset: position of frame b seen from frame a at ``qpos0`` [m].
+    lever_a, lever_b : ndarray, shape (n, 3)
+        Origins of frames a and b* in their bodies [m].
+    inv_mass, inv_inertia : ndarray, shape (n,)
+        The bodies' largest inverse mass [1/kg] and inverse inertia [1/(kg m^2)] (divergence blame).
+    K, B : ndarray, shape (n, 6, 6)
+        Stiffness and damping (B zero without damping) [N m/rad, N/m; N m s/rad, N s/m].
+    enabled, viscous : ndarray of bool, shape (n,)
+        The element's switch; its damping's (the record's switch, and it has B).
+    planar : ndarray of bool, shape (n,)
+        Planar elements.
+    stop_lower, stop_upper : ndarray, shape (n, 6)
+        End stops' limits on ``[rx, ry, rz, x, y, z]`` [rad, m] (planar: at ``[2, 3, 4]``),
+        ``-inf`` / ``+inf`` where a coordinate has none.
+    stop_stiffness : ndarray, shape (n, 6)
+        The stops' stiffness as the C engine reads it (given, or derived from K; 0 where no limit)
+        [N m/rad, N/m].
+    stop_derived : ndarray of bool, shape (n,)
+        The stops' stiffness is derived from K (none given; or no stops).
+    exps : ndarray of int32, shape (M, 8)
+        Exponents of the polynomial terms.
+    coefs : ndarray, shape (M,)
+        Their coefficients [J].
+    start : ndarray of int32, shape (nv + 1,)
+        Contributions to dof ``j`` are ``start[j]:start[j + 1]`` of ``element`` and ``code``.
+    element, code : ndarray of int32, shape (C,)
+        Each contribution's element, and ``+-(1 + 4 kind + component)`` (``+``: body B, ``-``: A).
+    series_c, series_g : ndarray, shape (NSERIES,)
+        Coefficients of the twist map's scalars ``c`` and ``g`` in ``alpha^2``.
+    joined_trees : dict
+        Kinematic tree -> an element that joins it to another tree or a mocap body.
+
+    Examples
+    --------
+    >>> import copy, mujoco
+    >>> import mjflex.warp
+    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> table = mjflex.warp.element_table(copy.copy(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
+    >>> table.names, table.kinds, bool(table.stop_derived[0]), table.stop_upper[0]
+    (('hinge',), ('record',), True, array([inf, inf, inf, inf, inf, inf]))
+    """
 
     names: tuple[str, ...]
-    kinds: tuple[str, ...]  # "record" or "plugin"
-    records: list  # mjflex.FlexureRecord each
-    instances: tuple[int, ...]  # plugin instance id, -1 for a text record
-    ints: np.ndarray  # (n, I_NCOL) int32
-    qa: np.ndarray  # (n, 4)
-    qb: np.ndarray  # (n, 4)
-    p0: np.ndarray  # (n, 3)
+    kinds: tuple[str, ...]
+    records: list
+    instances: tuple[int, ...]
+    ints: np.ndarray
+    qa: np.ndarray
+    qb: np.ndarray
+    p0: np.ndarray
     lever_a: np.ndarray
     lever_b: np.ndarray
-    inv_mass: np.ndarray  # (n,)
+    inv_mass: np.ndarray
     inv_inertia: np.ndarray
-    K: np.ndarray  # (n, 6, 6), planar ones embedded
-    B: np.ndarray  # (n, 6, 6), zero without damping
-    enabled: np.ndarray  # (n,) bool
-    viscous: np.ndarray  # (n,) bool: the record's switch, and it has B
-    planar: np.ndarray  # (n,) bool
-    exps: np.ndarray  # (M, 8) int32
-    coefs: np.ndarray  # (M,)
-    start: np.ndarray  # (nv + 1,) int32: contributions to dof j are start[j]:start[j + 1]
-    element: np.ndarray  # (C,) int32
-    code: np.ndarray  # (C,) int32: +-(1 + 4 kind + component), + body B, - body A
-    series_c: np.ndarray  # (NSERIES,)
+    K: np.ndarray
+    B: np.ndarray
+    enabled: np.ndarray
+    viscous: np.ndarray
+    planar: np.ndarray
+    stop_lower: np.ndarray
+    stop_upper: np.ndarray
+    stop_stiffness: np.ndarray
+    stop_derived: np.ndarray
+    exps: np.ndarray
+    coefs: np.ndarray
+    start: np.ndarray
+    element: np.ndarray
+    code: np.ndarray
+    series_c: np.ndarray
     series_g: np.ndarray
-    joined_trees: dict  # tree -> an element that joins it to another tree or a mocap body
+    joined_trees: dict
 
 
 def flexures(model: mujoco.MjModel) -> Flexures:
@@ -157,6 +224,8 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
         K=rows["K"].reshape(n, 6, 6).copy(), B=rows["B"].reshape(n, 6, 6).copy(),
         enabled=rows["enabled"].astype(bool), viscous=rows["viscous"].astype(bool),
         planar=np.array([r.planar for r in t.records], bool),
+        stop_lower=rows["stop_lo"].copy(), stop_upper=rows["stop_hi"].copy(), stop_stiffness=rows["stop_k"].copy(),
+        stop_derived=np.array([r.stops is None or r.stops.stiffness is None for r in t.records], bool),
         exps=t.exps.astype(np.int32), coefs=t.coefs.copy(), start=start,
         element=np.array([c[0] for c in flat], np.int32), code=np.array([c[1] for c in flat], np.int32),
         series_c=series["c"], series_g=series["g"], joined_trees=dict(t.joined_trees),

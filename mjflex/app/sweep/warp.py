@@ -2,8 +2,8 @@
 
 Each part of the grid (at most ``part_size`` variants) is built as for the other executors, then
 its variants are grouped: variants that differ only in what MuJoCo Warp can vary per world
-share one MuJoCo Warp model and step together as its worlds. What can vary: the elements' K, B
-and switches (:func:`mjflex.warp.set_parameters`), and any model array that MuJoCo Warp keeps per
+share one MuJoCo Warp model and step together as its worlds. What can vary: the elements' K, B,
+switches and end stops (:func:`mjflex.warp.set_parameters`), and any model array that MuJoCo Warp keeps per
 world (masses, inertias, body poses, joint stiffness, geom sizes, ...: the fields it declares
 batched, whose values it takes as they are from the ``MjModel``), and model arrays MuJoCo Warp
 does not have (so does not read). Variants that differ in anything else, or in their options or
@@ -69,7 +69,7 @@ class _Group:
     def incompatible(self, i, mjw_model) -> str | None:
         """Why variant ``i`` cannot share the group's MuJoCo Warp model (None: it can)."""
         if _element_structure(self.tables[i]) != _element_structure(self.tables[0]):
-            return "its flexure elements differ in more than K, B and their switches (sites, methods, terms, bodies)"
+            return "its flexure elements differ in more than K, B, switches and stops (sites, methods, terms, bodies)"
         ref, mine = _arrays(self.ref.model), _arrays(self.sims[i].model)
         for name, value in mine.items():
             if np.array_equal(value, ref[name]):
@@ -120,7 +120,9 @@ def _run_group(plan, group, progress, wp, mjw, mw):
         field.assign(np.stack([np.asarray(getattr(s.model, name)).reshape(shape) for s in sims]))
     t = group.tables
     mw.set_parameters(m, K=np.stack([x.K for x in t]), B=np.stack([x.B for x in t]),
-                      enabled=np.stack([x.enabled for x in t]), viscous=np.stack([x.viscous for x in t]))  # fmt: skip
+                      enabled=np.stack([x.enabled for x in t]), viscous=np.stack([x.viscous for x in t]),
+                      stop_lower=np.stack([x.stop_lower for x in t]), stop_upper=np.stack([x.stop_upper for x in t]),
+                      stop_stiffness=np.stack([x.stop_stiffness for x in t]))  # fmt: skip
     d = mjw.make_data(group.ref.model, nworld=n)
     starts = [_initial_state(s) for s in sims]
     for name in ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "time"):
