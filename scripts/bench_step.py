@@ -52,7 +52,7 @@ from _bench import (
 )
 
 import mjflex
-from mjflex.mj.convert import copy_spec, plugins_to_records, records_to_plugins
+from mjflex.mjcf.convert import copy_spec, plugins_to_records, records_to_plugins
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -166,7 +166,7 @@ PLUGIN = ("plugin, twist method", "plugin, dual-quaternion method")
 
 def set_lanes(lanes):
     """Force the native library's lane count (2 or 4; 'auto': the widest the CPU has); returns the lanes used."""
-    from mjflex.mj import _native
+    from mjflex.native import library as _native
 
     native = _native.lib()
     if native.mjfx_set_lanes(0 if lanes == "auto" else int(lanes)) < 0:

@@ -1,4 +1,4 @@
-"""Divergence, for the engine plugin and the mjcb_passive provider alike (mjflex.mj.divergence).
+"""Divergence, for the engine plugin and the mjcb_passive provider alike (mjflex.runtime.divergence).
 
 Forces at a finite state are finite and exact in mj_forward / mj_inverse (issue 15 section 1); a step that
 MuJoCo finds bad is reported with the element, in "the step from t = ... s (step index k, counting from 0)";

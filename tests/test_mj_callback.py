@@ -176,7 +176,7 @@ def test_nan_state_raises_with_the_element_name():
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     data = mujoco.MjData(model)
     data.qvel[7] = np.nan
-    # the convention of every mjflex message (mjflex.mj.divergence): the step that starts at t, indexed from 0
+    # the convention of every mjflex message (mjflex.runtime.divergence): the step that starts at t, indexed from 0
     message = r"mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s \(step index 0, counting"
     with mjflex.Flexures(model), pytest.raises(mujoco.FatalError, match=message):
         mujoco.mj_forward(model, data)

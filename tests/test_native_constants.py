@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from mjflex.core import polynomial, stops, validation
-from mjflex.mj import _callback, _native, schema
-from mjflex.mj import stops as record_stops
+from mjflex.mjcf import config, schema
+from mjflex.mjcf import stops as record_stops
+from mjflex.native import library as _native
+from mjflex.runtime import registry as _callback
 
 PAIRS = {  # C name -> Python's value
     "MAX_MATRIX_ENTRY": validation.MAX_MATRIX_ENTRY,
@@ -25,7 +27,7 @@ PAIRS = {  # C name -> Python's value
     "MAX_ROTATION_LIMIT": record_stops.MAX_ROTATION_LIMIT,
     "DEFAULT_STRAIN_SCALE": schema.DEFAULT_STRAIN_SCALE,
     "DEFAULT_ROTATION_SCALE": schema.DEFAULT_ROTATION_SCALE,
-    "NATTRIBUTE": len(schema.PLUGIN_ATTRIBUTES),
+    "NATTRIBUTE": len(config.PLUGIN_ATTRIBUTES),
     "TWIST": validation.METHOD_CODES["twist"],
     "DUALQUAT": validation.METHOD_CODES["dualquat"],
     "FULL": _native.FULL,
@@ -46,7 +48,7 @@ def test_a_constant_of_both_sides_is_equal(name):
 
 def test_the_lists_and_sizes_are_equal_too():
     assert math.isnan(_native.constant("NO_SUCH_CONSTANT"))
-    assert _native.plugin_attributes() == schema.PLUGIN_ATTRIBUTES
+    assert _native.plugin_attributes() == config.PLUGIN_ATTRIBUTES
     assert _native.lib().mjfx_registry_capacity() == _callback.CAPACITY
     assert _native.lib().mjfx_element_field(None) == _native.ELEMENT_DTYPE.itemsize
 

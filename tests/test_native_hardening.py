@@ -120,7 +120,7 @@ def test_every_ctypes_helper_refuses_arguments_out_of_range():
 import ctypes
 import numpy as np
 import mujoco
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.native_cases import two_body_xml
 lib = _native.lib()
 big = np.zeros(10**6)
@@ -195,7 +195,7 @@ assert np.isfinite(flex.wrenches(d)).all()
 
 
 def test_more_datas_than_watch_records_in_threads():
-    """Item 7: with all 64 watch records of a text-record model taken, threads reclaim records; each record is used
+    """Item 7: with all 64 watch entries of a text-record model taken, threads reclaim entries; each entry is used
     by one thread at a time (tests/test_native_sanitizers.py runs this under ThreadSanitizer). Here: the forces are
     exact, whatever the contention."""
     run_python(

@@ -22,7 +22,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.conftest import c_compiler
 from tests.helpers import random_spd
 from tests.models import hinge_chain_spec
@@ -346,7 +346,7 @@ def test_a_one_lane_build_gives_the_same_bits(tmp_path):
 import ctypes
 import numpy as np
 import mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.test_native_kernel import mixed_model, _moved
 
 copy = ctypes.CDLL({str(copy)!r})

@@ -20,7 +20,7 @@ from mujoco import batch as mjbatch
 from mujoco import rollout
 
 import mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.models import B_DEMO, K_DEMO, hinge_chain_spec, two_body_spec
 from tests.plugin_models import MODELS, as_plugins, as_records, planar_spec, polynomial_terms
 

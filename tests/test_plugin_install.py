@@ -11,7 +11,7 @@ import pytest
 
 import mjflex
 import mjflex_plugin
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.conftest import c_compiler
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
@@ -55,7 +55,7 @@ def test_mjflex_uses_the_copy_that_mujoco_registered(tmp_path):
     from another path would collide with the registration)."""
     code = """
 import mujoco, mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.models import two_body_spec
 assert _native.lib()
 mjflex.Flexures(two_body_spec(kind="plugin").compile())

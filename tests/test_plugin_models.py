@@ -16,9 +16,10 @@ import pytest
 
 import mjflex
 import mjflex_plugin
-from mjflex.app import cli
-from mjflex.mj import _native, convert, schema
-from mjflex.mj.file_convert import same_record
+from mjflex.app import cli, runs
+from mjflex.mjcf import elements, schema
+from mjflex.native import library as _native
+from mjflex.runtime.files import same_record
 from tests.models import B_DEMO, K_DEMO, push_after_rest, two_body_spec
 from tests.plugin_models import MODELS, as_plugins, as_records, polynomial_terms
 
@@ -175,14 +176,14 @@ def test_file_round_trip_is_lossless_and_steps_bit_identically(case, tmp_path):
 
 def test_spec_conversion_keeps_every_parameter_and_is_refused_when_there_is_nothing_to_do():
     spec = _tricky_record_spec()
-    before = convert.element_record(spec, "link")
+    before = elements.element_record(spec, "link")
     assert mjflex.convert_model(spec, to="plugin") == ["link"]
-    assert same_record(convert.element_record(spec, "link"), before)
+    assert same_record(elements.element_record(spec, "link"), before)
     assert spec.body("A").sleep == spec.body("B").sleep == mujoco.mjtSleepPolicy.mjSLEEP_NEVER
     with pytest.raises(ValueError, match=r"already an mjflex\.flexure plugin instance; nothing to convert"):
         mjflex.convert_model(spec, to="plugin")
     assert mjflex.convert_model(spec, to="record") == ["link"]
-    assert same_record(convert.element_record(spec, "link"), before)
+    assert same_record(elements.element_record(spec, "link"), before)
     with pytest.raises(ValueError, match="already a text record"):
         mjflex.convert_model(spec, to="record")
     with pytest.raises(ValueError, match='to must be "plugin" or "record"'):
@@ -410,7 +411,7 @@ def test_simulate_method_and_no_damping_on_a_plugin_model(tmp_path, capsys):
             assert summaries[a][key] == summaries[b][key], (a, key)
     model = mujoco.MjModel.from_xml_path(plugin)
     with pytest.raises(SystemExit, match=r"flexure 'hinge' is an mjflex.flexure plugin instance.*mjflex.edit_elements"):
-        cli.run_model(model, "two_body_plugin.xml", duration=0.001, method="dualquat", progress=False)
+        runs.run_model(model, "two_body_plugin.xml", duration=0.001, method="dualquat", progress=False)
 
 
 def test_study_switches_the_method_of_plugin_elements_by_compiling_copies():

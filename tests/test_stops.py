@@ -252,14 +252,19 @@ def test_planar_stops_act_on_theta_x_y_and_are_minus_the_gradient(kind, method):
 
 
 def test_planar_stops_are_the_same_bits_as_the_spatial_stops_on_rz_x_y():
+    """The element rows the C library lays out (mjfx_read_element): a planar element's stops on [theta, x, y] land on
+    rz, x, y of the spatial element with K embedded, bit for bit."""
     planar = mjflex.Stops([-0.05, None, -0.002], [0.1, 0.001, None], stiffness=[40.0, 9e3, 1.2e4])
     spatial = mjflex.Stops([None, None, -0.05, None, -0.002, None], [None, None, 0.1, 0.001, None, None],
                            stiffness=[1.0, 1.0, 40.0, 9e3, 1.2e4, 1.0])  # fmt: skip
     K3 = np.array([[0.4, 0.02, -0.01], [0.02, 90.0, 4.0], [-0.01, 4.0, 120.0]])
-    rows3 = planar.element_rows(K3)
-    rows6 = spatial.element_rows(mjflex.mj.schema.embed_planar(K3))
-    for a, b in zip(rows3, rows6, strict=True):
-        assert np.array_equal(a, b)
+    spec = _bodies(mujoco.MjSpec(), 2)
+    mjflex.add_flexure(spec, "planar", "world", "b0", pos=[0.1, 0, 0], K=K3, stops=planar)
+    mjflex.add_flexure(spec, "spatial", "world", "b1", pos=[0.2, 0, 0], K=mjflex.mjcf.schema.embed_planar(K3),
+                       stops=spatial)  # fmt: skip
+    rows = mjflex.Flexures(spec.compile())._elements
+    for field in ("stop_lo", "stop_hi", "stop_k"):
+        assert np.array_equal(rows[field][0], rows[field][1]), field
 
 
 # ------------------------------------------------------------------ linearization and the time step

@@ -21,7 +21,7 @@ import xarray as xr
 
 import mjflex
 from mjflex.app.sweep import engine
-from mjflex.app.sweep.recipe import edit_flexure
+from mjflex.mjcf.elements import edit_flexure
 from tests.sweep_recipes import hinge_state, scale_hinge
 
 MODEL = "models/two_body.xml"

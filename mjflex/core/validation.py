@@ -3,7 +3,7 @@
 The one place where arguments become numbers: every public function of :mod:`mjflex.core`
 converts its array arguments with :func:`as_array` (or :func:`check_rotation`,
 :func:`check_psd_matrix`, :func:`check_unit_dual_quaternion`, which use it), the MuJoCo layer
-converts element records (:mod:`mjflex.mj.schema`) and ``add_flexure``'s arguments with the same
+converts element records (:mod:`mjflex.mjcf.schema`) and ``add_flexure``'s arguments with the same
 functions, and scalar options everywhere go through :func:`check_number` and :func:`check_flag`.
 
 Conversion rules (:func:`numeric_array`), the same for arrays, nested lists and JSON data:

@@ -51,12 +51,6 @@ def _splines(kind):
     return _splines_of(load_table(kind))
 
 
-def table_range(kind):
-    """``{axis name: (min, max)}`` of the stored table ``kind``."""
-    table = load_table(kind)
-    return {k: (min(v), max(v)) for k, v in ((k, table["axes"][k]) for k in table["axis_names"])}
-
-
 def correction_factors(kind, ratio_1, ratio_2, nu):
     """Factors ``K_FE / K_beam`` (6,) of the diagonal ``[rot_x, rot_y, rot_z, x, y, z]``.
 

@@ -49,7 +49,7 @@ typedef struct mjfxParsed_ {
 
 // The two forms an element is written in, for its messages: an instance of the engine plugin (its
 // <config> attributes) or a text record mjflex:E (sites E/a and E/b; mjflex's Python layer reads its
-// JSON and gives C the same configuration strings: mjflex.mjcf.schema.config_from_record).
+// JSON and gives C the same configuration strings: mjflex.mjcf.config.config_from_record).
 #define MJFX_FORM_PLUGIN 0
 #define MJFX_FORM_RECORD 1
 

@@ -86,7 +86,7 @@ static const char* record_of(const mjModel* m, const char* name) {
 
 // Id of the site a configuration names: `value` itself or, in a model composed with MjSpec.attach
 // (which prefixes and suffixes every name but leaves configuration strings as written), P + value + S
-// where the element's name is P + E + S (mjflex.mjcf.schema.attached_name, the same rule). -1: none.
+// where the element's name is P + E + S (mjflex.mjcf.config.attached_name, the same rule). -1: none.
 static int config_site(const mjModel* m, const char* instance_name, const char* value) {
   int id = mj_name2id(m, mjOBJ_SITE, value);
   if (id >= 0 || !value[0]) return id;
