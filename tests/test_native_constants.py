@@ -62,7 +62,7 @@ def test_a_planar_element_lands_on_the_planar_index():
     import mjflex
 
     mjflex.add_flexure(spec, "p", "world", "b", pos=[0, 0, 0], K=K3)
-    row = mjflex.Flexures(spec.compile())._elements[0]
+    row = mjflex.Flexures(spec.compile()).element_table.elements[0]
     K6 = np.zeros((6, 6))
     K6[np.ix_(stops.PLANAR_INDEX, stops.PLANAR_INDEX)] = K3
     assert np.array_equal(row["K"].reshape(6, 6), K6)

@@ -205,7 +205,7 @@ def test_the_mujoco_loop_matches_the_core_at_any_rotation(method, tmp_path):
     path.write_text(two_body_spec(B=B_DEMO, method=method).to_xml())  # 6-digit site poses: a rest offset
     model = mujoco.MjModel.from_xml_path(str(path))
     flex = mjflex.Flexures(model)
-    row = flex._elements[0]
+    row = flex.element_table.elements[0]
     assert row["offset"]
     R0, p0 = row["R0"].reshape(3, 3), row["p0"]
     rng = np.random.default_rng(2)

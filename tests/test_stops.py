@@ -93,7 +93,7 @@ def _stop_coordinates(flex, data):
     """The stop coordinates of each element from the core (site poses, rest offset removed)."""
     out = []
     for e in range(len(flex)):
-        row = flex._elements[e]
+        row = flex.element_table.elements[e]
         sa, sb = flex.site_ids[e]
         R_a, p_a = data.site_xmat[sa].reshape(3, 3), data.site_xpos[sa]
         R_b = data.site_xmat[sb].reshape(3, 3) @ row["R0"].reshape(3, 3).T
@@ -157,7 +157,7 @@ def test_stop_energy_and_wrench_of_the_engine_are_the_cores():
     mujoco.mj_forward(model, data)
     U, W = flex.potential_energies(data), flex.wrenches(data)
     for e, rec in enumerate(flex.records):
-        row = flex._elements[e]
+        row = flex.element_table.elements[e]
         sa, sb = flex.site_ids[e]
         R_a, p_a = data.site_xmat[sa].reshape(3, 3), data.site_xpos[sa]
         R_b = data.site_xmat[sb].reshape(3, 3) @ row["R0"].reshape(3, 3).T
@@ -215,11 +215,11 @@ def test_record_and_plugin_forms_move_bit_identically_into_their_stops():
     assert np.array_equal(runs[0], runs[1]) and np.isfinite(runs[0]).all()
     pflex = mjflex.Flexures(plugin)
     for e in range(len(pflex)):  # the plugin's row is the record's (one reader in C, mjfx_read_element)
-        row = flex._elements[e : e + 1]
-        mine = pflex._elements[e : e + 1]
+        row = flex.element_table.elements[e : e + 1]
+        mine = pflex.element_table.elements[e : e + 1]
         for field in ("stops", "stop_lo", "stop_hi", "stop_k", "K"):
             assert row[field].tobytes() == mine[field].tobytes(), (e, field)
-    assert pflex._elements["stops"][:3].all()
+    assert pflex.element_table.elements["stops"][:3].all()
 
 
 # ------------------------------------------------------------------ planar elements
@@ -262,7 +262,7 @@ def test_planar_stops_are_the_same_bits_as_the_spatial_stops_on_rz_x_y():
     mjflex.add_flexure(spec, "planar", "world", "b0", pos=[0.1, 0, 0], K=K3, stops=planar)
     mjflex.add_flexure(spec, "spatial", "world", "b1", pos=[0.2, 0, 0], K=mjflex.mjcf.schema.embed_planar(K3),
                        stops=spatial)  # fmt: skip
-    rows = mjflex.Flexures(spec.compile())._elements
+    rows = mjflex.Flexures(spec.compile()).element_table.elements
     for field in ("stop_lo", "stop_hi", "stop_k"):
         assert np.array_equal(rows[field][0], rows[field][1]), field
 

@@ -39,7 +39,7 @@ KEYS = ("wrench", "qfrc", "energy", "power", "twist", "stops")
 
 def _engaged(flex, data):
     """``(n, 6)`` bool: the coordinates beyond a limit."""
-    el = flex._elements[: len(flex)]
+    el = flex.element_table.elements[: len(flex)]
     z = flex.stop_coordinates(data)
     return (z < el["stop_lo"]) | (z > el["stop_hi"])
 
@@ -79,7 +79,7 @@ def test_end_stops_match_the_c_engine_on_random_states(stopped, precision):
         bound = wb.bounds(stopped, data, flex, arith)["wrench"]
         seen |= (np.abs(free.wrenches(data) - ref["wrench"]) > bound).any(axis=1)
     engaged = np.array(engaged)
-    has = flex._elements["stops"][: len(flex)].astype(bool)
+    has = flex.element_table.elements["stops"][: len(flex)].astype(bool)
     assert has.sum() == len(STOPS) and (engaged[:, has].any(0) & ~engaged[:, has].all(0)).all(), engaged.T
     np.testing.assert_array_equal(seen, has & flex.enabled)
     print(f"largest error / bound ({precision}):", {k: f"{v:.2g}" for k, v in worst.items()})

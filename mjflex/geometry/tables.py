@@ -70,7 +70,7 @@ def correction_factors(kind, ratio_1, ratio_2, nu):
     return _evaluate(load_table(kind), *_splines(kind), ratio_1, ratio_2, nu)
 
 
-def _correction_factors_from(table, ratio_1, ratio_2, nu):
+def correction_factors_from(table, ratio_1, ratio_2, nu):
     """:func:`correction_factors` of a table dict that is not (yet) package data."""
     return _evaluate(table, *_splines_of(table), ratio_1, ratio_2, nu)
 

@@ -240,34 +240,34 @@ def model_name(model) -> str:
     return model.names[: model.names.index(b"\x00")].decode() or "unnamed"
 
 
-def divergences_of(flex, data) -> dict[str, Divergence]:
-    """:meth:`mjflex.Flexures.divergences` from the native watches (the plugin's and the registry's)."""
-    native, m, out = library.lib(), flex.model, {}
+def divergences_of(m, data, names, served, watches) -> dict[str, Divergence]:
+    """:meth:`mjflex.Flexures.divergences`, read from the native watches of ``data`` (the plugin's, and the registry's
+    in the buffer ``watches`` or None): ``names`` of the elements of model ``m``, its first ``served`` text records."""
+    native, out = library.lib(), {}
     h = m.opt.timestep
-    watches = flex._watches.get(m._address)
     watches = (
         ("plugin", native.mjfx_plugin_watch(m._address, data._address)),
-        ("record", None if watches is None else native.mjfx_registry_watch(watches.ctypes.data, flex._served,
+        ("record", None if watches is None else native.mjfx_registry_watch(watches.ctypes.data, served,
                                                                            data._address)),
     )  # fmt: skip
     for source, watch in watches:
         if not watch:
             continue
         # the plugin's tallies follow its table: the instances in order, as the plugin elements come after the records
-        index = dict(enumerate(range(flex._served, len(flex)))) if source == "plugin" else None
+        index = dict(enumerate(range(served, len(names)))) if source == "plugin" else None
         for i in range(native.mjfx_watch_size_of(watch)):
-            e = index.get(i) if index is not None else (i if i < flex._served else None)
+            e = index.get(i) if index is not None else (i if i < served else None)
             v = library.Verdict()
             count = native.mjfx_watch_first(watch, i, ctypes.byref(v))
             if e is None or count == 0:
                 continue
-            text = library.report_text(m, v, flex.names[e])
-            out[flex.names[e]] = Divergence(flex.names[e], count, v.step, step_index(v.step, h), text)
+            text = library.report_text(m, v, names[e])
+            out[names[e]] = Divergence(names[e], count, v.step, step_index(v.step, h), text)
         pending = library.Verdict()
         native.mjfx_watch_peek(watch, m._address, data._address, ctypes.byref(pending))
         e = pending.element if index is None else index.get(pending.element)
-        if pending.element >= 0 and e is not None and e < len(flex):
-            name, old = flex.names[e], out.get(flex.names[e])
+        if pending.element >= 0 and e is not None and e < len(names):
+            name, old = names[e], out.get(names[e])
             text = old.message if old else library.report_text(m, pending, name)
             first = (pending.step, step_index(pending.step, h)) if old is None else (old.time, old.step)
             out[name] = Divergence(name, (old.count if old else 0) + 1, *first, text, pending=True)

@@ -169,6 +169,17 @@ class Flexures:
         """How each element is written in the model: ``"record"`` (text record) or ``"plugin"`` (engine plugin)."""
         return self._tables.kinds
 
+    @property
+    def element_table(self) -> tables.Tables:
+        """The compiled model's element table, as the C library reads it (:class:`mjflex.runtime.tables.Tables`):
+        for other engines (:mod:`mjflex.warp`). Its ``elements`` rows hold the run-time switches; change them
+        through :meth:`set_enabled`, :meth:`set_viscous` and :meth:`set_method` only."""
+        return self._tables
+
+    def _registered(self) -> registry.Served:
+        """What the registry serves for this provider (its text-record elements)."""
+        return registry.Served(self.names, self._tables, self._watches_for)
+
     def _watches_for(self, model):
         """The native divergence watches of ``model``, one buffer (kept across installs: a run outlives them)."""
         watches = self._watches.get(model._address)
@@ -187,7 +198,7 @@ class Flexures:
 
     def _warn_contacts(self, model):
         """Warn once about elements whose bodies touch, or touch neighbours they were welded away from
-        (:func:`._tables.contacts_at_rest`)."""
+        (:func:`.tables.contacts_at_rest`)."""
         touching = tables.contacts_at_rest(model, self._tables)
         own = [t for t in touching if t.own]
         if own:
@@ -297,10 +308,10 @@ class Flexures:
             self._check_model(model, f"model {i} given to serve()")
             self._sleep_policy(model)
         copies = tuple(m for m in dict.fromkeys(models) if m is not self.model)
-        with registry._LOCK:
+        with registry.LOCK:
             if self._depth and self._served:
                 registry.unregister(self, [m for m in self._copies if m not in copies])
-                registry.register(self, [m for m in copies if m not in self._copies])
+                registry.register(self, [m for m in copies if m not in self._copies], self._registered())
             self._copies = copies
         return self
 
@@ -332,12 +343,12 @@ class Flexures:
         elements are left alone (their forces are the model's own); a model with only those
         installs nothing.
         """
-        with registry._LOCK:
+        with registry.LOCK:
             if self._depth == 0 and self._served:
                 for i, model in enumerate(self.models):
                     self._check_model(model, "flex.model" if i == 0 else f"served model {i - 1}")
                     self._warn_sleepy(model)
-                registry.register(self, self.models)
+                registry.register(self, self.models, self._registered())
             self._depth += 1
         return self
 
@@ -346,7 +357,7 @@ class Flexures:
 
         When no model is served any more, the passive callback that was there before is restored.
         """
-        with registry._LOCK:
+        with registry.LOCK:
             if self._depth == 0:
                 return
             self._depth -= 1
@@ -419,7 +430,7 @@ class Flexures:
         reports it. Elements not installed on ``data``'s model count nothing.
         """
         self._check_data(data)
-        return divergences_of(self, data)
+        return divergences_of(self.model, data, self.names, self._served, self._watches.get(self.model._address))
 
     def index(self, name) -> int:
         """Row of element ``name`` (or the row ``name`` itself, an int) in the per-element arrays."""

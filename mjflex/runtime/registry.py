@@ -35,6 +35,8 @@ import ctypes
 import functools
 import os
 import threading
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import mujoco
 
@@ -43,19 +45,31 @@ from ..native import library
 #: Most models (a provider's model and its served copies, over all providers) that one process
 #: can serve at once; ``install`` raises beyond it (the native registry's ``MJFX_CAPACITY``).
 CAPACITY = 1024
-_LOCK = threading.RLock()
-_STACKS = {}  # model address -> [(provider, model), ...], the innermost installation last
-_IN_SLOT = {}  # model address -> (slot, provider, model, buffers kept alive while published)
+#: Held while a provider installs, uninstalls or changes the models it serves (several Python threads may).
+LOCK = threading.RLock()
+_STACKS = {}  # model address -> [(provider, model, Served), ...], the innermost installation last
+_IN_SLOT = {}  # model address -> (slot, provider, model, buffers kept alive while published, Served)
 _FREE = list(range(CAPACITY))  # free slots, the lowest first
 _STATE = {"callback": None, "previous": None, "native_pointer": None}
 _PROTO = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+
+
+@dataclass(frozen=True)
+class Served:
+    """What a provider gives the registry to serve its text-record elements: their names (the first
+    ``tables.served`` of ``names``), its element table, and ``watches_for(model)``, the buffer of the
+    per-mjData divergence watches of a model (the provider keeps it across installs: a run outlives them)."""
+
+    names: tuple
+    tables: object  # mjflex.runtime.tables.Tables
+    watches_for: Callable
 
 
 def _checked_lib():
     """The native library, its registry's capacity checked against :data:`CAPACITY`."""
     native = library.lib()
     if native.mjfx_registry_capacity() != CAPACITY:
-        raise RuntimeError("mjflex: the native registry's capacity differs from _callback.CAPACITY; rebuild mjflex")
+        raise RuntimeError("mjflex: the native registry's capacity differs from registry.CAPACITY; rebuild mjflex")
     return native
 
 
@@ -99,13 +113,12 @@ def _python_dispatcher(m, d):
     served = _IN_SLOT.get(m._address)
     if served is None:
         return
-    provider, native = served[1], library.lib()
+    names, native = served[4].names, library.lib()
     verdicts = (library.Verdict * 2)()
     native.mjfx_dispatch(m._address, d._address, 0, ctypes.byref(verdicts))
     for v in verdicts:
         if v.element >= 0:
-            name = provider.names[v.element]
-            report_in_python(m, library.report_text(m, v, name), bool(v.first))
+            report_in_python(m, library.report_text(m, v, names[v.element]), bool(v.first))
 
 
 # --------------------------------------------------------------------------- installation
@@ -146,7 +159,7 @@ def _restore_dispatcher():
     library.lib().mjfx_set_previous(None)
 
 
-def _publish(model, provider):
+def _publish(model, provider, served):
     """Give ``model`` a slot served by ``provider`` (the old slot, if any, is cleared after)."""
     if not _FREE:
         raise RuntimeError(
@@ -156,9 +169,9 @@ def _publish(model, provider):
             "mjflex.flexure plugin instances, whose forces need no registry)"
         )
     slot = _FREE.pop(0)
-    t, n = provider._tables, provider._tables.served
-    names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in provider.names[:n]))
-    watches = provider._watches_for(model)
+    t, n = served.tables, served.tables.served
+    names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in served.names[:n]))
+    watches = served.watches_for(model)
     if library.lib().mjfx_registry_publish(
         slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, len(t.chain), t.exps.ctypes.data,
         t.coefs.ctypes.data, len(t.coefs), ctypes.cast(names, ctypes.c_void_p), watches.ctypes.data,
@@ -167,7 +180,7 @@ def _publish(model, provider):
         raise RuntimeError("mjflex: the element table does not fit the model (an index out of range); rebuild it")
     keep = (t, names, watches)
     old = _IN_SLOT.get(model._address)
-    _IN_SLOT[model._address] = (slot, provider, model, keep)
+    _IN_SLOT[model._address] = (slot, provider, model, keep, served)
     if old is not None:
         _clear(old[0])
 
@@ -178,16 +191,16 @@ def _clear(slot):
     _FREE.sort()
 
 
-def register(provider, models) -> None:
-    """Serve ``models`` with ``provider`` (innermost installation wins) and install the dispatcher."""
-    with _LOCK:
+def register(provider, models, served: Served) -> None:
+    """Serve ``models`` with ``provider``'s elements ``served`` (the innermost installation wins)."""
+    with LOCK:
         done = []
         try:
             for model in models:
                 stack = _STACKS.setdefault(model._address, [])
-                stack.append((provider, model))
+                stack.append((provider, model, served))
                 done.append(model)
-                _publish(model, provider)
+                _publish(model, provider, served)
         except BaseException:
             _remove(provider, done)
             raise
@@ -204,7 +217,7 @@ def _remove(provider, models):
         served = _IN_SLOT.get(model._address)
         if served is not None and served[1] is provider:
             if stack:
-                _publish(stack[-1][1], stack[-1][0])
+                _publish(stack[-1][1], stack[-1][0], stack[-1][2])
             else:
                 del _IN_SLOT[model._address]
                 _clear(served[0])
@@ -217,7 +230,7 @@ def unregister(provider, models) -> None:
 
     When no model is left, the passive callback that was there before is restored.
     """
-    with _LOCK:
+    with LOCK:
         _remove(provider, models)
         if not _IN_SLOT and _STATE["callback"] is not None:
             _restore_dispatcher()
@@ -231,7 +244,7 @@ def serving(model):
 
 def models_served() -> int:
     """How many models the registry serves now (at most :data:`CAPACITY` per process)."""
-    with _LOCK:
+    with LOCK:
         return len(_IN_SLOT)
 
 
@@ -246,8 +259,10 @@ def dispatcher_installed() -> bool:
 
 def uninstall_all() -> None:
     """Uninstall every provider of the process (for tests and interactive sessions)."""
-    with _LOCK:
-        providers = {id(p): p for stack in _STACKS.values() for p, _ in stack}
+    with LOCK:
+        providers = {id(p): p for stack in _STACKS.values() for p, _, _ in stack}
         for provider in providers.values():
-            while provider._depth:
+            for _ in range(100_000):  # one uninstall per install: the last one unregisters it
+                if not any(p is provider for stack in _STACKS.values() for p, _, _ in stack):
+                    break
                 provider.uninstall()

@@ -176,7 +176,7 @@ def _equal(a, b):
 
 def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
     """Lay out ``flex``'s elements (of ``model``) for the kernels; refuses features the kernels lack."""
-    t = flex._tables
+    t = flex.element_table
     n = len(flex)
     for name, record in zip(t.names, t.records, strict=True):
         features = unsupported_features(record)
