@@ -67,9 +67,11 @@ def library_path():
             return path
     if not found:
         raise NativeLibraryError(
-            "mjflex's native library (the engine plugin mjflex.flexure and the fast per-step path) is not built in "
-            f"{_folder()}: the install found no C compiler, or compiling failed (pip install -v shows why). Install "
-            f"gcc, then {REBUILD.split(': ', 1)[1]}"
+            "mjflex's native library (the engine plugin mjflex.flexure, which computes every flexure force) is not "
+            f"built in {_folder()}, and mjflex does not work without it: this install is broken. Install mjflex's "
+            "binary wheel, which needs no compiler (pip install --force-reinstall mjflex-<version>-py3-none-"
+            "manylinux_*_x86_64.whl), or build from source: Install gcc, then "
+            f"{REBUILD.split(': ', 1)[1]}"
         )
     built = ", ".join(str(v) for v, _ in found)
     raise NativeLibraryError(
@@ -127,8 +129,9 @@ def register():
 
     A library built for another MuJoCo raises :class:`NativeLibraryError`, which ``import mujoco``
     turns into a ``RuntimeWarning`` naming the cause and the fix (mujoco itself still imports).
-    Without any library (no C compiler at install) it does nothing here: mjflex says so once when
-    it is used, and a plugin model fails to compile with MuJoCo's "unrecognized plugin".
+    Without any library (a broken install) it does nothing here: mjflex raises
+    :class:`NativeLibraryError` when it is used, and a plugin model fails to compile with MuJoCo's
+    "unrecognized plugin".
     """
     if built():
         library()

@@ -6,28 +6,39 @@ displacement, written exactly as a finite twist or as a unit dual quaternion (E.
 *Some applications of screw theory to lumped-parameter modeling of visco-elastically coupled
 rigid bodies*).
 
-Layers
-------
+Layers (the path of an element; docs/reference/layout.md)
+-----------------------------------------------------------
 ``mjflex.core``
-    Screw theory in numpy (numba-compiled kernels); never imports mujoco.
+    Screw theory in numpy (numba-compiled kernels); never imports mujoco. The independent
+    reference the C library is tested against (and the batched API for users).
 ``mjflex.geometry``
     Stiffness of notch hinges and leaf springs from geometry and material; never imports
     mujoco.
-``mjflex.mj``
-    The MuJoCo layer: elements stored in MJCF (:mod:`mjflex.mj.schema`: text records or
-    instances of the engine plugin ``mjflex.flexure``), ``add_flexure`` on an ``MjSpec``,
-    :class:`Flexures` (the passive-force provider and every per-element analysis) and
-    linearization.
 ``mjflex.native``
-    The per-step engine in C: the element math, the engine plugin ``mjflex.flexure`` (loaded by
-    ``import mujoco`` itself, through the ``mujoco.plugins`` entry point ``mjflex_plugin``) and
-    the ``mjcb_passive`` dispatcher; built by ``pip install``. ``mjflex.core`` is its independent
-    reference (and the batched API for users).
+    The C library: the element math, the engine plugin ``mjflex.flexure`` (loaded by ``import
+    mujoco`` itself, through the ``mujoco.plugins`` entry point ``mjflex_plugin``), the reader
+    of both element forms and the ``mjcb_passive`` dispatcher; built by ``pip install``; its
+    ctypes bindings (:mod:`mjflex.native.library`). Every force comes from it.
+``mjflex.mjcf``
+    An element in an MJCF file or an ``MjSpec``: the text record and the plugin configuration
+    (:mod:`mjflex.mjcf.schema`, :mod:`mjflex.mjcf.config`), ``add_flexure``, editing and
+    converting elements, joints replaced by an element.
+``mjflex.runtime``
+    The compiled model: its element table, :class:`Flexures` (the passive-force provider and
+    every per-element query), the ``mjcb_passive`` registry, divergence reports, file conversion.
+``mjflex.analysis``
+    Linearization at an operating pose: statics, modes, damping from ratios, step advice.
+``mjflex.variants``
+    Other models of the mechanism: compliant parts, reduced models, MuJoCo-native alternatives.
 ``mjflex.app``
     Applications on top: the ARCADE model, simulation runs, rendering, the speed-accuracy study
     (``mjflex.study``, :mod:`mjflex.app.study`), parameter sweeps (``mjflex.sweep`` and
     ``mjflex.Recipe``, :mod:`mjflex.app.sweep`) and the command line (``python -m mjflex``).
     The study and the sweeps are imported on first use, so ``import mjflex`` stays light.
+
+``import mjflex`` works without the C library; the first use of the runtime raises
+``mjflex_plugin.NativeLibraryError``, saying how to install it. ``mjflex.mj``, the old flat
+MuJoCo layer, is a deprecated alias (:mod:`mjflex.mj`).
 
 Conventions (used everywhere in the package)
 --------------------------------------------
@@ -48,18 +59,23 @@ Conventions (used everywhere in the package)
 Importing mjflex has no side effects on the environment: ``MUJOCO_GL`` is chosen only when
 mjflex is asked to render and the user has not chosen (see :mod:`mjflex.app.render`). It puts a
 log handler in front of MuJoCo's, which passes every message on unchanged and raises
-:class:`mjflex.DivergenceWarning` beside mjflex's divergence reports (:mod:`mjflex.mj.divergence`;
+:class:`mjflex.DivergenceWarning` beside mjflex's divergence reports (:mod:`mjflex.runtime.divergence`;
 ``mjflex.divergence_warnings(False)`` takes it out).
 """
 
-from . import core, geometry, mj
+from . import analysis, core, geometry, mjcf, runtime, variants
+from .analysis import *  # noqa: F403  (linearization at an operating pose, listed in analysis.__all__)
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
 from .core import units  # noqa: F401  (mjflex.units: conversions to SI)
-from .mj import *  # noqa: F403  (the MuJoCo layer, listed in mj.__all__)
+from .mjcf import *  # noqa: F403  (elements in MJCF and MjSpec, listed in mjcf.__all__)
+from .runtime import *  # noqa: F403  (the compiled model's elements and forces, listed in runtime.__all__)
+from .variants import *  # noqa: F403  (other models of the mechanism, listed in variants.__all__)
 
 __version__ = "0.1.0"
 
-__all__ = ["geometry", *core.__all__, *mj.__all__]  # mjflex.units is a module of constants (reference: modules)
+#: The names of the MuJoCo layers, in one sorted list (as ``mjflex.mj.__all__`` gave them before the layers split).
+_LAYERS = sorted([*mjcf.__all__, *runtime.__all__, *analysis.__all__, *variants.__all__])
+__all__ = ["geometry", *core.__all__, *_LAYERS]  # mjflex.units is a module of constants (reference: modules)
 
 _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
     "study": ("study", "study"),
@@ -69,11 +85,13 @@ _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.
 
 
 def __getattr__(name):
-    if name in _LAZY:
-        import importlib
+    import importlib
 
+    if name in _LAZY:
         module, attribute = _LAZY[name]
         return getattr(importlib.import_module(f".app.{module}", __name__), attribute)
+    if name == "mj":  # the old flat MuJoCo layer: a deprecated alias that warns (mjflex.mj's docstring)
+        return importlib.import_module(".mj", __name__)
     raise AttributeError(f"module 'mjflex' has no attribute {name!r}")
 
 

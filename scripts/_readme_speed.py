@@ -1,4 +1,4 @@
-"""Generated blocks of the speed-accuracy measurements: the study, reduce, native alternatives, long runs, sweeps.
+"""Generated blocks of the speed-accuracy measurements: study, reduce, MuJoCo-native alternatives, long runs, sweeps.
 
 Renderers of scripts/results_blocks.py: each takes the recorded JSON (by name) and returns Markdown text.
 """
@@ -93,12 +93,13 @@ def block_study_arcade(results):
     )
 
 
-# ------------------------------------------------------------------- native alternatives, reduce
+# ------------------------------------------------------------ MuJoCo-native alternatives, reduce
 
 
-#: How scripts/_variants.py's ``stable_step`` finds the "stable RK4 step" of the native and reduce tables, and the
-#: runs it judges (``costs_at_stable_steps(..., duration)`` in scripts/compare_native.py and _arcade_native.py; a
-#: test reads them there): a measured limit of a short scene, a lower bound within 2**(1/16) - 1 = 4.4 %.
+#: How scripts/_variants.py's ``stable_step`` finds the "stable RK4 step" of the alternatives' and reduce's tables, and
+#: the runs it judges (``costs_at_stable_steps(..., duration)`` in scripts/compare_alternatives.py and
+#: _arcade_alternatives.py; a test reads them there): a measured limit of a short scene, a lower bound within
+#: 2**(1/16) - 1 = 4.4 %.
 STABLE_STEP_SEARCH = "doubling the step, then 4 bisections: a lower bound within 4.4 %"
 STABLE_STEP_RUNS = {"bushing": 0.01, "cantilever": 0.002, "arcade": 0.005}  # [s] of each scene
 
@@ -182,7 +183,7 @@ def _native_arcade(s):
 
 
 def block_native(results):
-    r = results["compare_native"]
+    r = results["compare_alternatives"]
     rows = _native_bushing(r["bushing"]) + _native_cantilever(r["cantilever"]) + _native_arcade(r["arcade"])
     head = ["scene", "model", "cost per step vs mjflex; stable RK4 step; speed at it", "accuracy"]
     capped = all(c.get("stable_step_is_search_limit") for c in r["bushing"]["costs"].values())
@@ -197,7 +198,7 @@ def block_native(results):
 
 
 def block_native_verdict(results):
-    r = results["compare_native"]
+    r = results["compare_alternatives"]
     b, c, a = r["bushing"], r["cantilever"], r["arcade"]
     ar, ac, cc = a["results"], a["costs"], c["costs"]
     full = next(iter(ar))
@@ -268,7 +269,7 @@ def block_reduce_arcade(results):
     )
 
 
-def row_compare_native(r):
+def row_compare_alternatives(r):
     c, a = r["cantilever"]["costs"], r["arcade"]["costs"]
     reduced = next(k for k in a if k.startswith("reduced(50 Hz)"))
     weld = a["weld(compliant)"]

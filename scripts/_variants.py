@@ -1,4 +1,4 @@
-"""Helpers of compare_native.py and reduce_arcade.py: run a model (variant or not), find its stable step, time it.
+"""Helpers of compare_alternatives.py and reduce_arcade.py: run a model (variant or not), find its stable step, time it.
 
 A *case* is a compiled model, the Flexures of its elements (or None) and a function giving
 its initial ``(qpos, qvel)``; cases are simulated with the same integrator and compared on
@@ -190,3 +190,12 @@ def add_speedups(rows, baseline):
             for mine, theirs in (("q1", "q3"), ("q3", "q1"), ("min", "max"), ("max", "min")):
                 r[f"speedup_{mine}"] = steps / r[f"ratio_{theirs}"]
     return rows
+
+
+def print_costs(rows, h):
+    """The cost table of the cases timed by costs_at_stable_steps (rows: name -> its costs), at the step h [s]."""
+    print(f"\n{'model':<24} {'step [us]':>10} {'x mjflex':>9} {'stable h':>10} {'wall/sim s':>11} {'speed-up':>9}")
+    print(f"{'':<24} {'at h=' + format(h, 'g'):>10} {'(median)':>9} {'[s]':>10} {'at stable':>11} {'at stable':>9}")
+    for name, r in rows.items():
+        print(f"{name:<24} {r['median_s'] * 1e6:>10.2f} {r['ratio_median']:>9.2f} {r['stable_step_s']:>10.2e} "
+              f"{r['wall_per_sim_s_at_stable']:>11.3g} {r['speedup_at_stable']:>9.2f}")  # fmt: skip

@@ -52,7 +52,7 @@ from _bench import (
 )
 
 import mjflex
-from mjflex.mj.convert import copy_spec, plugins_to_records, records_to_plugins
+from mjflex.mjcf.convert import copy_spec, plugins_to_records, records_to_plugins
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -166,11 +166,9 @@ PLUGIN = ("plugin, twist method", "plugin, dual-quaternion method")
 
 def set_lanes(lanes):
     """Force the native library's lane count (2 or 4; 'auto': the widest the CPU has); returns the lanes used."""
-    from mjflex.mj import _native
+    from mjflex.native import library as _native
 
     native = _native.lib()
-    if native is None:
-        raise SystemExit("error: the native library is not available (mjflex runs its Python fallback)")
     if native.mjfx_set_lanes(0 if lanes == "auto" else int(lanes)) < 0:
         raise SystemExit(f"error: --lanes {lanes}: this CPU or build has no {lanes}-lane evaluation (try --lanes 2)")
     return _native.lanes()

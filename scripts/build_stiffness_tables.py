@@ -122,7 +122,7 @@ def interpolation_errors(kind, table, jobs):
         exact = list(pool.map(_task, pts, chunksize=1))
     rows = []
     for p, f_fe in zip(pts, exact, strict=True):
-        f_tab = tables._correction_factors_from(table, p[1], p[2], p[3])
+        f_tab = tables.correction_factors_from(table, p[1], p[2], p[3])
         rows.append({"point": p[1:], "error": (f_tab / f_fe - 1.0).tolist()})
     return rows
 

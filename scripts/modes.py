@@ -19,7 +19,7 @@ import mujoco
 from _bench import write_json
 
 import mjflex
-from mjflex.app.analysis import guide_report
+from mjflex.app.modes import guide_report
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

@@ -18,7 +18,7 @@ tilt of the cylinder, axial trajectory error as a fraction of the full model's s
 import argparse
 import collections
 
-from _arcade_native import ARCADE, DURATION, arcade_cases, costs_of, modes_of, run_guide
+from _arcade_alternatives import ARCADE, DURATION, arcade_cases, costs_of, modes_of, run_guide
 from _bench import add_runs_option, measured_in_processes, write_json
 from _variants import add_speedups
 

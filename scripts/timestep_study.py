@@ -19,7 +19,7 @@ import numpy as np
 from _bench import write_json
 
 import mjflex
-from mjflex.mj.linearize import normal_modes
+from mjflex.analysis.linearize import normal_modes
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 STEPS = (4e-5, 3e-5, 2e-5, 1e-5, 5e-6)

@@ -218,7 +218,7 @@ def main():
     import warp as wp
 
     import mjflex.warp as mw
-    from mjflex.mj.linearize import normal_modes
+    from mjflex.analysis.linearize import normal_modes
 
     model = mujoco.MjModel.from_xml_path(MODEL)
     freq, _ = normal_modes(model, mjflex.Flexures(model))

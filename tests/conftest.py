@@ -15,7 +15,7 @@ def clean_callback():
     """The test starts and ends without a passive callback and with no mjflex provider installed."""
     import mujoco
 
-    from mjflex.mj import _callback
+    from mjflex.runtime import registry as _callback
 
     mujoco.set_mjcb_passive(None)
     yield

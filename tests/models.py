@@ -161,7 +161,7 @@ def hinge_arm_variant(model):
     A real pseudo-rigid-body model: a real MuJoCo model whose state map takes the arm's
     rotation angle and rate about z from the full model's free joint.
     """
-    from mjflex.mj.variant import Variant
+    from mjflex.variants.variant import Variant
 
     a = ARM
     spec = _start_spec("pivot_arm_hinge", timestep=model.opt.timestep)

@@ -1,4 +1,4 @@
-"""Plugin-element and text-record versions of the test models (mjflex.mj.convert on copies of their specs)."""
+"""Plugin-element and text-record versions of the test models (mjflex.mjcf.convert on copies of their specs)."""
 
 import os
 
@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 
 import mjflex
-from mjflex.mj.convert import copy_spec, plugins_to_records, records_to_plugins
+from mjflex.mjcf.convert import copy_spec, plugins_to_records, records_to_plugins
 from tests.models import B_DEMO, K_DEMO
 
 MODELS = os.path.join(os.path.dirname(__file__), "..", "models")

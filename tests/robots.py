@@ -165,8 +165,8 @@ def decay_ratio(y):
 def free_vibration(model, flex, element, dofs, mode, keyframe=None, periods=8.0, omega=None, amplitude=1e-3):
     """Element displacement along a mode in a free vibration started with velocity ``amplitude * mode``
     on ``dofs`` (from ``keyframe``, at rest otherwise): ``y(t) = x(t) . psi``, ``psi = J mode``."""
-    from mjflex.mj.damping import displacement_jacobian
-    from mjflex.mj.linearize import state
+    from mjflex.analysis.damping import displacement_jacobian
+    from mjflex.analysis.linearize import state
 
     base = state(model, keyframe)
     psi = displacement_jacobian(model, flex, element, base)[:, dofs] @ mode

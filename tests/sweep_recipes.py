@@ -3,8 +3,8 @@
 import numpy as np
 
 import mjflex
-from mjflex.app.sweep.recipe import edit_flexure, flexure_matrices
-from mjflex.mj import convert
+from mjflex.mjcf import elements
+from mjflex.mjcf.elements import edit_flexure, flexure_matrices
 
 
 def scale_hinge(spec, k_scale=1.0, b_scale=1.0):
@@ -30,10 +30,10 @@ def scaled_copy(spec, k_scale=1.0):
 def stop_hinge(spec, limit=0.0, stiffness=0.0):
     """Give ``models/two_body.xml``'s element ``hinge`` end stops at +-``limit`` rad on its rotation about z (0: no
     stops), of ``stiffness`` N m/rad (0: derived from K)."""
-    record = convert.element_record(spec, "hinge")
+    record = elements.element_record(spec, "hinge")
     none = [None] * 6
     record.stops = None
     if limit:
         record.stops = mjflex.Stops(lower=none[:2] + [-limit] + none[3:], upper=none[:2] + [limit] + none[3:],
                                     stiffness=stiffness or None)  # fmt: skip
-    convert.write_record(spec, "hinge", record)
+    elements.write_record(spec, "hinge", record)

@@ -9,8 +9,8 @@ import pytest
 
 import mjflex
 from mjflex.app import cli
-from mjflex.app.analysis import guide_report
 from mjflex.app.arcade import build_arcade_spec
+from mjflex.app.modes import guide_report
 from mjflex.app.render import read_video
 from mjflex.app.simulate import configure, simulate
 from tests.model_text import assert_xml_equivalent

@@ -164,7 +164,7 @@ CASES = [
     (lambda: flexures().set_enabled(1, False), IndexError, r"flexure index 1 is out of range: there are 1 \(0"),
     (lambda: flexures().set_enabled(0.0, False), TypeError, r"an element is named by its name .* or its row \(int\)"),
     (lambda: flexures().set_method(None, "twist"), TypeError, r"an element is named by its name"),
-    # --- element records: the rules of mjflex.mj.schema, each naming the element
+    # --- element records: the rules of mjflex.mjcf.schema, each naming the element
     (record(K=[True, 1, 1, 1, 1, 1]), mjflex.ModelError, r"flexure 'e': .*K\[0\] is the boolean True"),
     (record(K=["0.3", 1, 1, 1, 1, 1]), mjflex.ModelError, r"flexure 'e': .*K\[0\] is the text '0\.3'"),
     (record(K=[None, 1, 1, 1, 1, 1]), mjflex.ModelError, r"flexure 'e': .*K\[0\] is None"),

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mjflex
-from mjflex.mj import schema
+from mjflex.mjcf import schema
 
 from .reference_element import reference_wrench, rotation_matrix
 

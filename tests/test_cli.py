@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import mjflex
-from mjflex.app import cli
+from mjflex.app import cli, runs
 from mjflex.app.render import read_video
 from mjflex.app.simulate import DivergenceError, Progress, simulate
 
@@ -30,7 +30,7 @@ def test_diverged_run_says_so_and_exits_non_zero(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         cli.main(["simulate", TWO_BODY, "--timestep", "1e-3", "--duration", "0.05", "--json", str(summary)])
     out, err = capsys.readouterr()
-    assert exit_.value.code == cli.EXIT_DIVERGED
+    assert exit_.value.code == runs.EXIT_DIVERGED
     assert "diverged in the step from t = " in err and "flexure 'hinge'" in err and "No summary" in err
     assert "energy" not in out and not summary.exists()
 
@@ -43,7 +43,7 @@ def test_divergence_found_by_mujoco_names_the_quantity_and_restores_auto_reset()
     data = mujoco.MjData(model)
     data.qvel[0] = 2e10  # beyond MuJoCo's mjMAXVAL (1e10)
     flags = model.opt.disableflags
-    # the one step convention of mjflex.mj.divergence: the step that starts at t, its index counted from 0
+    # the one step convention of mjflex.runtime.divergence: the step that starts at t, its index counted from 0
     with pytest.raises(
         DivergenceError, match=r"step index 0, counting from 0\) of its 10 steps: .*huge qvel\[0\]"
     ) as error:

@@ -14,8 +14,8 @@ import pytest
 import scipy.linalg
 
 import mjflex
-from mjflex.mj.damping import displacement_jacobian, element_dofs
-from mjflex.mj.linearize import mass_matrix, state, stiffness_matrix
+from mjflex.analysis.damping import displacement_jacobian, element_dofs
+from mjflex.analysis.linearize import mass_matrix, state, stiffness_matrix
 from tests.robots import (
     ARM_JOINTS,
     K_HAND,

@@ -14,8 +14,8 @@ import pytest
 import scipy.linalg
 
 import mjflex
-from mjflex.mj.damping import displacement_jacobian, element_dofs
-from mjflex.mj.linearize import mass_matrix, stiffness_matrix
+from mjflex.analysis.damping import displacement_jacobian, element_dofs
+from mjflex.analysis.linearize import mass_matrix, stiffness_matrix
 from tests.robots import body_id, decay_ratio, free_vibration, pusher_path, solve_statics, subtree_wrench
 
 BODY, PARENT = "r_forearm_link", "r_forearm_roll_link"

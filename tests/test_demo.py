@@ -16,7 +16,7 @@ import pytest
 from matplotlib.collections import QuadMesh
 
 import mjflex
-from mjflex.app import cli, demo, figures, render
+from mjflex.app import arcade, cli, demo, figures, render
 from mjflex.app.render import FAST, FULL, GLInfo, choose_look, colour_scale, read_video, strain_colors
 from mjflex.app.simulate import element_strain_per_radian, simulate
 from mjflex.app.timing import Stopwatch, process_start
@@ -178,7 +178,7 @@ def _overlaps(a, b):
 def test_panels_have_readable_titles_and_a_colour_bar_with_units(tmp_path):
     """Six real frames: each titled with its time, no title over another panel's image, and a colour bar whose
     range is the strain's, in %, drawn with the frames' colours."""
-    model, _ = cli.arcade_model()
+    model, _ = arcade.arcade_model()
     flex, data = mjflex.Flexures(model), mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "paper_run"))
     run, _, _ = simulate(model, data, flex, 0.0026, sample_dt=1e-4, progress=False)

@@ -365,8 +365,8 @@ PROSE_CONSTANTS = {
         "1e-12 rad": "the smallest angle the tests evaluate",
         "90°": "where a sin(θ/2) law's moment peaks (mathematics)",
     },
-    "docs/background/native_alternatives.md": {
-        "1 rad": "the bushing scene's launch (scripts/compare_native.py's parameter)",
+    "docs/background/mujoco_alternatives.md": {
+        "1 rad": "the bushing scene's launch (scripts/compare_alternatives.py's parameter)",
         "1.2 kg": "the bushing scene's block",
         "10 cm": "the cantilever scene's length",
         "2 mm": "its thickness",

@@ -13,8 +13,8 @@ import scipy.linalg
 from scipy.integrate import quad
 
 import mjflex
+from mjflex.analysis.linearize import normal_modes
 from mjflex.app.study._metrics import linearized_frequencies
-from mjflex.mj.linearize import normal_modes
 from tests.models import _block, _start_spec
 
 METHODS = ("twist", "dualquat")

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 import mjflex
-from mjflex.mj import _callback
 from tests.models import B_DEMO, K_DEMO, rollout_and_serial, two_body_spec
 
 PLAIN_XML = '<mujoco><worldbody><body><freejoint/><geom size=".1"/></body></worldbody></mujoco>'
@@ -28,7 +27,6 @@ def _run(model, steps, flex=None, seed=0):
 
 
 def test_native_dispatcher_is_used():
-    assert _callback.native_available()
     flex = mjflex.Flexures(two_body_spec().compile())
     with flex:
         assert isinstance(mujoco.get_mjcb_passive(), ctypes._CFuncPtr)
@@ -178,7 +176,7 @@ def test_nan_state_raises_with_the_element_name():
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     data = mujoco.MjData(model)
     data.qvel[7] = np.nan
-    # the convention of every mjflex message (mjflex.mj.divergence): the step that starts at t, indexed from 0
+    # the convention of every mjflex message (mjflex.runtime.divergence): the step that starts at t, indexed from 0
     message = r"mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s \(step index 0, counting"
     with mjflex.Flexures(model), pytest.raises(mujoco.FatalError, match=message):
         mujoco.mj_forward(model, data)
@@ -316,34 +314,3 @@ def test_diverging_rollout_threads_warn_instead_of_ending_the_process(chained):
         "mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 0 s (step index 0, counting from 0)"
         in result.stdout + result.stderr
     )
-
-
-def test_without_the_native_library_the_python_fallback_gives_the_same_forces(monkeypatch):
-    """No C compiler at install: the Python dispatcher over the core's batch functions takes over, warns once,
-    and moves the model as the native dispatcher does (to round-off: mj_applyFT and the numba core instead of
-    the C loop, hence a tolerance rather than bit identity; achieved ~1e-15)."""
-    from mjflex.mj import _native
-
-    model = two_body_spec(B=B_DEMO).compile()
-    flex = mjflex.Flexures(model)
-    with flex:
-        native = _run(model, 200)
-    _, data, _ = _displaced_moving()
-    expected = (flex.wrenches(data), flex.potential_energies(data), flex.dissipation_powers(data),
-                flex.displacements(data), flex.generalized_forces(data))  # fmt: skip
-
-    monkeypatch.setitem(_native.FORCE_FALLBACK, "reason", "forced by the test")
-    monkeypatch.setitem(_native._STATE, "warned", None)
-    with pytest.warns(RuntimeWarning, match=r"using the Python fallback .*: forced by the test"):
-        flex.install()
-    try:
-        assert mujoco.get_mjcb_passive() is _callback._python_dispatcher and flex.installed
-        fallback = _run(model, 200)
-    finally:
-        flex.uninstall()
-    assert mujoco.get_mjcb_passive() is None
-    assert np.abs(fallback - native).max() <= 1e-10 * np.abs(native).max()
-    got = (flex.wrenches(data), flex.potential_energies(data), flex.dissipation_powers(data),
-           flex.displacements(data), flex.generalized_forces(data))  # fmt: skip
-    for g, e in zip(got, expected, strict=True):
-        assert np.allclose(g, e, rtol=1e-12, atol=1e-14 * np.abs(e).max())

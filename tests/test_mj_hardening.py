@@ -243,7 +243,7 @@ def test_divergence_with_auto_reset_names_element_time_and_step(capfd):
             mujoco.mj_step(model, data)  # no exception: MuJoCo's auto-reset is on
     out = c_output(capfd)
     # the step that starts at 1.5 s, where MuJoCo's own check fires ("Time = 1.5000"); the convention of every
-    # mjflex message (mjflex.mj.divergence), no longer "at time 1.5 s (step 3)"
+    # mjflex message (mjflex.runtime.divergence), no longer "at time 1.5 s (step 3)"
     assert (
         "WARNING: mjflex: flexure 'link' of model 'two_body' diverged in the step from t = 1.5 s (step index 3, "
         "counting from 0): MuJoCo found a bad qacc" in out

@@ -12,7 +12,7 @@ import pytest
 from mujoco import batch as mjbatch
 
 import mjflex
-from mjflex.mj import _callback
+from mjflex.runtime import registry as _callback
 from tests.helpers import c_output
 from tests.models import B_DEMO, K_DEMO, two_body_spec
 

@@ -213,7 +213,7 @@ def test_malformed_terms_name_the_element_and_the_fix(data, match):
 
 
 def test_linear_variants_say_that_they_drop_the_terms():
-    """mjflex.reduce keeps an element that stays whole with its terms; native variants report them as lost."""
+    """mjflex.reduce keeps an element that stays whole with its terms; MuJoCo-native variants report them as lost."""
     terms = demo_terms("twist")
     weld = mjflex.weld_variant(two_body_spec(terms=terms))
     assert "link: its polynomial terms (order 4, 182 terms) are not represented" in weld.report

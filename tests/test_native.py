@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import mjflex
+from mjflex.analysis.linearize import normal_modes, stiffness_matrix
 from mjflex.app.scenes import BUSHING_K, Beam, bushing_spec, cantilever_spec, parallelogram_spec
-from mjflex.mj.linearize import normal_modes, stiffness_matrix
-from mjflex.mj.native import weld_targets
+from mjflex.variants.alternatives import weld_targets
 from tests.models import hinge_chain_spec
 
 # free-joint qvel is [v (world); omega (body)]; the element twist is [omega; v]

@@ -120,7 +120,7 @@ def test_every_ctypes_helper_refuses_arguments_out_of_range():
 import ctypes
 import numpy as np
 import mujoco
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.native_cases import two_body_xml
 lib = _native.lib()
 big = np.zeros(10**6)
@@ -154,13 +154,17 @@ assert lib.mjfx_twist_batch(-1, None, None, None, None, None) == -1
 
 m = mujoco.MjModel.from_xml_string(two_body_xml(1))
 d = mujoco.MjData(m)
-R0, p0, dist, angle = np.zeros(9), np.zeros(3), ctypes.c_double(), ctypes.c_double()
-for sa, sb in ((-1, 0), (0, m.nsite), (10**6, 0)):
-    assert lib.mjfx_site_rest_offset(m._address, d._address, sa, sb, R0.ctypes.data, p0.ctypes.data, dist,
-                                     angle) == -1
-row = np.zeros(1, _native.ELEMENT_DTYPE)
-row["site_a"], row["site_b"] = 0, m.nsite
-assert lib.mjfx_prepare_row(m._address, row.ctypes.data) == -1
+names, values = (ctypes.c_char_p * 1)(b"e"), (ctypes.c_char_p * 17)(*[b""] * 17)
+for n, nm, vs in ((-1, names, values), (1, None, values), (1, names, None), (1, names, (ctypes.c_char_p * 17)())):
+    assert not lib.mjfx_read_table(m._address, d._address, n, nm, vs, err, 200)
+    assert b"invalid arguments" in err.value
+assert not lib.mjfx_read_table(None, d._address, 0, None, None, err, 200)
+assert lib.mjfx_check_config(b"e", None, err, 200) == -1
+assert lib.mjfx_check_config(b"e", (ctypes.c_char_p * 17)(), err, 200) == -1
+lib.mjfx_table_copy(None, None, None, None, None, None)  # no table: nothing written
+sizes = (ctypes.c_int * 3)(7, 7, 7)
+lib.mjfx_table_sizes(None, sizes)
+assert list(sizes) == [0, 0, 0]
 
 import mjflex
 flex = mjflex.Flexures(m)
@@ -191,7 +195,7 @@ assert np.isfinite(flex.wrenches(d)).all()
 
 
 def test_more_datas_than_watch_records_in_threads():
-    """Item 7: with all 64 watch records of a text-record model taken, threads reclaim records; each record is used
+    """Item 7: with all 64 watch entries of a text-record model taken, threads reclaim entries; each entry is used
     by one thread at a time (tests/test_native_sanitizers.py runs this under ThreadSanitizer). Here: the forces are
     exact, whatever the contention."""
     run_python(

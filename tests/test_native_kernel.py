@@ -22,7 +22,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.conftest import c_compiler
 from tests.helpers import random_spd
 from tests.models import hinge_chain_spec
@@ -206,7 +206,7 @@ EVERY = slice(None)
 
 
 def _evaluate(flex, data, mode, sl=EVERY, qfrc=None):
-    t = flex._tables
+    t = flex.element_table
     n = len(flex)
     out6, out1 = np.zeros((n, 6)), np.zeros(n)
     rows = t.elements[:n][sl]
@@ -263,9 +263,9 @@ def test_an_element_gives_the_same_bits_alone_and_beside_any_other(lanes, angle)
         assert np.array_equal(qfrc_together, flex.generalized_forces(data))
         # the divergence scan: the element whose wrench alone accelerates a body most (largest force component
         # times the largest inverse mass, or moment times inverse inertia)
-        rows, W = flex._tables.elements[: len(flex)], together[0][0]
+        rows, W = flex.element_table.elements[: len(flex)], together[0][0]
         accel = np.maximum(np.abs(W[:, 3:]).max(1) * rows["inv_mass"], np.abs(W[:, :3]).max(1) * rows["inv_inertia"])
-        scan, t = _native.Scan(), flex._tables
+        scan, t = _native.Scan(), flex.element_table
         native.mjfx_evaluate(model._address, data._address, rows.ctypes.data, len(flex), t.chain.ctypes.data,
                              t.exps.ctypes.data, t.coefs.ctypes.data, _native.WRENCH, None,
                              np.zeros((len(flex), 6)).ctypes.data, None, ctypes.byref(scan))  # fmt: skip
@@ -277,7 +277,7 @@ def _core_generalized_forces(model, data, flex):
     the rest offset removed, MuJoCo's site velocities) applied at frame b's origin by mj_applyFT; also the sum of
     |contributions| per dof."""
     total, scale = np.zeros(model.nv), np.zeros(model.nv)
-    rows = flex._tables.elements
+    rows = flex.element_table.elements
     for e, rec in enumerate(flex.records):
         row = rows[e]
         if not row["enabled"]:
@@ -315,7 +315,7 @@ def test_generalized_forces_are_each_wrench_applied_at_frame_b(which, angle):
     else:
         model = mixed_model() if which == "mixed" else mujoco.MjModel.from_xml_path("models/arcade.xml")
     flex = mjflex.Flexures(model)
-    assert flex._tables.elements["offset"][: len(flex)].any()  # saved files: rest offsets to remove
+    assert flex.element_table.elements["offset"][: len(flex)].any()  # saved files: rest offsets to remove
     data = _moved(model, np.random.default_rng(11), angle)
     if which == "hinge chain":
         data.qpos[:] = model.qpos0 + angle * np.random.default_rng(2).normal(size=model.nq) * (model.nq > 0)
@@ -346,7 +346,7 @@ def test_a_one_lane_build_gives_the_same_bits(tmp_path):
 import ctypes
 import numpy as np
 import mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.test_native_kernel import mixed_model, _moved
 
 copy = ctypes.CDLL({str(copy)!r})
@@ -354,7 +354,7 @@ copy.mjfx_evaluate.restype, copy.mjfx_evaluate.argtypes = _native._SIGNATURES["m
 assert copy.mjfx_lanes() == 1 and copy.mjfx_set_lanes(2) == -1
 model = mixed_model()
 flex = mjflex.Flexures(model)
-t, n = flex._tables, len(flex)
+t, n = flex.element_table, len(flex)
 for seed, angle in ((1, 1e-3), (2, 0.3), (3, 3.0)):
     data = _moved(model, np.random.default_rng(seed), angle)
     for mode in (_native.APPLY | _native.WRENCH | _native.POWER, _native.ENERGY, _native.COORDS):

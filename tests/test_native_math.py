@@ -13,8 +13,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import mjflex
-from mjflex.core._series import JL_INV_COEFFS, JL_INV_RATE_COEFFS
-from mjflex.mj import _native, schema
+from mjflex.core.series import JL_INV_COEFFS, JL_INV_RATE_COEFFS
+from mjflex.mjcf import config, schema
+from mjflex.native import library as _native
 from tests.helpers import exact_rotation, random_spd
 
 # relative rotation angles: generic, tiny (series branch), the series threshold, near a half turn
@@ -188,7 +189,7 @@ def test_twist_of_the_loop_matches_the_core():
 def test_element_struct_matches_numpy_and_the_plugin_attributes_match_the_schema():
     native = _native.lib()
     assert native.mjfx_element_field(None) == _native.ELEMENT_DTYPE.itemsize
-    assert _native.plugin_attributes() == schema.PLUGIN_ATTRIBUTES
+    assert _native.plugin_attributes() == config.PLUGIN_ATTRIBUTES
     assert ctypes.sizeof(_native.Verdict) == 40
 
 
@@ -204,7 +205,7 @@ def test_the_mujoco_loop_matches_the_core_at_any_rotation(method, tmp_path):
     path.write_text(two_body_spec(B=B_DEMO, method=method).to_xml())  # 6-digit site poses: a rest offset
     model = mujoco.MjModel.from_xml_path(str(path))
     flex = mjflex.Flexures(model)
-    row = flex._elements[0]
+    row = flex.element_table.elements[0]
     assert row["offset"]
     R0, p0 = row["R0"].reshape(3, 3), row["p0"]
     rng = np.random.default_rng(2)

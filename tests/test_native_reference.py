@@ -20,7 +20,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import mjflex
-from mjflex.mj import _native, schema
+from mjflex.mjcf import schema
+from mjflex.native import library as _native
 from tests.helpers import gradient_wrt_b, random_rotation, random_spd
 from tests.native_cases import chain_xml, two_body_xml
 from tests.reference_element import reference_wrench
@@ -266,7 +267,7 @@ def test_an_element_on_a_jointless_body_acts_on_the_joint_it_is_welded_to(kind):
     (5 N m/rad) x^2 / 2 puts -5 N m on the hinge (0 with the bug)."""
     model = mujoco.MjModel.from_xml_string(ARM_WITH_HAND)
     if kind == "record":
-        from mjflex.mj.convert import copy_spec, plugins_to_records
+        from mjflex.mjcf.convert import copy_spec, plugins_to_records
 
         spec = copy_spec(mujoco.MjSpec.from_string(ARM_WITH_HAND))
         plugins_to_records(spec)

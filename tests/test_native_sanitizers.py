@@ -10,7 +10,7 @@ C++ exception of another extension, e.g. MuJoCo's errors). UBSan stops at the fi
 (``-fno-sanitize-recover=all``); any report of either fails the test, as does any failing test.
 ThreadSanitizer runs the threaded paths: rollout with threads and model lists of other element
 counts, datas made, stepped and freed in threads (the plugin's registry), and the mjcb_passive
-dispatcher with more datas than it has watch records. Not ``mujoco.batch.Batch``: its thread pool, in
+dispatcher with more datas than it has watch entries. Not ``mujoco.batch.Batch``: its thread pool, in
 the uninstrumented libmujoco, hands work over through atomics ThreadSanitizer cannot see, so every
 handover is reported as a race, inside MuJoCo (``mjb_makeBatch``) as much as in the plugin; Batch
 runs in the ASan run (tests/test_plugin.py).
@@ -147,7 +147,7 @@ import mjflex
 from tests.native_cases import two_body_xml, chain_xml
 from tests.models import two_body_spec, B_DEMO
 
-# the mjcb_passive dispatcher: 160 datas of one text-record model, more than its 64 watch records, 4 threads
+# the mjcb_passive dispatcher: 160 datas of one text-record model, more than its 64 watch entries, 4 threads
 m = two_body_spec(B=B_DEMO).compile()
 flex = mjflex.Flexures(m)
 datas = [mujoco.MjData(m) for _ in range(160)]

@@ -58,7 +58,7 @@ def test_gravity_stiffness_gives_a_pendulum_its_frequency():
 
 
 def test_the_old_import_path_and_bad_keyframes():
-    from mjflex.mj.linearize import normal_modes
+    from mjflex.analysis.linearize import normal_modes
 
     assert normal_modes is mjflex.normal_modes
     model = arm_spec().compile()

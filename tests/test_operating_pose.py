@@ -18,8 +18,8 @@ import pytest
 import scipy.optimize
 
 import mjflex
-from mjflex.mj.damping import displacement_jacobian
-from mjflex.mj.linearize import state
+from mjflex.analysis.damping import displacement_jacobian
+from mjflex.analysis.linearize import state
 from tests.robots import arm_advice, decay_ratio, diverges, servo_held_arm
 from tests.spine import spine_spec
 

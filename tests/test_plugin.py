@@ -20,7 +20,7 @@ from mujoco import batch as mjbatch
 from mujoco import rollout
 
 import mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.models import B_DEMO, K_DEMO, hinge_chain_spec, two_body_spec
 from tests.plugin_models import MODELS, as_plugins, as_records, planar_spec, polynomial_terms
 
@@ -86,23 +86,18 @@ def test_arcade_plugin_moves_bit_identically_to_the_callback(method):
     assert record.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
 
 
-def test_the_plugins_table_is_pythons_table():
-    """The plugin's init and Flexures lay out each element identically (same C helpers)."""
+def test_the_plugins_table_is_the_records_table():
+    """An element lays out the same row in both forms: one reader in C (mjfx_read_element) for the plugin's init and
+    for Flexures, whether the element is a plugin instance or a text record given to C as the same configuration."""
     spec = mujoco.MjSpec.from_file(os.path.join(MODELS, "arcade.xml"))
-    model = as_plugins(spec).compile()
-    flex, data = mjflex.Flexures(model), mujoco.MjData(model)
-    native = _native.lib()
-    for e, instance in enumerate(flex._tables.instances):
-        row = np.zeros(1, dtype=_native.ELEMENT_DTYPE)
-        assert native.mjfx_plugin_element(model._address, data._address, instance, row.ctypes.data) == 0
-        mine = flex._elements[e : e + 1].copy()
-        for r in (row, mine):  # an instance's own dof chain and terms start at 0; Python's are concatenated
-            start, lo = int(r["chain_a0"][0]), int(r["terms_lo"][0])
-            for field in ("chain_a0", "chain_a1", "chain_b0", "chain_b1"):
-                r[field] -= start
-            r["terms_lo"] -= lo
-            r["terms_hi"] -= lo
-        assert row.tobytes() == mine.tobytes(), flex.names[e]
+    plugins, records = mjflex.Flexures(as_plugins(spec).compile()), mjflex.Flexures(as_records(spec).compile())
+    assert plugins.kinds == ("plugin",) * 48 and records.kinds == ("record",) * 48
+    assert plugins.names == records.names
+    for e in range(len(plugins)):
+        row, mine = plugins._elements[e : e + 1].copy(), records._elements[e : e + 1].copy()
+        assert row.tobytes() == mine.tobytes(), plugins.names[e]
+    assert np.array_equal(plugins._tables.chain, records._tables.chain)
+    assert np.array_equal(plugins._tables.exps, records._tables.exps)
 
 
 # ------------------------------------------------------------------ Python's analysis on plugin models

@@ -1,7 +1,7 @@
 """Bad plugin configurations are MuJoCo compile errors that name the element and the fix; nothing loads half.
 
 The plugin's init (mjflex/native/config.c) applies the text record's rules; each case is also checked
-against Python's reading of a configuration (mjflex.mj.schema.record_from_config), which must reject it too.
+against Python's reading of a configuration (mjflex.mjcf.record_from_config), which must reject it too.
 """
 
 import json
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import mjflex
-from mjflex.mj import schema
+from mjflex.mjcf.config import record_from_config
 
 BASE = {"site_a": "e/a", "site_b": "e/b", "K": "1 2 3 1000 2000 3000"}
 
@@ -119,15 +119,15 @@ def test_bad_configuration_is_a_compile_error_naming_the_element(case):
     assert re.search(fix, text), text
     if case not in MODEL_ONLY:  # Python's reading of the configuration rejects it as well
         with pytest.raises(ValueError):
-            schema.record_from_config("e", _config(**changes))
+            record_from_config("e", _config(**changes))
     else:
-        schema.record_from_config("e", _config(**changes) | {"site_a": "x", "site_b": "y"})
+        record_from_config("e", _config(**changes) | {"site_a": "x", "site_b": "y"})
 
 
 def test_the_valid_base_compiles_and_both_readings_agree():
     model = mujoco.MjModel.from_xml_string(_xml(BASE))
     assert model.nplugin == 1
-    record = schema.record_from_config("e", BASE)
+    record = record_from_config("e", BASE)
     assert np.array_equal(record.K, np.diag([1.0, 2, 3, 1000, 2000, 3000]))
 
 
@@ -179,7 +179,7 @@ def test_nothing_loads_half():
     with pytest.raises(ValueError, match=r"flexure 'f'"):
         spec.compile()
     # failed compiles leave no instance alive (the failing init frees itself and the instances before it)
-    from mjflex.mj import _native
+    from mjflex.native import library as _native
 
     alive = _native.lib().mjfx_live_instances()
     for _ in range(20):

@@ -11,7 +11,7 @@ import pytest
 
 import mjflex
 import mjflex_plugin
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.conftest import c_compiler
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
@@ -25,11 +25,8 @@ def _run(code, **env):
 
 
 def test_the_native_library_is_in_use():
-    """The test environment builds it (pip install -e .); MJFLEX_NATIVE=0 runs the suite on the fallback."""
-    if os.environ.get("MJFLEX_NATIVE") == "0":
-        assert not _native.available()
-        return
-    assert _native.available(), "the native library did not build: pip install -v -e . shows why"
+    """The test environment builds it (pip install -e .)."""
+    assert _native.lib(), "the native library did not build: pip install -v -e . shows why"
     assert os.path.basename(mjflex_plugin.library_path()) == f"libmjflex-mj{mujoco.mj_version()}.so"
 
 
@@ -58,9 +55,9 @@ def test_mjflex_uses_the_copy_that_mujoco_registered(tmp_path):
     from another path would collide with the registration)."""
     code = """
 import mujoco, mjflex
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from tests.models import two_body_spec
-assert _native.available()
+assert _native.lib()
 mjflex.Flexures(two_body_spec(kind="plugin").compile())
 with mjflex.Flexures(two_body_spec().compile()):
     pass
@@ -165,3 +162,24 @@ def test_the_element_struct_is_mirrored_exactly():
         assert native.mjfx_element_field(name.encode()) == _native.ELEMENT_DTYPE.fields[name][1]
     assert native.mjfx_element_field(b"no_such_field") == -1
     assert ctypes.sizeof(_native.Scan) == 16
+
+
+def test_without_the_library_import_mjflex_works_and_the_first_use_says_how_to_install_it(tmp_path):
+    """One runtime: no Python fallback. The core needs no library; Flexures raises NativeLibraryError naming the
+    wheel and the compiler (MJFLEX_NATIVE_DIR points mjflex_plugin at an empty folder: a broken install)."""
+    code = """
+import mujoco, mjflex, mjflex_plugin
+from tests.models import two_body_spec
+import numpy as np
+print("core", float(mjflex.potential(np.eye(3), np.zeros(3), np.eye(3), [0, 0, 0.1], K=np.eye(6))))
+try:
+    mjflex.Flexures(two_body_spec(kind="record").compile())
+except mjflex_plugin.NativeLibraryError as exc:
+    print("refused:", exc)
+"""
+    result = _run(code, MJFLEX_NATIVE_DIR=str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    assert "core 0.005" in result.stdout  # K_z (0.1 m)^2 / 2
+    assert "refused: mjflex's native library" in result.stdout
+    assert "Install mjflex's binary wheel, which needs no compiler" in result.stdout
+    assert "Install gcc, then pip install" in result.stdout

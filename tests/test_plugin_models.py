@@ -16,9 +16,10 @@ import pytest
 
 import mjflex
 import mjflex_plugin
-from mjflex.app import cli
-from mjflex.mj import _native, convert, schema
-from mjflex.mj.file_convert import same_record
+from mjflex.app import cli, runs
+from mjflex.mjcf import elements, schema
+from mjflex.native import library as _native
+from mjflex.runtime.files import same_record
 from tests.models import B_DEMO, K_DEMO, push_after_rest, two_body_spec
 from tests.plugin_models import MODELS, as_plugins, as_records, polynomial_terms
 
@@ -68,23 +69,21 @@ def test_add_flexure_writes_plugin_elements_by_default():
 
 
 def test_without_the_native_library_plugin_elements_are_refused_by_name(monkeypatch):
-    """The Python fallback cannot load plugin models: add_flexure's default says so, naming kind="record"."""
-    monkeypatch.setattr(_native, "loaded", lambda: None)
+    """A broken install (no library): add_flexure's default refuses, naming the element and how to install it."""
 
     def missing():
         raise mjflex_plugin.NativeLibraryError("mjflex's native library is not built here (no C compiler)")
 
+    monkeypatch.setattr(_native, "_STATE", {})
     monkeypatch.setattr(mjflex_plugin, "library", missing)
     spec = two_body_spec(B=B_DEMO)  # a text record still builds
     before = spec.to_xml()
-    with pytest.raises(RuntimeError, match=r"flexure 'x': plugin elements \(kind=\"plugin\", add_flexure's default\) "
-                       r"need mjflex's native library.*no C compiler.*Or pass kind=\"record\""):  # fmt: skip
+    with pytest.raises(RuntimeError, match=r"flexure 'x': flexure elements need mjflex's native library, the engine "
+                       r"plugin mjflex.flexure: .*no C compiler"):  # fmt: skip
         mjflex.add_flexure(spec, "x", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO)
     assert spec.to_xml() == before  # refused before anything was added
-    from mjflex.app.cli import arcade_source
-
-    source, label = arcade_source()  # the demo's model: built with text records instead
-    assert isinstance(source, mujoco.MjSpec) and "text records" in label and source.texts
+    with pytest.raises(RuntimeError, match=r"native library is not built here"):
+        mjflex.Flexures(spec.compile())  # a text record's forces come from the same library
 
 
 def test_remove_flexure_removes_plugin_elements_and_their_body_references():
@@ -177,14 +176,14 @@ def test_file_round_trip_is_lossless_and_steps_bit_identically(case, tmp_path):
 
 def test_spec_conversion_keeps_every_parameter_and_is_refused_when_there_is_nothing_to_do():
     spec = _tricky_record_spec()
-    before = convert.element_record(spec, "link")
+    before = elements.element_record(spec, "link")
     assert mjflex.convert_model(spec, to="plugin") == ["link"]
-    assert same_record(convert.element_record(spec, "link"), before)
+    assert same_record(elements.element_record(spec, "link"), before)
     assert spec.body("A").sleep == spec.body("B").sleep == mujoco.mjtSleepPolicy.mjSLEEP_NEVER
     with pytest.raises(ValueError, match=r"already an mjflex\.flexure plugin instance; nothing to convert"):
         mjflex.convert_model(spec, to="plugin")
     assert mjflex.convert_model(spec, to="record") == ["link"]
-    assert same_record(convert.element_record(spec, "link"), before)
+    assert same_record(elements.element_record(spec, "link"), before)
     with pytest.raises(ValueError, match="already a text record"):
         mjflex.convert_model(spec, to="record")
     with pytest.raises(ValueError, match='to must be "plugin" or "record"'):
@@ -412,7 +411,7 @@ def test_simulate_method_and_no_damping_on_a_plugin_model(tmp_path, capsys):
             assert summaries[a][key] == summaries[b][key], (a, key)
     model = mujoco.MjModel.from_xml_path(plugin)
     with pytest.raises(SystemExit, match=r"flexure 'hinge' is an mjflex.flexure plugin instance.*mjflex.edit_elements"):
-        cli.run_model(model, "two_body_plugin.xml", duration=0.001, method="dualquat", progress=False)
+        runs.run_model(model, "two_body_plugin.xml", duration=0.001, method="dualquat", progress=False)
 
 
 def test_study_switches_the_method_of_plugin_elements_by_compiling_copies():

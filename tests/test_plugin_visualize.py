@@ -18,7 +18,7 @@ import mjflex
 from mjflex.app import render
 from mjflex.app.arcade import STRAIN_SCALE
 from mjflex.app.simulate import simulate
-from mjflex.mj import schema
+from mjflex.mjcf import schema
 from tests.models import K_DEMO, two_body_spec
 from tests.plugin_models import MODELS, as_records
 

@@ -110,7 +110,7 @@ def test_every_block_has_one_place_and_every_page_is_what_the_recorded_json_give
 
 
 def test_stable_step_scenes_are_stated_as_the_scripts_run_them():
-    """The native and reduce tables state which runs judged a "stable RK4 step" (the durations are the scripts'
+    """The alternatives and reduce tables state which runs judged a "stable RK4 step" (the durations are the scripts'
     arguments, not recorded in their JSON): the rendered note must say what the scripts do."""
     generator = _generator()
     from _readme_speed import STABLE_STEP_RUNS  # scripts/ is on the path once the generator is loaded
@@ -121,8 +121,8 @@ def test_stable_step_scenes_are_stated_as_the_scripts_run_them():
                 float(x) for x in re.findall(r"costs_at_stable_steps\(cases, h, repeat, [^\n]*, ([\d.e-]+)\)", f.read())
             ]
 
-    assert durations("_arcade_native.py") == [STABLE_STEP_RUNS["arcade"]]
-    assert sorted(durations("compare_native.py")) == sorted(
+    assert durations("_arcade_alternatives.py") == [STABLE_STEP_RUNS["arcade"]]
+    assert sorted(durations("compare_alternatives.py")) == sorted(
         [STABLE_STEP_RUNS["bushing"], STABLE_STEP_RUNS["cantilever"]]
     )
     with open(os.path.join(ROOT, "scripts", "_variants.py"), encoding="utf-8") as f:
@@ -202,7 +202,7 @@ def _cost_tables(payload, found=None):
     if isinstance(payload, dict):
         values = list(payload.values())
         if values and all(isinstance(v, dict) and "stable_step_s" in v for v in values):
-            found.append(payload)  # scripts/compare_native.py: scene -> costs
+            found.append(payload)  # scripts/compare_alternatives.py: scene -> costs
         elif values and all(isinstance(v, dict) and "stable_step_s" in v.get("cost", {}) for v in values):
             found.append({k: v["cost"] for k, v in payload.items()})  # scripts/reduce_arcade.py: rows -> cost
         else:
@@ -293,9 +293,10 @@ def test_a_recorded_accuracy_figure_is_what_the_code_computes_today(tmp_path):
     The other tests here compare the pages with the JSON that was recorded; this one recomputes a recorded
     figure (not a timing) with today's code and model, so a change to either that moves it (a stale record) fails.
     Tolerance 1e-6 relative on the elastic frequencies: the stiffness comes from central differences of the forces
-    (~1e-9 relative, mjflex.mj.linearize), and numpy/scipy/LAPACK versions and CPUs move well-separated eigenvalues
-    at round-off (measured: 1e-10 between this record and a rerun); a change of the model or of the element math
-    that matters moves them by 1e-4 or more. The rigid modes' frequencies are round-off (< 1e-3 Hz) and not compared.
+    (~1e-9 relative, mjflex.analysis.linearize), and numpy/scipy/LAPACK versions and CPUs move well-separated
+    eigenvalues at round-off (measured: 1e-10 between this record and a rerun); a change of the model or of the element
+    math that matters moves them by 1e-4 or more. The rigid modes' frequencies are round-off (< 1e-3 Hz) and not
+    compared.
     """
     import json
     import subprocess

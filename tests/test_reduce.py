@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import mjflex
+from mjflex.analysis.linearize import normal_modes
 from mjflex.app.scenes import cantilever_spec, parallelogram_spec
-from mjflex.mj._planar import in_plane_modes
-from mjflex.mj.linearize import normal_modes
-from mjflex.mj.variant import equality_rows
+from mjflex.variants.planar import in_plane_modes
+from mjflex.variants.variant import equality_rows
 from tests.models import two_body_spec
 from tests.plugin_models import as_records
 

@@ -290,7 +290,7 @@ def test_a_loaded_elastic_joint_under_its_servo_is_conservative_and_runs():
     np.testing.assert_allclose([c.replaced.lower[1], c.replaced.upper[1]], [-3, 3], rtol=1e-15)
     flex = mjflex.Flexures(model)
     q = mjflex.static_equilibrium(model, flex, keyframe="home")
-    K = mjflex.mj.linearize.stiffness_matrix(model, flex, q, keyframe="home", joint_springs=True,
+    K = mjflex.analysis.linearize.stiffness_matrix(model, flex, q, keyframe="home", joint_springs=True,
                                              actuator_stiffness=True, gravity=True)  # fmt: skip
     assert np.abs(K - K.T).max() < 1e-6 * np.abs(K).max()  # 1e-6: central differences of forces of 1e4 N m/rad
     data = _state(model)

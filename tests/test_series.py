@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from mjflex.core import _kernels as k
-from mjflex.core._series import SERIES_THRESHOLD
+from mjflex.core.series import SERIES_THRESHOLD
 
 mp.mp.dps = 50
 

@@ -8,22 +8,16 @@ well inside, so that no difference step crosses a limit (where the energy's seco
 """
 
 import itertools
-import os
 
 import mujoco
 import numpy as np
 import pytest
 
 import mjflex
-from mjflex.mj import _native
 from tests.helpers import ridders
 from tests.plugin_models import as_plugins, as_records, planar_spec
 
-# end stops need the native library (the Python fallback refuses them, tested below): not run on the fallback
-pytestmark = [
-    pytest.mark.usefixtures("clean_callback"),
-    pytest.mark.skipif(os.environ.get("MJFLEX_NATIVE") == "0", reason="MJFLEX_NATIVE=0: the fallback has no stops"),
-]
+pytestmark = [pytest.mark.usefixtures("clean_callback")]
 INF = np.inf
 K_BUSH = np.diag([0.4, 0.5, 0.3, 2e3, 3e3, 1e3])  # a bushing: N m/rad, N/m
 
@@ -99,7 +93,7 @@ def _stop_coordinates(flex, data):
     """The stop coordinates of each element from the core (site poses, rest offset removed)."""
     out = []
     for e in range(len(flex)):
-        row = flex._elements[e]
+        row = flex.element_table.elements[e]
         sa, sb = flex.site_ids[e]
         R_a, p_a = data.site_xmat[sa].reshape(3, 3), data.site_xpos[sa]
         R_b = data.site_xmat[sb].reshape(3, 3) @ row["R0"].reshape(3, 3).T
@@ -163,7 +157,7 @@ def test_stop_energy_and_wrench_of_the_engine_are_the_cores():
     mujoco.mj_forward(model, data)
     U, W = flex.potential_energies(data), flex.wrenches(data)
     for e, rec in enumerate(flex.records):
-        row = flex._elements[e]
+        row = flex.element_table.elements[e]
         sa, sb = flex.site_ids[e]
         R_a, p_a = data.site_xmat[sa].reshape(3, 3), data.site_xpos[sa]
         R_b = data.site_xmat[sb].reshape(3, 3) @ row["R0"].reshape(3, 3).T
@@ -219,15 +213,13 @@ def test_record_and_plugin_forms_move_bit_identically_into_their_stops():
             mujoco.mj_step(model, data, nstep=200)
         runs.append(np.r_[data.qpos, data.qvel])
     assert np.array_equal(runs[0], runs[1]) and np.isfinite(runs[0]).all()
-    pflex, data = mjflex.Flexures(plugin), mujoco.MjData(plugin)
-    native = _native.lib()
-    for e, instance in enumerate(pflex._tables.instances):
-        row = np.zeros(1, dtype=_native.ELEMENT_DTYPE)
-        assert native.mjfx_plugin_element(plugin._address, data._address, instance, row.ctypes.data) == 0
-        mine = pflex._elements[e : e + 1]
+    pflex = mjflex.Flexures(plugin)
+    for e in range(len(pflex)):  # the plugin's row is the record's (one reader in C, mjfx_read_element)
+        row = flex.element_table.elements[e : e + 1]
+        mine = pflex.element_table.elements[e : e + 1]
         for field in ("stops", "stop_lo", "stop_hi", "stop_k", "K"):
             assert row[field].tobytes() == mine[field].tobytes(), (e, field)
-    assert pflex._elements["stops"][:3].all()
+    assert pflex.element_table.elements["stops"][:3].all()
 
 
 # ------------------------------------------------------------------ planar elements
@@ -260,14 +252,19 @@ def test_planar_stops_act_on_theta_x_y_and_are_minus_the_gradient(kind, method):
 
 
 def test_planar_stops_are_the_same_bits_as_the_spatial_stops_on_rz_x_y():
+    """The element rows the C library lays out (mjfx_read_element): a planar element's stops on [theta, x, y] land on
+    rz, x, y of the spatial element with K embedded, bit for bit."""
     planar = mjflex.Stops([-0.05, None, -0.002], [0.1, 0.001, None], stiffness=[40.0, 9e3, 1.2e4])
     spatial = mjflex.Stops([None, None, -0.05, None, -0.002, None], [None, None, 0.1, 0.001, None, None],
                            stiffness=[1.0, 1.0, 40.0, 9e3, 1.2e4, 1.0])  # fmt: skip
     K3 = np.array([[0.4, 0.02, -0.01], [0.02, 90.0, 4.0], [-0.01, 4.0, 120.0]])
-    rows3 = planar.element_rows(K3)
-    rows6 = spatial.element_rows(mjflex.mj.schema.embed_planar(K3))
-    for a, b in zip(rows3, rows6, strict=True):
-        assert np.array_equal(a, b)
+    spec = _bodies(mujoco.MjSpec(), 2)
+    mjflex.add_flexure(spec, "planar", "world", "b0", pos=[0.1, 0, 0], K=K3, stops=planar)
+    mjflex.add_flexure(spec, "spatial", "world", "b1", pos=[0.2, 0, 0], K=mjflex.mjcf.schema.embed_planar(K3),
+                       stops=spatial)  # fmt: skip
+    rows = mjflex.Flexures(spec.compile()).element_table.elements
+    for field in ("stop_lo", "stop_hi", "stop_k"):
+        assert np.array_equal(rows[field][0], rows[field][1]), field
 
 
 # ------------------------------------------------------------------ linearization and the time step
@@ -508,23 +505,6 @@ def test_conversion_between_the_forms_keeps_the_stops_exactly(tmp_path):
     mjflex.convert_file(target, back, to="plugin")
     for path in (target, back):
         assert [r.stops for r in mjflex.Flexures(mujoco.MjModel.from_xml_path(str(path))).records] == expected
-
-
-def test_the_python_fallback_refuses_elements_with_stops(monkeypatch):
-    model = stops_spec(kind="record").compile()
-    mjflex.Flexures(model)  # without stops: fine
-    rng = np.random.default_rng(1)
-    with_stops = stops_spec(_random_state(model, rng), kind="record").compile()
-    flex = mjflex.Flexures(with_stops)
-    monkeypatch.setitem(_native.FORCE_FALLBACK, "reason", "a test forces it")
-    with pytest.warns(RuntimeWarning, match="Python fallback"):
-        with pytest.raises(mjflex.ModelError, match=r"flexure 'grounded': it has end stops, which mjflex's Python "
-                           r"fallback does not implement \(the fallback runs: a test forces it\)"):  # fmt: skip
-            mjflex.Flexures(with_stops)
-    for call in (flex.install, lambda: flex.potential_energies(mujoco.MjData(with_stops))):
-        with pytest.raises(mjflex.ModelError, match="end stops"):
-            call()
-    assert not flex.installed
 
 
 def test_variants_say_what_becomes_of_the_stops():

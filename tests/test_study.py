@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 import mjflex
+from mjflex.analysis.linearize import mass_matrix, normal_modes, stiffness_matrix
 from mjflex.app.cli import main
 from mjflex.app.study import Limit, StudyError, StudyResult, study
 from mjflex.app.study._metrics import linearized_frequencies
-from mjflex.mj.linearize import mass_matrix, normal_modes, stiffness_matrix
-from mjflex.mj.variant import Variant
+from mjflex.variants.variant import Variant
 from tests.models import ARM, B_DEMO, K_DEMO, hinge_arm_variant, hinge_chain_spec, pivot_arm_spec, slide_oscillator_spec
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")

@@ -21,7 +21,7 @@ import xarray as xr
 
 import mjflex
 from mjflex.app.sweep import engine
-from mjflex.app.sweep.recipe import edit_flexure
+from mjflex.mjcf.elements import edit_flexure
 from tests.sweep_recipes import hinge_state, scale_hinge
 
 MODEL = "models/two_body.xml"
@@ -185,14 +185,11 @@ def test_more_than_256_variants_run_in_parts():
     np.testing.assert_array_equal(ds["k_scale"], [r["k_scale"] for r in rows])
 
 
-def test_python_dispatcher_falls_back_to_a_loop(in_process, monkeypatch):
-    # without mjflex's native library (no C compiler at install) the provider installs a Python passive callback,
-    # which Batch refuses: the sweep then steps each variant in a loop, with the same results to round-off (the
-    # fallback's forces come from the numba core and mj_applyFT instead of the C loop; achieved ~1e-14 relative)
-    from mjflex.mj import _native
-
+def test_a_sweep_that_batch_cannot_step_runs_in_a_loop(in_process, monkeypatch):
+    # Batch refuses Python physics callbacks (a user's, which mjflex's dispatcher then chains): the sweep steps each
+    # variant in a loop instead, with the same results (the same C loop evaluates the elements either way)
     assert not engine.registry._IN_SLOT
-    monkeypatch.setitem(_native.FORCE_FALLBACK, "reason", "forced by the test")
+    monkeypatch.setattr(engine, "_batch_usable", lambda: False)
     with pytest.warns(RuntimeWarning, match="diverged"):
         ds = mjflex.sweep(RECIPE, GRID, DURATION, hinge_state, progress=False, samples=SAMPLES)
     assert ds.attrs["stepping"] == "loop"

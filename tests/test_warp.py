@@ -19,7 +19,7 @@ import warp as wp
 
 import mjflex
 import mjflex.warp as mw
-from mjflex.mj import _native
+from mjflex.native import library as _native
 from mjflex.warp import _kernels
 from tests import warp_bounds as wb
 from tests.warp_models import features_model, features_xml, random_state
@@ -232,7 +232,7 @@ def test_divergence_is_reported_per_world_with_the_element_and_the_step(two_body
     np.testing.assert_array_equal(mw.diverged(m, d), [False, True, False, True, True])
     # the C engine on the same stiffness, auto-reset off: its report names the step
     spec = mujoco.MjSpec.from_file(TWO_BODY)
-    from mjflex.app.sweep.recipe import edit_flexure
+    from mjflex.mjcf.elements import edit_flexure
 
     edit_flexure(spec, "hinge", K=1e4 * table.K[0], B=1e4 * table.B[0])
     model = spec.compile()
@@ -264,7 +264,7 @@ def test_divergence_is_reported_per_world_with_the_element_and_the_step(two_body
 def test_per_world_parameters_match_models_edited_in_the_c_engine(features):
     """Four worlds with their own K, B, enabled and viscous switches: each matches the C engine on a model whose
     elements were edited to those values (mjflex.edit_elements / the spec), within the derived bound."""
-    from mjflex.app.sweep.recipe import edit_flexure
+    from mjflex.mjcf.elements import edit_flexure
 
     table = mw.element_table(copy.copy(features))
     n = len(table.names)
@@ -363,7 +363,7 @@ def test_features_the_kernels_lack_are_refused_by_name(two_body):
     subclass's field), which is refused without anyone listing it, because the kernels name what they implement
     (``SUPPORTED_FIELDS``), not what they lack; and a method they do not know. (End stops, the field this test
     planted before they existed, are implemented now: tests/test_warp_stops.py.)"""
-    from mjflex.mj.schema import FlexureRecord
+    from mjflex.mjcf.schema import FlexureRecord
     from mjflex.warp import _mjflex
 
     @dataclasses.dataclass

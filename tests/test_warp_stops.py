@@ -14,7 +14,7 @@ import warp as wp
 
 import mjflex
 import mjflex.warp as mw
-from mjflex.mj import convert
+from mjflex.mjcf import elements
 from tests import warp_bounds as wb
 from tests.test_warp import TWO_BODY, _state_data, _warp_queries, _worlds
 from tests.warp_models import INF, STOPS, N, features_model, features_xml, random_state
@@ -39,7 +39,7 @@ KEYS = ("wrench", "qfrc", "energy", "power", "twist", "stops")
 
 def _engaged(flex, data):
     """``(n, 6)`` bool: the coordinates beyond a limit."""
-    el = flex._elements[: len(flex)]
+    el = flex.element_table.elements[: len(flex)]
     z = flex.stop_coordinates(data)
     return (z < el["stop_lo"]) | (z > el["stop_hi"])
 
@@ -79,7 +79,7 @@ def test_end_stops_match_the_c_engine_on_random_states(stopped, precision):
         bound = wb.bounds(stopped, data, flex, arith)["wrench"]
         seen |= (np.abs(free.wrenches(data) - ref["wrench"]) > bound).any(axis=1)
     engaged = np.array(engaged)
-    has = flex._elements["stops"][: len(flex)].astype(bool)
+    has = flex.element_table.elements["stops"][: len(flex)].astype(bool)
     assert has.sum() == len(STOPS) and (engaged[:, has].any(0) & ~engaged[:, has].all(0)).all(), engaged.T
     np.testing.assert_array_equal(seen, has & flex.enabled)
     print(f"largest error / bound ({precision}):", {k: f"{v:.2g}" for k, v in worst.items()})
@@ -151,7 +151,7 @@ def test_per_world_stops_match_models_edited_in_the_c_engine(stopped):
     edited in the model); narrower and one-sided limits; stops switched off on one element, added to an element
     the model gave none, and every stiffness given. Each against the C engine on a model written with those stops,
     within the derived bound."""
-    from mjflex.app.sweep.recipe import edit_flexure
+    from mjflex.mjcf.elements import edit_flexure
 
     m = mw.put_model(stopped)
     forces = mw.flexures(m)
@@ -187,9 +187,9 @@ def test_a_run_into_a_stop_matches_the_c_engine():
     compared (MuJoCo Warp, float32, RK4 against the C
     plugin, float64), within the trajectory bound of tests/test_warp.py::test_trajectories_match_the_c_engine."""
     spec = mujoco.MjSpec.from_file(TWO_BODY)
-    record = convert.element_record(spec, "hinge")
+    record = elements.element_record(spec, "hinge")
     record.stops = mjflex.Stops(lower=[N, N, -0.03, N, N, N], upper=[N, N, 0.03, N, N, N], stiffness=250.0)
-    convert.write_record(spec, "hinge", record)
+    elements.write_record(spec, "hinge", record)
     model = spec.compile()
     key = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, key, 0)

@@ -95,8 +95,8 @@ def arithmetic_scale(model, data, flex) -> dict:
     xi = np.abs(flex.displacements(data))
     W = flex.wrenches(data)
     grow = (1.0 + np.linalg.norm(xi, axis=1)) ** 2
-    K = np.abs(flex._elements["K"][:n].reshape(n, 6, 6))
-    B = np.abs(flex._elements["B"][:n].reshape(n, 6, 6))
+    K = np.abs(flex.element_table.elements["K"][:n].reshape(n, 6, 6))
+    B = np.abs(flex.element_table.elements["B"][:n].reshape(n, 6, 6))
     V = np.zeros((n, 6))
     for e, (ba, bb) in enumerate(flex.body_ids):
         ca, cb = data.cvel[ba], data.cvel[bb]
@@ -135,7 +135,7 @@ def stop_terms(flex, data) -> dict:
     """The end stops' quantities the bounds need, ``(n, 6)`` each: the stop coordinates ``z``, their stiffness
     ``k`` (0 without a limit), ``reach`` = ``k (|z| + |finite limits|)`` and the ``overshoot`` beyond a limit."""
     n = len(flex)
-    el = flex._elements[:n]
+    el = flex.element_table.elements[:n]
     z = flex.stop_coordinates(data)
     lo, hi, k = el["stop_lo"], el["stop_hi"], el["stop_k"] * el["stops"][:, None]
     limits = np.where(np.isfinite(lo), np.abs(lo), 0.0) + np.where(np.isfinite(hi), np.abs(hi), 0.0)
@@ -152,7 +152,7 @@ def bounds(model, data, flex, unit_arith=U32) -> dict:
     # the energy is quadratic: at (near) zero displacement its first-order sensitivity vanishes, and the
     # second-order term 1/2 dxi^T K dxi of the displacement's own error remains
     n = len(flex)
-    K = np.abs(flex._elements["K"][:n].reshape(n, 6, 6))
+    K = np.abs(flex.element_table.elements["K"][:n].reshape(n, 6, 6))
     out["energy"] += 0.5 * np.einsum("ei,eij,ej->e", out["twist"], K, out["twist"])
     # the end stops: the same second-order term of the energy, and the kink of the force within dz of a limit
     stops, dz = stop_terms(flex, data), out["stops"]

@@ -9,7 +9,7 @@
   their dependencies are not installed, the build imports them with those mocked (autodoc's
   mock, :func:`missing_dependencies`; ``docs/conf.py`` passes the same to
   ``autodoc_mock_imports``), so their pages come from their docstrings alone.
-* Resolves cross-references written with a defining module (``mjflex.mj.variant.Variant``) to
+* Resolves cross-references written with a defining module (``mjflex.variants.variant.Variant``) to
   the public name documented for the same object (``mjflex.Variant``).
 * ``reset_mujoco``: run by sphinx-gallery before and after each tutorial, so that no tutorial
   inherits another's passive-force callback, and a tutorial's output is a result: a warning that
@@ -41,7 +41,10 @@ API_PAGE = os.path.join(HERE, "..", "reference", "api.rst")
 #: Sections of the API page, by the module that defines an object (first match wins).
 SECTIONS = (
     ("mjflex.core", "Screw-theory core", "Twists, dual quaternions, element wrenches and potentials (no MuJoCo)."),
-    ("mjflex.mj", "MuJoCo layer", "Elements in MJCF models, the passive-force provider, model variants."),
+    ("mjflex.mjcf", "Elements in MJCF and MjSpec", "Adding, editing and converting elements in a spec or a file."),
+    ("mjflex.runtime", "The compiled model", "The passive-force provider, divergence reports, file conversion."),
+    ("mjflex.analysis", "Linearization", "Statics, modes, damping from ratios and step advice at an operating pose."),
+    ("mjflex.variants", "Model variants", "Compliant parts, reduced models and MuJoCo-native alternatives."),
     ("mjflex.geometry", "Stiffness from geometry", "Notch hinges, leaf springs and rods (no MuJoCo)."),
     ("mjflex.app", "Studies and sweeps", "Speed against accuracy, and sweeps over model variants."),
     (
@@ -214,7 +217,7 @@ def _candidates(node):
 def resolve_alias(app, env, node, contnode):
     """Resolve a ``py`` reference that Sphinx did not find, to mjflex objects only.
 
-    A reference to an object documented under its public name (``mjflex.mj.variant.Variant``,
+    A reference to an object documented under its public name (``mjflex.variants.variant.Variant``,
     ``wrench_on_b`` inside a module of the core) links to that entry. A reference to an existing
     internal module or helper that has no entry is shown as code without a link. A reference to
     nothing that exists stays unresolved: a warning, an error in strict mode.
@@ -320,9 +323,9 @@ def reset_mujoco(gallery_conf, fname, when=None):
     import mujoco
 
     try:
-        from mjflex.mj import _callback
+        from mjflex.runtime import registry
 
-        _callback.uninstall_all()
+        registry.uninstall_all()
     finally:
         mujoco.set_mjcb_passive(None)
         mujoco.set_mju_user_warning(None)  # MuJoCo's own handler: prints, and writes its log

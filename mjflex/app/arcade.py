@@ -31,14 +31,15 @@ cylinder, its dimensions give 1000 times); hinges and leaves with E 5 % of alumi
 0.9 cm x 0.05 cm; width 0.95 cm (the plate thickness).
 """
 
+import os
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from ..geometry import bending_strain_per_radian, leaf_spring_stiffness, notch_hinge_stiffness
-from ..mj import add_flexure, reference_body_poses
-from ..mj.build import HIDDEN_SITE_GROUP, SHAPE_SITE_GROUP
+from ..mjcf.build import HIDDEN_SITE_GROUP, SHAPE_SITE_GROUP, add_flexure
+from ..mjcf.spec import reference_body_poses
 
 ALUMINIUM = 2700.0
 E_ALUMINIUM = 70e9
@@ -311,7 +312,7 @@ def _paper_keyframe(spec):
 
 
 def _style_sites(handle, p, kind):
-    """Draw the flexure as a thin box on site a; hide site b (site groups of :mod:`mjflex.mj.build`)."""
+    """Draw the flexure as a thin box on site a; hide site b (site groups of :mod:`mjflex.mjcf.build`)."""
     half = (
         [p.notch_radius, 0.5 * p.notch_web, 0.5 * p.plate_thickness]
         if kind == "notch"
@@ -342,3 +343,25 @@ def rigid_spin_velocity(model, data, omega, axial_speed, body="cylinder"):
 
 
 __all__ = ["ArcadeParams", "build_arcade_spec", "leaf_stiffness", "notch_stiffness", "rigid_spin_velocity"]
+
+
+#: The models/ folder of a source checkout (absent from an installed wheel: the model is built in memory then).
+REPO_MODELS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "models")
+
+
+def arcade_source():
+    """``(source, label)``: the path of ``models/arcade.xml`` in the source tree, or an ``MjSpec`` of the same model.
+
+    Its elements are plugin instances.
+    """
+    path = os.path.join(REPO_MODELS, "arcade.xml")
+    if os.path.exists(path):
+        return path, path
+    return build_arcade_spec(), "arcade (built in memory)"
+
+
+def arcade_model():
+    """``(MjModel, label)`` of :func:`arcade_source`."""
+    source, label = arcade_source()
+    model = mujoco.MjModel.from_xml_path(source) if isinstance(source, str) else source.compile()
+    return model, label

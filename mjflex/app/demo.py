@@ -20,6 +20,8 @@ from dataclasses import asdict, replace
 import numpy as np
 
 from . import figures, render
+from .arcade import arcade_model
+from .runs import exit_on_divergence, frame_picks, run_model
 from .timing import Stopwatch
 
 TITLE = "ARCADE-like guide: 105 rad/s spin + 5 m/s cylinder (paper sec. 6)"
@@ -65,8 +67,6 @@ def run_demo(out, *, duration=0.08, width=None, height=None, fps=30, slowdown=10
     rendering set-up (the GL is probed before the run, the renderer made after it), model,
     provider, run, rendering, encoding, panels and plots.
     """
-    from .cli import _frames, _stop_on_divergence, arcade_model, run_model  # cli imports this module lazily
-
     clock = clock or Stopwatch()
     with clock.phase("rendering set-up"):
         gl = render.gl_info()  # before the run: a machine without a GL context says so at once
@@ -74,13 +74,13 @@ def run_demo(out, *, duration=0.08, width=None, height=None, fps=30, slowdown=10
     with clock.phase("model"):
         model, source = arcade_model()
     name = os.path.basename(source)
-    with _stop_on_divergence(name):
+    with exit_on_divergence(name):
         summary, run, flex = run_model(model, name, duration=duration, keyframe="paper_run", every_step=True,
                                        progress=progress, clock=clock)  # fmt: skip
     with clock.phase("rendering set-up"):
         renderer = render.RunRenderer(model, flex, run, width=width, height=height, look=quality)
     with renderer:
-        picks, slowdown = _frames(run, fps, slowdown)
+        picks, slowdown = frame_picks(run, fps, slowdown)
         video = renderer.write_video(os.path.join(out, FILES[0]), picks, fps)
         clock.add("rendering", video.frames_s, video.cpu_s)  # this process's CPU, the GL's threads included
         clock.add("encoding", video.encode_wait_s, video.encoder_cpu_s)  # ffmpeg's CPU

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..mj.build import SHOWN_SITE_GROUPS
+from ..mjcf.build import SHOWN_SITE_GROUPS
 from .simulate import element_strain_per_radian
 
 #: x264 settings of the videos: the fastest preset at quantizer 23. On ARCADE's frames at 960x540 it

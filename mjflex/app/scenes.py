@@ -1,7 +1,7 @@
 """Small benchmark scenes with flexures: a bushing, a cantilevered beam as a chain, a parallelogram.
 
-They are the scenes of ``scripts/compare_native.py`` and of the tests of the reductions and
-the native alternatives; each is an ``MjSpec`` built with :func:`mjflex.add_flexure`, whose
+They are the scenes of ``scripts/compare_alternatives.py`` and of the tests of the reductions and
+the MuJoCo-native alternatives; each is an ``MjSpec`` built with :func:`mjflex.add_flexure`, whose
 bodies are free bodies as mjflex models are, with a keyframe holding its initial state.
 """
 
@@ -11,7 +11,8 @@ import mujoco
 import numpy as np
 
 from ..geometry import leaf_spring_stiffness, notch_hinge_stiffness
-from ..mj import add_flexure, reference_body_poses
+from ..mjcf.build import add_flexure
+from ..mjcf.spec import reference_body_poses
 
 ALUMINIUM = 2700.0
 

@@ -9,8 +9,8 @@ from dataclasses import asdict, dataclass, field
 import mujoco
 import numpy as np
 
-from ..mj import Flexures
-from ..mj.divergence import step_phrase
+from ..runtime.divergence import step_phrase
+from ..runtime.flexures import Flexures
 
 INTEGRATORS = {"euler": "mjINT_EULER", "rk4": "mjINT_RK4", "implicit": "mjINT_IMPLICIT",
                "implicitfast": "mjINT_IMPLICITFAST", "discrete": "mjINT_DISCRETE"}  # fmt: skip
@@ -31,7 +31,7 @@ class DivergenceError(RuntimeError):
 
     ``run`` holds the samples taken before the diverging step; ``step`` (the number of steps
     taken, the failing one included) and ``time`` [s, at the start of that step] say where. The
-    message names the step by the convention of :mod:`mjflex.mj.divergence`.
+    message names the step by the convention of :mod:`mjflex.runtime.divergence`.
     """
 
     def __init__(self, message, run, step, time):

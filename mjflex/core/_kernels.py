@@ -36,7 +36,7 @@ import math
 
 from numba import njit
 
-from ._series import EXP_S3_COEFFS, JL_INV_COEFFS, JL_INV_RATE_COEFFS, SERIES_THRESHOLD
+from .series import EXP_S3_COEFFS, JL_INV_COEFFS, JL_INV_RATE_COEFFS, SERIES_THRESHOLD
 
 TWIST = 0
 DUALQUAT = 1
@@ -45,8 +45,8 @@ _C = JL_INV_COEFFS
 _G = JL_INV_RATE_COEFFS
 _S3 = EXP_S3_COEFFS
 _TH = SERIES_THRESHOLD
-_PI = math.pi
-_TWO_PI = 2.0 * math.pi
+PI = math.pi
+TWO_PI = 2.0 * math.pi
 
 # --------------------------------------------------------------------------- 3-vectors
 
@@ -61,18 +61,18 @@ def _cross(a, b):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _dot(a, b):
+def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _lin(ca, a, cb, b):
+def lin(ca, a, cb, b):
     """``ca * a + cb * b``."""
     return (ca * a[0] + cb * b[0], ca * a[1] + cb * b[1], ca * a[2] + cb * b[2])
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _lin3(ca, a, cb, b, cc, c):
+def lin3(ca, a, cb, b, cc, c):
     """``ca * a + cb * b + cc * c``."""
     return (
         ca * a[0] + cb * b[0] + cc * c[0],
@@ -148,7 +148,7 @@ def _row6(M, i, a, b):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _mat6_vec(M, a, b):
+def mat6_vec(M, a, b):
     """``M @ [a; b]`` for a row-major 36-tuple ``M``, returned as two 3-tuples."""
     top = (_row6(M, 0, a, b), _row6(M, 1, a, b), _row6(M, 2, a, b))
     return top, (_row6(M, 3, a, b), _row6(M, 4, a, b), _row6(M, 5, a, b))
@@ -304,7 +304,7 @@ def write_rot_from_quat(w, x, y, z, R):
 def _p_apply(sign, tau, c, y):
     """``P y`` (sign=+1) or ``P^T y`` (sign=-1)."""
     ty = _cross(tau, y)
-    return _lin3(1.0, y, -0.5 * sign, ty, c, _cross(tau, ty))
+    return lin3(1.0, y, -0.5 * sign, ty, c, _cross(tau, ty))
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -312,8 +312,8 @@ def _d_apply(sign, tau, t, c, g, y):
     """``D y`` (sign=+1) or ``D^T y`` (sign=-1)."""
     ty = _cross(t, y)
     tauy = _cross(tau, y)
-    a = _lin(-0.5 * sign, ty, c, _cross(tau, ty))
-    return _lin3(1.0, a, c, _cross(t, tauy), g * _dot(tau, t), _cross(tau, tauy))
+    a = lin(-0.5 * sign, ty, c, _cross(tau, ty))
+    return lin3(1.0, a, c, _cross(t, tauy), g * dot(tau, t), _cross(tau, tauy))
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -331,21 +331,21 @@ def _twist_rate(tau, t, c, g, wa, va, wb, vb):
     With ``P^T y = y + tau x y / 2 + c tau x (tau x y)`` and ``D^T y`` likewise, the
     differences ``P^T y_b - P y_a`` only need the sum and difference of ``y_a`` and ``y_b``.
     """
-    dw, sw = _lin(1.0, wb, -1.0, wa), _lin(1.0, wb, 1.0, wa)
-    dv, sv = _lin(1.0, vb, -1.0, va), _lin(1.0, vb, 1.0, va)
+    dw, sw = lin(1.0, wb, -1.0, wa), lin(1.0, wb, 1.0, wa)
+    dv, sv = lin(1.0, vb, -1.0, va), lin(1.0, vb, 1.0, va)
     tdw = _cross(tau, dw)
-    r1 = _lin3(1.0, dw, 0.5, _cross(tau, sw), c, _cross(tau, tdw))
+    r1 = lin3(1.0, dw, 0.5, _cross(tau, sw), c, _cross(tau, tdw))
     tdv = _cross(tau, dv)
-    pv = _lin3(1.0, dv, 0.5, _cross(tau, sv), c, _cross(tau, tdv))
-    dd = _lin3(0.5, _cross(t, sw), c, _lin(1.0, _cross(tau, _cross(t, dw)), 1.0, _cross(t, tdw)),
-               g * _dot(tau, t), _cross(tau, tdw))  # fmt: skip
-    return r1, _lin(1.0, dd, 1.0, pv)
+    pv = lin3(1.0, dv, 0.5, _cross(tau, sv), c, _cross(tau, tdv))
+    dd = lin3(0.5, _cross(t, sw), c, lin(1.0, _cross(tau, _cross(t, dw)), 1.0, _cross(t, tdw)),
+               g * dot(tau, t), _cross(tau, tdw))  # fmt: skip
+    return r1, lin(1.0, dd, 1.0, pv)
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _twist_gamma(tau, t, c, g, y1, y2):
     """``Gamma [y1; y2] = [P y1 + D y2; P y2]`` (eq. 46)."""
-    m = _lin(1.0, _p_apply(1.0, tau, c, y1), 1.0, _d_apply(1.0, tau, t, c, g, y2))
+    m = lin(1.0, _p_apply(1.0, tau, c, y1), 1.0, _d_apply(1.0, tau, t, c, g, y2))
     return m, _p_apply(1.0, tau, c, y2)
 
 
@@ -355,24 +355,24 @@ def _twist_gamma(tau, t, c, g, y1, y2):
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def dual_part(w, xv, p):
     """Dual part ``(s', x')`` of the unit dual quaternion of ``(q_r, p)`` (eqs 37-38)."""
-    s_d = -0.5 * _dot(xv, p)
-    x_d = _lin(0.5 * w, p, -0.5, _cross(xv, p))
+    s_d = -0.5 * dot(xv, p)
+    x_d = lin(0.5 * w, p, -0.5, _cross(xv, p))
     return s_d, x_d
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _lambda_t_apply(sign, w, xv, s_d, x_d, a, b):
     """``Lambda_ab^T [a; b]`` (sign=+1) or ``Lambda_ba^T [a; b]`` (sign=-1), eqs 85/97."""
-    r1 = _lin(w, a, sign, _cross(xv, a))
-    r2 = _lin3(s_d, a, sign, _cross(x_d, a), 1.0, _lin(w, b, sign, _cross(xv, b)))
+    r1 = lin(w, a, sign, _cross(xv, a))
+    r2 = lin3(s_d, a, sign, _cross(x_d, a), 1.0, lin(w, b, sign, _cross(xv, b)))
     return r1, r2
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _lambda_apply(w, xv, s_d, x_d, y1, y2):
     """``Lambda_ab [y1; y2]`` (eq. 85)."""
-    m = _lin3(w, y1, -1.0, _cross(xv, y1), 1.0, _lin(s_d, y2, -1.0, _cross(x_d, y2)))
-    return m, _lin(w, y2, -1.0, _cross(xv, y2))
+    m = lin3(w, y1, -1.0, _cross(xv, y1), 1.0, lin(s_d, y2, -1.0, _cross(x_d, y2)))
+    return m, lin(w, y2, -1.0, _cross(xv, y2))
 
 
 # --------------------------------------------------------------------------- element kernels
@@ -381,7 +381,7 @@ def _lambda_apply(w, xv, s_d, x_d, y1, y2):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _coords(method, R_WA, p_WA, R_WB, p_WB):
+def coords(method, R_WA, p_WA, R_WB, p_WB):
     """Displacement coordinates of the element and what the wrench map needs.
 
     Returns ``(e1, e2, aux)`` where ``[e1; e2]`` is ``xi`` (twist) or ``[xi_v; x']``
@@ -399,10 +399,10 @@ def _coords(method, R_WA, p_WA, R_WB, p_WB):
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def spatial_potential(method, R_WA, p_WA, R_WB, p_WB, K):
     """Elastic energy of one element [J] (eq. 39 or eq. 80)."""
-    e1, e2, _ = _coords(method, R_WA, p_WA, R_WB, p_WB)
-    y1, y2 = _mat6_vec(K, e1, e2)
+    e1, e2, _ = coords(method, R_WA, p_WA, R_WB, p_WB)
+    y1, y2 = mat6_vec(K, e1, e2)
     scale = 0.5 if method == TWIST else 2.0
-    return scale * (_dot(e1, y1) + _dot(e2, y2))
+    return scale * (dot(e1, y1) + dot(e2, y2))
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -417,25 +417,25 @@ def _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB):
     w, s_d = aux
     b1, b2 = _lambda_t_apply(1.0, w, e1, s_d, e2, wb, vb)
     a1, a2 = _lambda_t_apply(-1.0, w, e1, s_d, e2, wa, va)
-    return _lin(0.5, b1, -0.5, a1), _lin(0.5, b2, -0.5, a2)
+    return lin(0.5, b1, -0.5, a1), lin(0.5, b2, -0.5, a2)
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
 def generalized_forces(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB):
     """Coordinates of one element and the quadratic generalized forces on them.
 
-    Returns ``(e1, e2, aux, y1, y2, power)``: the coordinates as in :func:`_coords`,
+    Returns ``(e1, e2, aux, y1, y2, power)``: the coordinates as in :func:`coords`,
     ``[y1; y2] = K [e1; e2] + B rate`` and ``rate^T B rate`` (0 unless ``viscous``).
     """
-    e1, e2, aux = _coords(method, R_WA, p_WA, R_WB, p_WB)
-    y1, y2 = _mat6_vec(K, e1, e2)
+    e1, e2, aux = coords(method, R_WA, p_WA, R_WB, p_WB)
+    y1, y2 = mat6_vec(K, e1, e2)
     power = 0.0
     if viscous:
         r1, r2 = _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB)
-        b1, b2 = _mat6_vec(B, r1, r2)
-        power = _dot(r1, b1) + _dot(r2, b2)
-        y1 = _lin(1.0, y1, 1.0, b1)
-        y2 = _lin(1.0, y2, 1.0, b2)
+        b1, b2 = mat6_vec(B, r1, r2)
+        power = dot(r1, b1) + dot(r2, b2)
+        y1 = lin(1.0, y1, 1.0, b1)
+        y2 = lin(1.0, y2, 1.0, b2)
     return e1, e2, aux, y1, y2, power
 
 
@@ -458,7 +458,7 @@ def to_world(scale, m, f, R_WB):
     """``scale * [R_WB m; R_WB f]``."""
     m = _mat_vec(R_WB, m)
     f = _mat_vec(R_WB, f)
-    return _lin(scale, m, 0.0, m), _lin(scale, f, 0.0, f)
+    return lin(scale, m, 0.0, m), lin(scale, f, 0.0, f)
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -483,7 +483,8 @@ def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
-def _i(a, i):
+def row_of(a, i):
+    """The row of a batch-first array `a` for item i: i, or 0 where `a` holds one row (broadcast)."""
     return i if a.shape[0] > 1 else 0
 
 
@@ -493,17 +494,17 @@ def spatial_wrench_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_
     for i in range(out.shape[0]):
         m, f, power[i] = spatial_wrench(
             method,
-            load9(R_WA, _i(R_WA, i)),
-            load3(p_WA, _i(p_WA, i)),
-            load9(R_WB, _i(R_WB, i)),
-            load3(p_WB, _i(p_WB, i)),
-            load36(K, _i(K, i)),
-            load36(B, _i(B, i)),
+            load9(R_WA, row_of(R_WA, i)),
+            load3(p_WA, row_of(p_WA, i)),
+            load9(R_WB, row_of(R_WB, i)),
+            load3(p_WB, row_of(p_WB, i)),
+            load36(K, row_of(K, i)),
+            load36(B, row_of(B, i)),
             viscous,
-            load3(w_WA, _i(w_WA, i)),
-            load3(v_WA, _i(v_WA, i)),
-            load3(w_WB, _i(w_WB, i)),
-            load3(v_WB, _i(v_WB, i)),
+            load3(w_WA, row_of(w_WA, i)),
+            load3(v_WA, row_of(v_WA, i)),
+            load3(w_WB, row_of(w_WB, i)),
+            load3(v_WB, row_of(v_WB, i)),
         )
         for j in range(3):
             out[i, j] = m[j]
@@ -516,11 +517,11 @@ def spatial_potential_batch(method, R_WA, p_WA, R_WB, p_WB, K, out):
     for i in range(out.shape[0]):
         out[i] = spatial_potential(
             method,
-            load9(R_WA, _i(R_WA, i)),
-            load3(p_WA, _i(p_WA, i)),
-            load9(R_WB, _i(R_WB, i)),
-            load3(p_WB, _i(p_WB, i)),
-            load36(K, _i(K, i)),
+            load9(R_WA, row_of(R_WA, i)),
+            load3(p_WA, row_of(p_WA, i)),
+            load9(R_WB, row_of(R_WB, i)),
+            load3(p_WB, row_of(p_WB, i)),
+            load36(K, row_of(K, i)),
         )
 
 
@@ -535,8 +536,8 @@ def _quat_of(R, i):
 def twist_from_transform_batch(R, p, out):
     R = flat_rows(R)
     for i in range(out.shape[0]):
-        w, x, y, z = _quat_of(R, _i(R, i))
-        tau, t, _ = twist_from_quat_pos(w, x, y, z, load3(p, _i(p, i)))
+        w, x, y, z = _quat_of(R, row_of(R, i))
+        tau, t, _ = twist_from_quat_pos(w, x, y, z, load3(p, row_of(p, i)))
         for k in range(3):
             out[i, k] = tau[k]
             out[i, 3 + k] = t[k]
@@ -547,12 +548,12 @@ def transform_from_twist_batch(xi, R_out, p_out):
     for i in range(R_out.shape[0]):
         tau = (xi[i, 0], xi[i, 1], xi[i, 2])
         t = (xi[i, 3], xi[i, 4], xi[i, 5])
-        a = math.sqrt(_dot(tau, tau))
+        a = math.sqrt(dot(tau, tau))
         sh, c2, c3 = exp_coefs(a)
         # Rodrigues through the quaternion (cos(a/2), sin(a/2)/a * tau), eqs 16-17
         write_rot_from_quat(math.cos(0.5 * a), sh * tau[0], sh * tau[1], sh * tau[2], R_out[i])
         tt = _cross(tau, t)
-        p = _lin3(1.0, t, c2, tt, c3, _cross(tau, tt))  # p = J_l(tau) t, eq. 19
+        p = lin3(1.0, t, c2, tt, c3, _cross(tau, tt))  # p = J_l(tau) t, eq. 19
         for k in range(3):
             p_out[i, k] = p[k]
 
@@ -561,8 +562,8 @@ def transform_from_twist_batch(xi, R_out, p_out):
 def dual_quaternion_from_transform_batch(R, p, out):
     R = flat_rows(R)
     for i in range(out.shape[0]):
-        w, x, y, z = _quat_of(R, _i(R, i))
-        s_d, x_d = dual_part(w, (x, y, z), load3(p, _i(p, i)))
+        w, x, y, z = _quat_of(R, row_of(R, i))
+        s_d, x_d = dual_part(w, (x, y, z), load3(p, row_of(p, i)))
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = w, x, y, z
         out[i, 4], out[i, 5], out[i, 6], out[i, 7] = s_d, x_d[0], x_d[1], x_d[2]
 
@@ -574,6 +575,6 @@ def transform_from_dual_quaternion_batch(q, R_out, p_out):
         s_d, x_d = q[i, 4], (q[i, 5], q[i, 6], q[i, 7])
         write_rot_from_quat(w, xv[0], xv[1], xv[2], R_out[i])
         # p = 2 vec(q_d * conj(q_r)) = 2 (w x' - s' xi + xi x x')
-        p = _lin3(2.0 * w, x_d, -2.0 * s_d, xv, 2.0, _cross(xv, x_d))
+        p = lin3(2.0 * w, x_d, -2.0 * s_d, xv, 2.0, _cross(xv, x_d))
         for k in range(3):
             p_out[i, k] = p[k]

@@ -10,16 +10,16 @@ import math
 
 from numba import njit
 
-from ._kernels import _PI, _TWO_PI, TWIST, _i, flat_rows, jl_inv_coefs, load9
+from ._kernels import PI, TWIST, TWO_PI, flat_rows, jl_inv_coefs, load9, row_of
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def wrap_angle(d):
     """Angle wrapped to (-pi, pi]."""
-    if d > _PI or d <= -_PI:
-        d = d - _TWO_PI * math.floor((d + _PI) / _TWO_PI)
-        if d <= -_PI:
-            d += _TWO_PI
+    if d > PI or d <= -PI:
+        d = d - TWO_PI * math.floor((d + PI) / TWO_PI)
+        if d <= -PI:
+            d += TWO_PI
     return d
 
 
@@ -124,7 +124,7 @@ def planar_wrench(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA, w_b,
 @njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
 def _load2(a, i):
     """2-tuple ``a[i']`` of an (n, 2) array, broadcasting a leading axis of 1."""
-    j = _i(a, i)
+    j = row_of(a, i)
     return (a[j, 0], a[j, 1])
 
 
@@ -134,16 +134,16 @@ def planar_wrench_batch(method, th_a, p_WA, th_b, p_WB, K, B, viscous, w_a, v_WA
     for i in range(out.shape[0]):
         m, f, power[i] = planar_wrench(
             method,
-            th_a[_i(th_a, i)],
+            th_a[row_of(th_a, i)],
             _load2(p_WA, i),
-            th_b[_i(th_b, i)],
+            th_b[row_of(th_b, i)],
             _load2(p_WB, i),
-            load9(K, _i(K, i)),
-            load9(B, _i(B, i)),
+            load9(K, row_of(K, i)),
+            load9(B, row_of(B, i)),
             viscous,
-            w_a[_i(w_a, i)],
+            w_a[row_of(w_a, i)],
             _load2(v_WA, i),
-            w_b[_i(w_b, i)],
+            w_b[row_of(w_b, i)],
             _load2(v_WB, i),
         )
         out[i, 0], out[i, 1], out[i, 2] = m, f[0], f[1]
@@ -155,9 +155,9 @@ def planar_potential_batch(method, th_a, p_WA, th_b, p_WB, K, out):
     for i in range(out.shape[0]):
         out[i] = planar_potential(
             method,
-            th_a[_i(th_a, i)],
+            th_a[row_of(th_a, i)],
             _load2(p_WA, i),
-            th_b[_i(th_b, i)],
+            th_b[row_of(th_b, i)],
             _load2(p_WB, i),
-            load9(K, _i(K, i)),
+            load9(K, row_of(K, i)),
         )

@@ -18,18 +18,18 @@ from numba import njit
 
 from ._kernels import (
     TWIST,
-    _coords,
-    _dot,
-    _i,
-    _lin,
-    _lin3,
-    _mat6_vec,
+    coords,
+    dot,
     flat_rows,
     force_map,
     generalized_forces,
+    lin,
+    lin3,
     load3,
     load9,
     load36,
+    mat6_vec,
+    row_of,
     spatial_potential,
     spatial_wrench,
     to_world,
@@ -102,15 +102,15 @@ def terms_eval(nvar, exps, coefs, lo, hi, pw, grad, want_grad):
 def _terms_wrench_b(method, e1, e2, aux, y1, y2, grad):
     """``(m, f, scale)`` of the quadratic forces ``[y1; y2]`` plus the terms' gradient ``grad``."""
     if method == TWIST:
-        y1 = _lin(1.0, y1, 1.0, (grad[0], grad[1], grad[2]))
-        y2 = _lin(1.0, y2, 1.0, (grad[3], grad[4], grad[5]))
+        y1 = lin(1.0, y1, 1.0, (grad[0], grad[1], grad[2]))
+        y2 = lin(1.0, y2, 1.0, (grad[3], grad[4], grad[5]))
         return force_map(method, e1, e2, aux, y1, y2)
-    y1 = _lin(1.0, y1, 0.25, (grad[1], grad[2], grad[3]))
-    y2 = _lin(1.0, y2, 0.25, (grad[5], grad[6], grad[7]))
+    y1 = lin(1.0, y1, 0.25, (grad[1], grad[2], grad[3]))
+    y2 = lin(1.0, y2, 0.25, (grad[5], grad[6], grad[7]))
     m, f, scale = force_map(method, e1, e2, aux, y1, y2)
     # sigma and s' columns of eq. 116, times 1/4 because scale = -2 stands for -1/2
-    m = _lin3(1.0, m, -0.25 * grad[0], e1, -0.25 * grad[4], e2)
-    f = _lin(1.0, f, -0.25 * grad[4], e1)
+    m = lin3(1.0, m, -0.25 * grad[0], e1, -0.25 * grad[4], e2)
+    f = lin(1.0, f, -0.25 * grad[4], e1)
     return m, f, scale
 
 
@@ -119,11 +119,11 @@ def spatial_potential_terms(method, R_WA, p_WA, R_WB, p_WB, K, exps, coefs, lo, 
     """Elastic energy of one element with polynomial terms [J]; ``top``: largest exponent of its terms."""
     if hi <= lo:
         return spatial_potential(method, R_WA, p_WA, R_WB, p_WB, K)
-    e1, e2, aux = _coords(method, R_WA, p_WA, R_WB, p_WB)
-    y1, y2 = _mat6_vec(K, e1, e2)
+    e1, e2, aux = coords(method, R_WA, p_WA, R_WB, p_WB)
+    y1, y2 = mat6_vec(K, e1, e2)
     scale = 0.5 if method == TWIST else 2.0
     nvar = fill_powers(method, e1, e2, aux, pw, top)
-    return scale * (_dot(e1, y1) + _dot(e2, y2)) + terms_eval(nvar, exps, coefs, lo, hi, pw, grad, False)
+    return scale * (dot(e1, y1) + dot(e2, y2)) + terms_eval(nvar, exps, coefs, lo, hi, pw, grad, False)
 
 
 @njit(**_JIT)
@@ -163,9 +163,10 @@ def spatial_wrench_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_
     hi, top = coefs.shape[0], pw.shape[1] - 1
     for i in range(out.shape[0]):
         m, f, power[i] = spatial_wrench_terms(
-            method, load9(R_WA, _i(R_WA, i)), load3(p_WA, _i(p_WA, i)), load9(R_WB, _i(R_WB, i)),
-            load3(p_WB, _i(p_WB, i)), load36(K, _i(K, i)), load36(B, _i(B, i)), viscous,
-            load3(w_WA, _i(w_WA, i)), load3(v_WA, _i(v_WA, i)), load3(w_WB, _i(w_WB, i)), load3(v_WB, _i(v_WB, i)),
+            method, load9(R_WA, row_of(R_WA, i)), load3(p_WA, row_of(p_WA, i)), load9(R_WB, row_of(R_WB, i)),
+            load3(p_WB, row_of(p_WB, i)), load36(K, row_of(K, i)), load36(B, row_of(B, i)), viscous,
+            load3(w_WA, row_of(w_WA, i)), load3(v_WA, row_of(v_WA, i)), load3(w_WB, row_of(w_WB, i)),
+            load3(v_WB, row_of(v_WB, i)),
             exps, coefs, 0, hi, top, pw, grad,
         )  # fmt: skip
         for j in range(3):
@@ -179,8 +180,8 @@ def spatial_potential_terms_batch(method, R_WA, p_WA, R_WB, p_WB, K, exps, coefs
     hi, top = coefs.shape[0], pw.shape[1] - 1
     for i in range(out.shape[0]):
         out[i] = spatial_potential_terms(
-            method, load9(R_WA, _i(R_WA, i)), load3(p_WA, _i(p_WA, i)), load9(R_WB, _i(R_WB, i)),
-            load3(p_WB, _i(p_WB, i)), load36(K, _i(K, i)), exps, coefs, 0, hi, top, pw, grad,
+            method, load9(R_WA, row_of(R_WA, i)), load3(p_WA, row_of(p_WA, i)), load9(R_WB, row_of(R_WB, i)),
+            load3(p_WB, row_of(p_WB, i)), load36(K, row_of(K, i)), exps, coefs, 0, hi, top, pw, grad,
         )  # fmt: skip
 
 
@@ -193,7 +194,7 @@ def design_batch(method, R_ab, p_ab, exps, factors, pw, grad, wrench_out, value_
     """
     R_ab = flat_rows(R_ab)
     for i in range(R_ab.shape[0]):
-        e1, e2, aux = _coords(method, _I9, _Z3, load9(R_ab, i), load3(p_ab, i))
+        e1, e2, aux = coords(method, _I9, _Z3, load9(R_ab, i), load3(p_ab, i))
         nvar = fill_powers(method, e1, e2, aux, pw, pw.shape[1] - 1)
         for m in range(exps.shape[0]):
             value_out[i, m] = terms_eval(nvar, exps, factors, m, m + 1, pw, grad, True)

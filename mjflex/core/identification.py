@@ -44,13 +44,13 @@ import numpy as np
 from . import _poly_kernels as _polyk
 from .elements import wrench_on_b
 from .polynomial import (
-    _DQ_DISPLACEMENT,
+    DQ_DISPLACEMENT,
     VARIABLES,
     PolynomialTerms,
-    _variables,
     monomial_names,
     polynomial_basis,
     symmetry_signs,
+    variable_indices,
 )
 from .stiffness import stiffness_in_frame
 from .transforms import dual_quaternion_from_transform, transform_from_twist, twist_from_transform
@@ -212,7 +212,7 @@ def _stiffness_monomials(method, variables, symmetries=None):
     With ``symmetries``, only the entries that couple coordinates of equal sign under each of them.
     """
     nvar = len(VARIABLES[method])
-    zi = variables if method == "twist" else [_DQ_DISPLACEMENT[i] for i in variables]
+    zi = variables if method == "twist" else [DQ_DISPLACEMENT[i] for i in variables]
     signs = symmetry_signs("twist", symmetries)
     rows, factors, names = [], [], []
     for a, i in enumerate(variables):
@@ -270,10 +270,10 @@ def coordinates(R_ab, p_ab, method):
 
 def _check_excitation(z, method, variables, n_params):
     """Raise for a single direction, warn for coordinates that the samples do not move."""
-    disp = z if method == "twist" else z[:, list(_DQ_DISPLACEMENT)]
+    disp = z if method == "twist" else z[:, list(DQ_DISPLACEMENT)]
     disp = disp[:, list(variables)]
     rms = np.sqrt(np.mean(disp**2, axis=0))
-    names = [VARIABLES[method][i if method == "twist" else _DQ_DISPLACEMENT[i]] for i in variables]
+    names = [VARIABLES[method][i if method == "twist" else DQ_DISPLACEMENT[i]] for i in variables]
     kind = np.array([i < 3 for i in variables])
     excited = np.zeros(len(variables), dtype=bool)
     for k in (True, False):
@@ -417,7 +417,7 @@ def fit_potential(
         raise ValueError(f"wrench_frame must be 'a' or 'b'; got {wrench_frame!r}")
     if not (np.isscalar(ridge) and np.isfinite(ridge) and ridge >= 0):
         raise ValueError(f"ridge must be a finite number >= 0; got {ridge!r}")
-    variables = _variables(variables, method)
+    variables = variable_indices(variables, method)
     exponents, k_rows, k_factors, k_names = _unknowns(method, order, variables, symmetries, exponents, K is None)
     Wb = _rotate(W, R, transpose=True) if wrench_frame == "a" else W
     w = np.diag(_default_weights(Wb)) if weights is None else _weights(weights)

@@ -84,7 +84,7 @@ MAX_EXPONENT = 16
 REST_STRESS_RTOL = 1e-12
 
 _SIGMA, _SDUAL = 0, 4
-_DQ_DISPLACEMENT = (1, 2, 3, 5, 6, 7)  # z index of xi_1..3, x'_1..3 (the 6 coordinates of K)
+DQ_DISPLACEMENT = (1, 2, 3, 5, 6, 7)  # z index of xi_1..3, x'_1..3 (the 6 coordinates of K)
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,7 +166,7 @@ class PolynomialTerms:
                 continue
             # at rest q = (1, 0, 0, 0, 0, 0, 0, 0); to second order in delta = [w; v]:
             # xi = w/2, x' = v/2, sigma = 1 - |w|^2/8, s' = -w.v/4
-            rest = e[list(_DQ_DISPLACEMENT)]
+            rest = e[list(DQ_DISPLACEMENT)]
             if e[_SDUAL] == 0 and rest.sum() == 2:
                 H += 0.25 * c * _quadratic_hessian(rest)
             elif e[_SDUAL] == 0 and rest.sum() == 0:
@@ -182,7 +182,7 @@ class PolynomialTerms:
         ``xi_ba = -xi_ab`` (twist) and ``q_ba = conj(q_ab)`` (dual quaternion), so each
         coefficient changes sign with the parity of the degree in the odd coordinates.
         """
-        odd = self.exponents if self.method == "twist" else self.exponents[:, list(_DQ_DISPLACEMENT)]
+        odd = self.exponents if self.method == "twist" else self.exponents[:, list(DQ_DISPLACEMENT)]
         sign = 1.0 - 2.0 * (odd.sum(axis=1) % 2)
         return PolynomialTerms(self.method, self.exponents, sign * self.coefficients)
 
@@ -263,7 +263,7 @@ def _check_degrees(e: np.ndarray, method: str) -> None:
 def _check_rest_stress(e: np.ndarray, c: np.ndarray) -> None:
     """The generalized force at rest along xi and x' must vanish (sigma^k z_j terms cancel)."""
     scale = np.abs(c).sum()
-    for j in _DQ_DISPLACEMENT:
+    for j in DQ_DISPLACEMENT:
         others = np.delete(np.arange(8), [_SIGMA, j])
         rows = (e[:, j] == 1) & (e[:, others].sum(axis=1) == 0)
         stress = c[rows].sum()
@@ -298,7 +298,7 @@ def monomial_names(exponents, method: str) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _variables(variables, method: str) -> tuple[int, ...]:
+def variable_indices(variables, method: str) -> tuple[int, ...]:
     if variables is None:
         return tuple(range(6))
     try:
@@ -309,7 +309,7 @@ def _variables(variables, method: str) -> tuple[int, ...]:
         names = VARIABLES["twist" if method == "twist" else "dualquat"]
         raise ValueError(
             f"variables must be distinct indices 0..5 of the displacement coordinates [rotation; translation] "
-            f"({', '.join(names if method == 'twist' else (names[i] for i in _DQ_DISPLACEMENT))}); got {variables!r}"
+            f"({', '.join(names if method == 'twist' else (names[i] for i in DQ_DISPLACEMENT))}); got {variables!r}"
         )
     return tuple(sorted(v))
 
@@ -321,10 +321,10 @@ def coordinate_indices(method: str, variables=None) -> tuple[int, ...]:
     quaternions ``sigma`` is always allowed and ``s' = -xi . x' / sigma`` only when a rotation
     and a translation coordinate along the same axis both are (it vanishes otherwise).
     """
-    v = _variables(variables, method)
+    v = variable_indices(variables, method)
     if method_code(method) == 0:
         return v
-    z = [_SIGMA] + [_DQ_DISPLACEMENT[i] for i in v]
+    z = [_SIGMA] + [DQ_DISPLACEMENT[i] for i in v]
     if any(i < 3 and i + 3 in v for i in v):
         z.append(_SDUAL)
     return tuple(sorted(z))
@@ -423,7 +423,7 @@ def _dualquat_term(e: np.ndarray, first_xi) -> bool:
         return False
     if e[_SDUAL] and first_xi is not None and e[first_xi] >= 2:
         return False
-    rest = e[list(_DQ_DISPLACEMENT)].sum()
+    rest = e[list(DQ_DISPLACEMENT)].sum()
     if e[_SDUAL] == 0 and e[_SIGMA] == 0 and rest == 2:
         return False  # a [xi; x'] quadratic: part of K
     return not (e[_SIGMA] == 1 and e[_SDUAL] == 0 and rest == 1)

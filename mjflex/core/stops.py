@@ -67,6 +67,9 @@ from .validation import as_array, check_rotation, numeric_array
 #: The stop coordinates of a spatial element and of a planar one, in order.
 SPATIAL_COORDINATES = ("rx", "ry", "rz", "x", "y", "z")
 PLANAR_COORDINATES = ("theta", "x", "y")
+#: Indices of the planar coordinates ``[theta_z; x; y]`` within ``[rx, ry, rz, x, y, z]`` (of a planar element's
+#: 3x3 ``K`` within the 6x6 of the same element).
+PLANAR_INDEX = (2, 3, 4)
 #: The derived stiffness of a stop: this times the element's stiffness ``K_ii`` of its coordinate.
 STIFFNESS_FACTOR = 100.0
 

@@ -3,7 +3,7 @@
 The one place where arguments become numbers: every public function of :mod:`mjflex.core`
 converts its array arguments with :func:`as_array` (or :func:`check_rotation`,
 :func:`check_psd_matrix`, :func:`check_unit_dual_quaternion`, which use it), the MuJoCo layer
-converts element records (:mod:`mjflex.mj.schema`) and ``add_flexure``'s arguments with the same
+converts element records (:mod:`mjflex.mjcf.schema`) and ``add_flexure``'s arguments with the same
 functions, and scalar options everywhere go through :func:`check_number` and :func:`check_flag`.
 
 Conversion rules (:func:`numeric_array`), the same for arrays, nested lists and JSON data:
@@ -47,6 +47,10 @@ from ._kernels import DUALQUAT, TWIST
 
 SYMMETRY_RTOL = 1e-8
 PSD_RTOL = 1e-10
+#: Largest magnitude of a K or B entry (and of a stop's stiffness): an element's energy ``x^T K x / 2``
+#: and power stay finite in float64 for every displacement and velocity MuJoCo accepts
+#: (``|x| <= 1e10``, its ``mjMAXVAL``). The C library's ``MJFX_MAX_MATRIX_ENTRY``, held equal by a test.
+MAX_MATRIX_ENTRY = 1e280
 ORTHONORMAL_ATOL = 1e-9
 ORTHONORMAL_EPS_FACTOR = 16
 UNIT_ATOL = 1e-9

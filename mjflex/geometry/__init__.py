@@ -11,9 +11,9 @@ from .hinges import (
     leaf_spring_stiffness,
     notch_hinge_stiffness,
     notch_hinge_thickness,
-    rectangle_torsion_constant,
 )
 from .rod import LeafChain, rod_segment_stiffness
+from .sections import rectangle_torsion_constant
 
 __all__ = [
     "LeafChain",

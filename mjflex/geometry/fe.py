@@ -52,6 +52,7 @@ from scipy.sparse.linalg import splu
 from skfem import Basis, ElementHex2, ElementQuad2
 
 from .fe_mesh import Counts, LeafProfile, NotchProfile, section_mesh, solid_mesh
+from .sections import rectangle_torsion_constant
 
 #: Models accepted by the functions of this module.
 MODELS = ("solid", "plane_stress", "plane_strain")
@@ -214,8 +215,6 @@ def plain_segment_compliance(length, height, width, E, nu, model="solid"):
     rectangle constant, bending with ``E`` (``E / (1 - nu^2)`` and axial likewise in plane
     strain), shear with Cowper's coefficient (:func:`rectangle_shear_coefficient`).
     """
-    from .hinges import rectangle_torsion_constant
-
     G, kappa = E / (2 * (1 + nu)), rectangle_shear_coefficient(nu)
     Ep = E / (1 - nu**2) if model == "plane_strain" else E
     A, Iz, Iy = height * width, width * height**3 / 12, height * width**3 / 12

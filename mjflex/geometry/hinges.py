@@ -43,6 +43,8 @@ import math
 import numpy as np
 from scipy import integrate
 
+from .sections import check_positive, rectangle_torsion_constant, shear_constants
+
 #: Width-to-thickness ratio above which the compliant bending uses the plane-strain modulus.
 WIDE_RATIO = 5.0
 #: Range of t/R where the notch-hinge beam model is validated (see notch_hinge_stiffness).
@@ -51,54 +53,9 @@ NOTCH_T_OVER_R = (0.05, 0.8)
 LEAF_MIN_L_OVER_T = 5.0
 
 
-def _positive(**values):
-    for name, v in values.items():
-        if not (isinstance(v, int | float | np.floating | np.integer) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a positive finite number; got {v!r}")
-
-
-def _material(E, nu):
-    _positive(E=E)
-    if not (0.0 <= nu < 0.5):
-        raise ValueError(f"Poisson ratio nu must be in [0, 0.5); got {nu!r}")
-    return E / (2.0 * (1.0 + nu)), 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
-
-
-def rectangle_torsion_constant(a, c):
-    """Saint-Venant torsion constant of an ``a x c`` rectangle [m^4] (exact series).
-
-    ``J = (A C^3 / 3) [1 - (192 / pi^5)(C / A) sum_{n odd} tanh(n pi A / (2 C)) / n^5]`` with
-    ``A = max(a, c)``, ``C = min(a, c)`` (Timoshenko & Goodier, Theory of Elasticity, sec. 109).
-    Accepts arrays; the series is summed to round-off.
-
-    Parameters
-    ----------
-    a, c : float or array_like
-        The rectangle's sides [m], in either order (positive; arrays broadcast).
-
-    Returns
-    -------
-    J : float or ndarray
-        The torsion constant [m^4]; the torsional stiffness of a bar of length ``L`` is ``G J / L``.
-
-    Examples
-    --------
-    >>> import mjflex
-    >>> J = mjflex.geometry.rectangle_torsion_constant(8e-3, 0.5e-3)  # a thin strip: about a c^3 / 3
-    >>> print(f"{J:.4e} m^4, thin-strip limit {8e-3 * 0.5e-3**3 / 3:.4e} m^4")
-    3.2020e-13 m^4, thin-strip limit 3.3333e-13 m^4
-    """
-    a, c = np.asarray(a, dtype=float), np.asarray(c, dtype=float)
-    A, C = np.maximum(a, c), np.minimum(a, c)
-    s = np.zeros(np.broadcast(A, C).shape)
-    for n in range(1, 40, 2):
-        s = s + np.tanh(n * np.pi * A / (2 * C)) / n**5
-    return A * C**3 / 3.0 * (1.0 - 192.0 / np.pi**5 * (C / A) * s)
-
-
 def _beam_compliance(h, half_length, b, E, nu, wide):
     """Diagonal compliance at the centre of a symmetric beam of thickness ``h(x)``, ``|x| <= half_length``."""
-    G, kappa = _material(E, nu)
+    G, kappa = shear_constants(E, nu)
     E_bend = E / (1.0 - nu**2) if wide else E
 
     def quad(f):
@@ -159,7 +116,7 @@ def _method(method, wide):
 
 def _fe_module():
     try:
-        from . import fe
+        from . import fe  # scikit-fem, an optional dependency, loads only for method="fe"
     except ImportError as err:  # scikit-fem is an optional dependency
         raise ImportError(f"method='fe' needs scikit-fem ({err}); install it: pip install 'mjflex[fe]'") from err
     return fe
@@ -248,9 +205,9 @@ def notch_hinge_stiffness(
     >>> print(f"beam model / tables: {K_beam[2, 2] / K[2, 2]:.3f}")
     beam model / tables: 1.081
     """
-    _positive(R=R, t=t, b=b)
+    check_positive(R=R, t=t, b=b)
     _method(method, wide)
-    _material(E, nu)
+    shear_constants(E, nu)
     if method == "beam":
         ratio = t / R
         if not allow_out_of_range and not (NOTCH_T_OVER_R[0] <= ratio <= NOTCH_T_OVER_R[1]):
@@ -349,9 +306,9 @@ def leaf_spring_stiffness(
     >>> print(f"compliant rotation {K[2, 2]:.4f} N m/rad, in-plane shear {K[4, 4]:.4g} N/m")
     compliant rotation 1.6850 N m/rad, in-plane shear 1.904e+05 N/m
     """
-    _positive(L=L, t=t, b=b)
+    check_positive(L=L, t=t, b=b)
     _method(method, wide)
-    _material(E, nu)
+    shear_constants(E, nu)
     if method == "beam":
         if not allow_out_of_range and (L / t < LEAF_MIN_L_OVER_T or t > b):
             raise ValueError(
@@ -363,7 +320,7 @@ def leaf_spring_stiffness(
     from .tables import LEAF_BLOCK_HEIGHT, correction_factors
 
     H = LEAF_BLOCK_HEIGHT * t if block_height is None else block_height
-    _positive(block_height=H)
+    check_positive(block_height=H)
     if method == "fe":
         fe = _fe_module()
         C = fe.element_compliance(fe.leaf_profile(L, t, H), b, E, nu, level=fe_level, counts=fe.LEAF_COUNTS)

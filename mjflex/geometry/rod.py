@@ -25,7 +25,8 @@ import numpy as np
 from scipy.linalg import solve_banded
 
 from ..core import planar_potential, planar_wrench_on_b
-from .hinges import WIDE_RATIO, _material, _positive
+from .hinges import WIDE_RATIO
+from .sections import check_positive, shear_constants
 
 #: Relative (to ``E* I / L`` and ``E* I / L^2``) equilibrium residual at which Newton stops, or
 #: 100 times the round-off of the axial forces (``E A / h`` times ``eps L``) if that is larger.
@@ -65,8 +66,8 @@ def rod_segment_stiffness(h, t, b, E, nu, *, wide=None):
     >>> print(f"bending {K[0, 0]:.4g} N m/rad, axial {K[1, 1]:.4g} N/m, shear {K[2, 2]:.4g} N/m")
     bending 18.32 N m/rad, axial 8e+08 N/m, shear 2.614e+08 N/m
     """
-    _positive(h=h, t=t, b=b)
-    G, kappa = _material(E, nu)
+    check_positive(h=h, t=t, b=b)
+    G, kappa = shear_constants(E, nu)
     wide = b >= WIDE_RATIO * t if wide is None else wide
     E_bend = E / (1.0 - nu**2) if wide else E
     A = b * t
@@ -98,7 +99,7 @@ class LeafChain:
     """
 
     def __init__(self, L, t, b, E, nu, *, n=40, wide=None):
-        _positive(L=L)
+        check_positive(L=L)
         if not (isinstance(n, int) and n >= 2):
             raise ValueError(f"n must be an integer >= 2 (number of segments); got {n!r}")
         self.L, self.n, self.h = float(L), n, L / n

@@ -51,12 +51,6 @@ def _splines(kind):
     return _splines_of(load_table(kind))
 
 
-def table_range(kind):
-    """``{axis name: (min, max)}`` of the stored table ``kind``."""
-    table = load_table(kind)
-    return {k: (min(v), max(v)) for k, v in ((k, table["axes"][k]) for k in table["axis_names"])}
-
-
 def correction_factors(kind, ratio_1, ratio_2, nu):
     """Factors ``K_FE / K_beam`` (6,) of the diagonal ``[rot_x, rot_y, rot_z, x, y, z]``.
 
@@ -76,7 +70,7 @@ def correction_factors(kind, ratio_1, ratio_2, nu):
     return _evaluate(load_table(kind), *_splines(kind), ratio_1, ratio_2, nu)
 
 
-def _correction_factors_from(table, ratio_1, ratio_2, nu):
+def correction_factors_from(table, ratio_1, ratio_2, nu):
     """:func:`correction_factors` of a table dict that is not (yet) package data."""
     return _evaluate(table, *_splines_of(table), ratio_1, ratio_2, nu)
 

@@ -1,8 +1,12 @@
-// Entry points for Python (ctypes, mjflex/mj/_native.py): the element struct's layout, batch
-// versions of the element math (tested against mjflex.core), and the watch's contents.
+// Entry points for Python (ctypes, mjflex/native/library.py): the element struct's layout, the
+// table of a model's elements (both forms, read by instances.c), the configuration check, the
+// shared constants, batch versions of the element math (tested against mjflex.core), and the
+// watch's contents.
 
 #include <math.h>
 #include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <mujoco/mjplugin.h>
@@ -10,6 +14,7 @@
 #include "config.h"
 #include "elements.h"
 #include "flexure_math.h"
+#include "instances.h"
 
 #define FIELD(name) {#name, offsetof(mjfxElement, name)}
 static const struct {
@@ -115,19 +120,75 @@ int mjfx_evaluate_checked(const mjModel* m, const mjData* d, const mjfxElement* 
   return mjfx_evaluate(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
 }
 
-// mjfx_rest_offset for ctypes: sites checked against m. 0, or -1 (nothing written).
-int mjfx_site_rest_offset(const mjModel* m, const mjData* d, int sa, int sb, double R0[9], double p0[3],
-                          double* dist, double* angle) {
-  if (!m || !d || sa < 0 || sa >= m->nsite || sb < 0 || sb >= m->nsite) return -1;
-  mjfx_rest_offset(d, sa, sb, R0, p0, dist, angle);
+// The sizes of a table from mjfx_read_table: out[0] elements, out[1] dof ids of the chains, out[2] terms.
+void mjfx_table_sizes(const Table* t, int out[3]) {
+  out[0] = t ? t->n : 0, out[1] = t ? t->nchain : 0, out[2] = t ? t->nterms : 0;
+}
+
+// Copy a table into Python's arrays, sized by mjfx_table_sizes (exps: MJFX_TERM_COLUMNS per term); NULL
+// arrays are skipped.
+void mjfx_table_copy(const Table* t, mjfxElement* el, int* chain, int* exps, double* coefs, int* instance) {
+  if (!t) return;
+  if (el) memcpy(el, t->el, sizeof(mjfxElement) * t->n);
+  if (chain) memcpy(chain, t->chain, sizeof(int) * t->nchain);
+  if (exps) memcpy(exps, t->exps, sizeof(int) * MJFX_TERM_COLUMNS * t->nterms);
+  if (coefs) memcpy(coefs, t->coefs, sizeof(double) * t->nterms);
+  if (instance) memcpy(instance, t->instance, sizeof(int) * t->n);
+}
+
+// Check element `name`'s configuration strings values[MJFX_NATTRIBUTE] (config.c's rules, without a model:
+// sites are not looked up). 0, or -1 with the message in err (its head names a plugin instance).
+int mjfx_check_config(const char* name, const char* const* values, char* err, int errsz) {
+  if (!name || !values || !err || errsz < 1) return -1;
+  for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
+    if (!values[i]) {
+      snprintf(err, errsz, "mjflex: mjfx_check_config: invalid arguments");
+      return -1;
+    }
+  }
+  mjfxParsed parsed;
+  memset(&parsed, 0, sizeof(parsed));
+  if (mjfx_parse_config(name, MJFX_FORM_PLUGIN, values, &parsed, err, errsz)) return -1;
+  free(parsed.exps);
+  free(parsed.coefs);
   return 0;
 }
 
-// mjfx_element_prepare for ctypes: the element's sites checked against m. 0, or -1 (nothing written).
-int mjfx_prepare_row(const mjModel* m, mjfxElement* e) {
-  if (!m || !e || e->site_a < 0 || e->site_a >= m->nsite || e->site_b < 0 || e->site_b >= m->nsite) return -1;
-  mjfx_element_prepare(m, e);
-  return 0;
+// The constants Python holds too (tests/test_native_constants.py compares them); NaN for an unknown name.
+double mjfx_constant(const char* name) {
+  static const struct {
+    const char* name;
+    double value;
+  } CONSTANTS[] = {
+      {"MAX_MATRIX_ENTRY", MJFX_MAX_MATRIX_ENTRY},
+      {"SYMMETRY_RTOL", MJFX_SYMMETRY_RTOL},
+      {"PSD_RTOL", MJFX_PSD_RTOL},
+      {"COINCIDENCE_RTOL", MJFX_COINCIDENCE_RTOL},
+      {"COINCIDENCE_ANGLE", MJFX_COINCIDENCE_ANGLE},
+      {"REST_STRESS_RTOL", MJFX_REST_STRESS_RTOL},
+      {"MAX_TERMS", MJFX_MAX_TERMS},
+      {"MAX_EXPONENT", MJFX_MAX_EXPONENT},
+      {"TERM_COLUMNS", MJFX_TERM_COLUMNS},
+      {"STOP_STIFFNESS_FACTOR", MJFX_STOP_STIFFNESS_FACTOR},
+      {"MAX_ROTATION_LIMIT", MJFX_PI_TOLERANT},
+      {"DEFAULT_STRAIN_SCALE", MJFX_DEFAULT_STRAIN_SCALE},
+      {"DEFAULT_ROTATION_SCALE", MJFX_DEFAULT_ROTATION_SCALE},
+      {"NATTRIBUTE", MJFX_NATTRIBUTE},
+      {"TWIST", MJFX_TWIST},
+      {"DUALQUAT", MJFX_DUALQUAT},
+      {"FULL", MJFX_FULL},
+      {"DIAGONAL", MJFX_DIAGONAL},
+      {"ZERO", MJFX_ZERO},
+      {"APPLY", MJFX_APPLY},
+      {"WRENCH", MJFX_WRENCH},
+      {"ENERGY", MJFX_ENERGY},
+      {"POWER", MJFX_POWER},
+      {"COORDS", MJFX_COORDS},
+  };
+  for (size_t i = 0; name && i < sizeof(CONSTANTS) / sizeof(CONSTANTS[0]); i++) {
+    if (!strcmp(CONSTANTS[i].name, name)) return CONSTANTS[i].value;
+  }
+  return NAN;
 }
 
 //------------------------------------------------------------------------------ batch math (for the tests)

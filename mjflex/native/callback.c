@@ -13,12 +13,12 @@
 //   compiling) are left untouched; a previous C callback is called first (chained).
 // * The tables are checked once, when a slot is published (mjfx_check_rows): a table that could
 //   index past the model's arrays is refused.
-// * Divergence: each slot has MJFX_WATCHES per-mjData watch records, claimed by data address;
+// * Divergence: each slot has MJFX_WATCHES per-mjData watch entries, claimed by data address;
 //   when all are taken the least recently used is reclaimed, so a diagnostic may be approximate
-//   when more mjData of one model are alive at once than there are records. A record is used
+//   when more mjData of one model are alive at once than there are entries. An entry is used
 //   (read, cleared or written) only by the thread that holds its busy flag (an atomic
-//   compare-exchange): two threads that reclaim the same record at once cannot both use it (the
-//   loser evaluates without diagnostics), and a record is never cleared while another thread
+//   compare-exchange): two threads that reclaim the same entry at once cannot both use it (the
+//   loser evaluates without diagnostics), and an entry is never cleared while another thread
 //   uses it (tests/test_native_sanitizers.py runs this under ThreadSanitizer).
 
 #include <stdatomic.h>
@@ -34,18 +34,18 @@
 #define MJFX_CAPACITY 1024
 #define MJFX_WATCHES 64
 
-// A watch record: this header, then the watch with its tallies at WATCH_AT (ISO C allows no member
+// A watch entry: this header, then the watch with its tallies at WATCH_AT (ISO C allows no member
 // of a type with a flexible array, so the watch follows the header instead of being its last field)
 typedef struct Record_ {
   _Atomic uintptr_t owner;  // the mjData address, 0 when free
   _Atomic uint64_t stamp;   // last use (for reclaiming)
-  _Atomic int busy;         // 1 while a thread uses the record
-} Record;
+  _Atomic int busy;         // 1 while a thread uses the entry
+} Entry;
 
-#define WATCH_AT ((sizeof(Record) + _Alignof(mjfxWatch) - 1) / _Alignof(mjfxWatch) * _Alignof(mjfxWatch))
+#define WATCH_AT ((sizeof(Entry) + _Alignof(mjfxWatch) - 1) / _Alignof(mjfxWatch) * _Alignof(mjfxWatch))
 
-static mjfxWatch* watch_of(Record* rec) {
-  return (mjfxWatch*)((unsigned char*)rec + WATCH_AT);
+static mjfxWatch* watch_of(Entry* entry) {
+  return (mjfxWatch*)((unsigned char*)entry + WATCH_AT);
 }
 
 typedef struct Slot_ {
@@ -56,7 +56,7 @@ typedef struct Slot_ {
   const int* exps;
   const double* coefs;
   const char* const* names;
-  unsigned char* records;  // MJFX_WATCHES records of record_size(n) bytes
+  unsigned char* entries;  // MJFX_WATCHES entries of entry_size(n) bytes
 } Slot;
 
 static Slot g_slots[MJFX_CAPACITY];
@@ -64,7 +64,7 @@ static _Atomic int g_used = 0;
 static _Atomic uint64_t g_clock = 0;
 static void (*_Atomic g_previous)(const mjModel*, mjData*) = NULL;
 
-static size_t record_size(int n) {
+static size_t entry_size(int n) {
   size_t size = WATCH_AT + mjfx_watch_size(n);
   return (size + 15) & ~(size_t)15;
 }
@@ -73,19 +73,19 @@ int mjfx_registry_capacity(void) {
   return MJFX_CAPACITY;
 }
 
-size_t mjfx_registry_records_size(int n) {
-  return MJFX_WATCHES * record_size(n);
+size_t mjfx_registry_watches_size(int n) {
+  return MJFX_WATCHES * entry_size(n);
 }
 
-// Prepare a buffer of mjfx_registry_records_size(n) bytes: every watch record free.
-void mjfx_registry_records_init(unsigned char* records, int n) {
+// Prepare a buffer of mjfx_registry_watches_size(n) bytes: every watch entry free.
+void mjfx_registry_watches_init(unsigned char* entries, int n) {
   for (int r = 0; r < MJFX_WATCHES; r++) {
-    Record* rec = (Record*)(records + r * record_size(n));
-    atomic_store(&rec->owner, 0);
-    atomic_store(&rec->stamp, 0);
-    atomic_store(&rec->busy, 0);
-    watch_of(rec)->exact = 0;
-    mjfx_watch_clear(watch_of(rec), n);
+    Entry* entry = (Entry*)(entries + r * entry_size(n));
+    atomic_store(&entry->owner, 0);
+    atomic_store(&entry->stamp, 0);
+    atomic_store(&entry->busy, 0);
+    watch_of(entry)->exact = 0;
+    mjfx_watch_clear(watch_of(entry), n);
   }
 }
 
@@ -93,13 +93,13 @@ void mjfx_registry_records_init(unsigned char* records, int n) {
 // 0, or -1 when the slot is out of range or the table is not sound (nothing published).
 int mjfx_registry_publish(int slot, const mjModel* m, int n, const mjfxElement* el, const int* chain, int nchain,
                           const int* exps, const double* coefs, int nterms, const char* const* names,
-                          unsigned char* records) {
-  if (slot < 0 || slot >= MJFX_CAPACITY || !records || mjfx_check_rows(m, el, n, chain, nchain, exps, coefs, nterms) >= 0) {
+                          unsigned char* entries) {
+  if (slot < 0 || slot >= MJFX_CAPACITY || !entries || mjfx_check_rows(m, el, n, chain, nchain, exps, coefs, nterms) >= 0) {
     return -1;
   }
   Slot* s = g_slots + slot;
   s->n = n, s->el = el, s->chain = chain, s->exps = exps, s->coefs = coefs, s->names = names;
-  s->records = records;
+  s->entries = entries;
   atomic_store_explicit(&s->model, m, memory_order_release);  // last: the slot becomes visible complete
   int used = atomic_load(&g_used);
   while (used < slot + 1 && !atomic_compare_exchange_weak(&g_used, &used, slot + 1)) {
@@ -138,45 +138,45 @@ static uintptr_t mix(uintptr_t x) {
   return x;
 }
 
-// take a record's busy flag (0: another thread uses it)
-static int take(Record* rec) {
+// take an entry's busy flag (0: another thread uses it)
+static int take(Entry* entry) {
   int expected = 0;
-  return atomic_compare_exchange_strong_explicit(&rec->busy, &expected, 1, memory_order_acquire, memory_order_relaxed);
+  return atomic_compare_exchange_strong_explicit(&entry->busy, &expected, 1, memory_order_acquire, memory_order_relaxed);
 }
 
-static void give(Record* rec) {
-  atomic_store_explicit(&rec->busy, 0, memory_order_release);
+static void give(Entry* entry) {
+  atomic_store_explicit(&entry->busy, 0, memory_order_release);
 }
 
-// The record of d in records (of n elements), its busy flag taken: found, claimed if free, or
+// The entry of d in entries (of n elements), its busy flag taken: found, claimed if free, or
 // reclaimed from the least recently used; NULL when none can be had (the caller goes on without
 // diagnostics). The caller gives the flag back (give) when done with the watch.
-static Record* record_in(unsigned char* records, int n, const mjData* d, int claim) {
-  size_t size = record_size(n);
+static Entry* entry_in(unsigned char* entries, int n, const mjData* d, int claim) {
+  size_t size = entry_size(n);
   uintptr_t key = (uintptr_t)d;
   int start = (int)(mix(key) % MJFX_WATCHES);
   uint64_t now = atomic_fetch_add_explicit(&g_clock, 1, memory_order_relaxed) + 1;
   for (int k = 0; k < MJFX_WATCHES; k++) {
-    Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
-    if (atomic_load_explicit(&rec->owner, memory_order_acquire) != key) continue;
-    if (!take(rec)) return NULL;  // d is being evaluated in another thread, or its record reclaimed right now
-    if (atomic_load_explicit(&rec->owner, memory_order_relaxed) == key) {
-      atomic_store_explicit(&rec->stamp, now, memory_order_relaxed);
-      return rec;
+    Entry* entry = (Entry*)(entries + ((start + k) % MJFX_WATCHES) * size);
+    if (atomic_load_explicit(&entry->owner, memory_order_acquire) != key) continue;
+    if (!take(entry)) return NULL;  // d is being evaluated in another thread, or its entry reclaimed right now
+    if (atomic_load_explicit(&entry->owner, memory_order_relaxed) == key) {
+      atomic_store_explicit(&entry->stamp, now, memory_order_relaxed);
+      return entry;
     }
-    give(rec);  // reclaimed for another data meanwhile
+    give(entry);  // reclaimed for another data meanwhile
     break;
   }
   if (!claim) return NULL;
   for (int attempt = 0; attempt < 4; attempt++) {
-    Record* oldest = NULL;
+    Entry* oldest = NULL;
     uint64_t oldest_stamp = UINT64_MAX;
     for (int k = 0; k < MJFX_WATCHES; k++) {
-      Record* rec = (Record*)(records + ((start + k) % MJFX_WATCHES) * size);
-      if (atomic_load_explicit(&rec->busy, memory_order_relaxed)) continue;
-      uintptr_t owner = atomic_load(&rec->owner);
-      uint64_t stamp = owner ? atomic_load_explicit(&rec->stamp, memory_order_relaxed) : 0;
-      if (stamp < oldest_stamp) oldest = rec, oldest_stamp = stamp;
+      Entry* entry = (Entry*)(entries + ((start + k) % MJFX_WATCHES) * size);
+      if (atomic_load_explicit(&entry->busy, memory_order_relaxed)) continue;
+      uintptr_t owner = atomic_load(&entry->owner);
+      uint64_t stamp = owner ? atomic_load_explicit(&entry->stamp, memory_order_relaxed) : 0;
+      if (stamp < oldest_stamp) oldest = entry, oldest_stamp = stamp;
       if (!owner) break;
     }
     if (oldest && take(oldest)) {
@@ -194,24 +194,24 @@ static const char* element_name(const Slot* s, int e) {
 }
 
 // Evaluate the served elements of m on d; returns 0 if m is not served. With report, verdicts
-// are reported through MuJoCo here; else they are written to out[0..2) for the caller. The record
+// are reported through MuJoCo here; else they are written to out[0..2) for the caller. The entry
 // is given back before anything is reported: a report may raise (mju_error), leaving this function.
 int mjfx_dispatch(const mjModel* m, mjData* d, int report, mjfxVerdict out[2]) {
   Slot* s = slot_of(m);
   if (out) out[0].element = out[1].element = -1;
   if (!s) return 0;
-  Record* rec = record_in(s->records, s->n, d, 1);
+  Entry* entry = entry_in(s->entries, s->n, d, 1);
   mjfxVerdict v[2] = {{.element = -1}, {.element = -1}};
-  if (rec) mjfx_watch_judge(watch_of(rec), m, d, 1, v);
+  if (entry) mjfx_watch_judge(watch_of(entry), m, d, 1, v);
   mjfxScan scan;
   int bad = mjfx_evaluate(m, d, s->el, s->n, s->chain, s->exps, s->coefs, MJFX_APPLY, d->qfrc_passive, NULL, NULL,
                           &scan);
   if (bad >= 0) {
     for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;  // so that MuJoCo's checks see it too
   }
-  if (rec) {
-    mjfx_watch_record(watch_of(rec), m, d, &scan, 1, v + 1);
-    give(rec);
+  if (entry) {
+    mjfx_watch_record(watch_of(entry), m, d, &scan, 1, v + 1);
+    give(entry);
   }
   for (int k = 0; k < 2; k++) {
     if (report) mjfx_report(m, v + k, element_name(s, v[k].element));
@@ -227,9 +227,9 @@ void mjfx_passive(const mjModel* m, mjData* d) {
   mjfx_dispatch(m, d, 1, NULL);
 }
 
-// The watch of d in a records buffer of n elements (NULL if none), for Python's queries between steps.
-const mjfxWatch* mjfx_records_watch(unsigned char* records, int n, const mjData* d) {
-  Record* rec = records ? record_in(records, n, d, 0) : NULL;
-  if (rec) give(rec);
-  return rec ? watch_of(rec) : NULL;
+// The watch of d in a entries buffer of n elements (NULL if none), for Python's queries between steps.
+const mjfxWatch* mjfx_registry_watch(unsigned char* entries, int n, const mjData* d) {
+  Entry* entry = entries ? entry_in(entries, n, d, 0) : NULL;
+  if (entry) give(entry);
+  return entry ? watch_of(entry) : NULL;
 }

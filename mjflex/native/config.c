@@ -19,13 +19,20 @@ const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE] = {
 enum { A_SITE_A, A_SITE_B, A_METHOD, A_K, A_B, A_ORDER, A_EXPONENTS, A_COEFFICIENTS, A_ENABLED, A_VISCOUS, A_STRAIN,
        A_STRAIN_SCALE, A_SOURCE, A_STOP_LOWER, A_STOP_UPPER, A_STOP_STIFFNESS, A_SITE };
 
-// planar coordinates [theta_z; x; y] within [rx, ry, rz, x, y, z] (mjflex.mj.schema.PLANAR_INDEX)
+// planar coordinates [theta_z; x; y] within [rx, ry, rz, x, y, z] (mjflex.core.stops.PLANAR_INDEX)
 static const int PLANAR_INDEX[3] = {2, 3, 4};
-// largest |rotation limit| [rad] (mjflex.mj.stops.MAX_ROTATION_LIMIT): pi, and the round-off of pi written in any way
-#define MJFX_PI_TOLERANT (3.141592653589793 * (1.0 + 1e-12))
 
-static int fail(char* err, int errsz, const char* name, const char* fmt, ...) {
-  int len = snprintf(err, errsz, "mjflex: flexure '%.200s' (plugin instance of %s): ", name, MJFX_PLUGIN_NAME);
+void mjfx_element_head(const char* name, int form, char* out, int size) {
+  if (form == MJFX_FORM_RECORD) {
+    snprintf(out, size, "flexure '%.200s': ", name);
+  } else {
+    snprintf(out, size, "mjflex: flexure '%.200s' (plugin instance of %s): ", name, MJFX_PLUGIN_NAME);
+  }
+}
+
+// the message: head (mjfx_element_head) and the problem; returns -1
+static int fail(char* err, int errsz, const char* head, const char* fmt, ...) {
+  int len = snprintf(err, errsz, "%s", head);
   if (len >= 0 && len < errsz) {
     va_list args;
     va_start(args, fmt);
@@ -663,7 +670,10 @@ int mjfx_json_object(const char* text) {
 
 //------------------------------------------------------------------------------ the element
 
-int mjfx_parse_config(const char* name, const char* const* values, mjfxParsed* out, char* err, int errsz) {
+int mjfx_parse_config(const char* element, int form, const char* const* values, mjfxParsed* out, char* err,
+                      int errsz) {
+  char name[300];  // the messages' head: the static functions above take it as `name`
+  mjfx_element_head(element, form, name, sizeof(name));
   mjfxElement* e = &out->el;
   out->exps = NULL, out->coefs = NULL, out->nterms = 0;
   out->strain_per_radian = out->strain_scale = 0;

@@ -1,7 +1,9 @@
-// The MJCF configuration of an mjflex.flexure plugin instance: parsed and validated once, in
-// the plugin's init (a failure is a model compile error naming the element and the fix).
-// The attributes and their rules are documented in mjflex/mj/schema.py (PLUGIN_ATTRIBUTES),
-// beside the text record they mirror; the rules are the record's.
+// The MJCF configuration of an element: parsed and validated once, in the plugin's init for an
+// instance (a failure is a model compile error naming the element and the fix) and when mjflex's
+// Python layer reads a text record (given as the same strings).
+// The attributes and their rules are documented in mjflex/mjcf/schema.py (PLUGIN_ATTRIBUTES),
+// beside the text record they mirror; the rules are the record's. tests/test_native_constants.py
+// holds the constants below equal to Python's (mjfx_constant).
 
 #ifndef MJFLEX_NATIVE_CONFIG_H_
 #define MJFLEX_NATIVE_CONFIG_H_
@@ -14,7 +16,7 @@
 #define MJFX_NATTRIBUTE 17
 extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 
-// Validation constants (mjflex.mj.schema, mjflex.core.validation, mjflex.core.polynomial).
+// Validation constants (mjflex.mjcf.schema, mjflex.core.validation, mjflex.core.polynomial).
 #define MJFX_MAX_MATRIX_ENTRY 1e280
 #define MJFX_SYMMETRY_RTOL 1e-8
 #define MJFX_PSD_RTOL 1e-10
@@ -24,6 +26,9 @@ extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 #define MJFX_MAX_TERMS 100000
 // derived stiffness of an end stop: this times K_ii (mjflex.core.stops.STIFFNESS_FACTOR)
 #define MJFX_STOP_STIFFNESS_FACTOR 100.0
+// largest |rotation limit| of a stop [rad] (mjflex.mjcf.stops.MAX_ROTATION_LIMIT): pi, and the round-off of pi
+// written in any way
+#define MJFX_PI_TOLERANT (3.141592653589793 * (1.0 + 1e-12))
 
 // A parsed element: its table row and its own terms (exps: MJFX_TERM_COLUMNS per row), and what the
 // plugin's visualize callback needs: strain per radian and the colour scale's full scale (0: not given).
@@ -37,16 +42,27 @@ typedef struct mjfxParsed_ {
   double strain_scale;
 } mjfxParsed;
 
-// Full scale of the strain colours when an element gives none (mjflex.mj.schema.DEFAULT_STRAIN_SCALE):
+// Full scale of the strain colours when an element gives none (mjflex.mjcf.schema.DEFAULT_STRAIN_SCALE):
 // 1 % strain with strain_per_radian, else 0.1 rad of rotation about the element's z axis.
 #define MJFX_DEFAULT_STRAIN_SCALE 0.01
 #define MJFX_DEFAULT_ROTATION_SCALE 0.1
 
+// The two forms an element is written in, for its messages: an instance of the engine plugin (its
+// <config> attributes) or a text record mjflex:E (sites E/a and E/b; mjflex's Python layer reads its
+// JSON and gives C the same configuration strings: mjflex.mjcf.config.config_from_record).
+#define MJFX_FORM_PLUGIN 0
+#define MJFX_FORM_RECORD 1
+
+// The head of every message about element `name` written in `form` (MJFX_FORM_*):
+// "mjflex: flexure 'E' (plugin instance of mjflex.flexure): " or "flexure 'E': ".
+void mjfx_element_head(const char* name, int form, char* out, int size);
+
 // Parse the configuration strings values[MJFX_NATTRIBUTE] (in MJFX_ATTRIBUTES order) of
 // element `name` into out (site, body and offset fields are not touched). Returns 0, or -1
-// with a message in err that names the element, the problem and the fix; out->exps and
-// out->coefs are allocated (malloc) only on success.
-int mjfx_parse_config(const char* name, const char* const* values, mjfxParsed* out, char* err, int errsz);
+// with a message in err that names the element (in the words of its form), the problem and the
+// fix; out->exps and out->coefs are allocated (malloc) only on success.
+int mjfx_parse_config(const char* name, int form, const char* const* values, mjfxParsed* out, char* err,
+                      int errsz);
 
 // Check that a 6x6 matrix (or 3x3 when n == 3) is finite, within MJFX_MAX_MATRIX_ENTRY,
 // symmetric and positive semi-definite; returns 0 or -1 with the problem in err.

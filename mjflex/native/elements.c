@@ -74,11 +74,8 @@ int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int 
 
 //------------------------------------------------------------------------------ element set-up
 
-void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3], double* dist, double* angle) {
-  const double* Ra = d->site_xmat + 9 * sa;
-  const double* Rb = d->site_xmat + 9 * sb;
-  const double* pa = d->site_xpos + 3 * sa;
-  const double* pb = d->site_xpos + 3 * sb;
+void mjfx_relative_offset(const double Ra[9], const double pa[3], const double Rb[9], const double pb[3],
+                          double R0[9], double p0[3], double* dist, double* angle) {
   for (int i = 0; i < 3; i++) {
     for (int j = 0; j < 3; j++) {  // R0 = R_a^T R_b
       R0[3 * i + j] = Ra[i] * Rb[j] + Ra[3 + i] * Rb[3 + j] + Ra[6 + i] * Rb[6 + j];
@@ -91,6 +88,11 @@ void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3
   mjfx_quat_from_rot(R0, q);
   double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   *angle = s == 0.0 ? 0.0 : 2.0 * atan2(s, q[0]);
+}
+
+void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3], double* dist, double* angle) {
+  mjfx_relative_offset(d->site_xmat + 9 * sa, d->site_xpos + 3 * sa, d->site_xmat + 9 * sb, d->site_xpos + 3 * sb, R0,
+                       p0, dist, angle);
 }
 
 void mjfx_element_prepare(const mjModel* m, mjfxElement* e) {

@@ -15,9 +15,10 @@
 #define MJFX_POWER 8    // out1[e] = dissipated power
 #define MJFX_COORDS 16  // out6[e] = finite twist of frame b relative to frame a
 
-// One element, laid out once (by Python for text records, by the plugin's init for an
-// instance). Python mirrors this struct as a numpy dtype whose offsets it reads from
-// mjfx_element_field (mjflex/mj/_native.py), so the two cannot drift apart.
+// One element, laid out once, for both forms, by instances.c (mjfx_read_element): in the plugin's
+// init for an instance, and for Python (mjfx_read_table) for a text record. Python mirrors this
+// struct as a numpy dtype whose offsets it reads from mjfx_element_field
+// (mjflex/native/library.py), so the two cannot drift apart.
 typedef struct mjfxElement_ {
   // read at every evaluation (first, together: a few cache lines)
   int site_a, site_b, body_a, body_b;
@@ -86,6 +87,10 @@ int mjfx_set_lanes(int lanes);
 int mjfx_lanes_available(int lanes);
 int mjfx_lanes(void);
 
+// Pose (R0, p0) of frame b seen from frame a (R_a^T R_b, R_a^T (p_b - p_a)), its distance [m] and angle [rad].
+void mjfx_relative_offset(const double Ra[9], const double pa[3], const double Rb[9], const double pb[3],
+                          double R0[9], double p0[3], double* dist, double* angle);
+
 // Rest offset (R0, p0) of site b seen from site a in d (at qpos0), its distance [m] and angle [rad].
 void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3], double* dist, double* angle);
 
@@ -93,11 +98,11 @@ void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3
 int mjfx_offset_is_identity(const double R0[9], const double p0[3]);
 
 // Fill an element's derived fields from its sites, rest offset, K and B: offset, qa, qb, lever_a,
-// lever_b, kstruct, bstruct, kdiag, bdiag (what Python's tables and the plugin's init both call).
+// lever_b, kstruct, bstruct, kdiag, bdiag.
 void mjfx_element_prepare(const mjModel* m, mjfxElement* e);
 
 // Summed lengths [m] of the site and body positions that place sites sa and sb (the scale of
-// the coincidence tolerance, mjflex.mj.schema.COINCIDENCE_RTOL).
+// the coincidence tolerance, MJFX_COINCIDENCE_RTOL).
 double mjfx_length_scale(const mjModel* m, int sa, int sb);
 
 // Largest inverse mass and inverse principal inertia of the element's non-world bodies.

@@ -1,4 +1,4 @@
-// Reading the plugin's elements from a model (see instances.h).
+// Reading elements from a model, both forms (see instances.h).
 
 #include "instances.h"
 
@@ -64,7 +64,7 @@ Table* mjfx_gather(const Part* parts, const int* instance, int n) {
     t->strain[2 * k] = p->strain[0], t->strain[2 * k + 1] = p->strain[1];
     c += p->nchain, r += p->nterms;
   }
-  t->n = n;
+  t->n = n, t->nchain = nchain, t->nterms = nterms;
   return t;
 }
 
@@ -86,7 +86,7 @@ static const char* record_of(const mjModel* m, const char* name) {
 
 // Id of the site a configuration names: `value` itself or, in a model composed with MjSpec.attach
 // (which prefixes and suffixes every name but leaves configuration strings as written), P + value + S
-// where the instance's name is P + E + S (mjflex.mj.schema.attached_name, the same rule). -1: none.
+// where the element's name is P + E + S (mjflex.mjcf.config.attached_name, the same rule). -1: none.
 static int config_site(const mjModel* m, const char* instance_name, const char* value) {
   int id = mj_name2id(m, mjOBJ_SITE, value);
   if (id >= 0 || !value[0]) return id;
@@ -110,65 +110,88 @@ static int coincide(double dist, double angle, double tol) {
   return dist <= tol && angle <= MJFX_COINCIDENCE_ANGLE;
 }
 
+double mjfx_coincidence_tolerance(const mjModel* m, int sa, int sb) {
+  double scale = mjfx_length_scale(m, sa, sb);
+  return MJFX_COINCIDENCE_RTOL * (scale > 1e-9 ? scale : 1e-9);
+}
+
+int mjfx_offsets_coincide(const mjModel* m, const mjfxElement* a, const mjfxElement* b, double gap[2]) {
+  double R[9], p[3];
+  mjfx_relative_offset(a->R0, a->p0, b->R0, b->p0, R, p, gap, gap + 1);
+  return coincide(gap[0], gap[1], mjfx_coincidence_tolerance(m, a->site_a, a->site_b));
+}
+
 static const char NONFINITE[] =
     "Their pose at qpos0 is not finite: a position, orientation or joint reference (qpos0) that places them "
     "is NaN or infinite; give finite numbers";
 
+// How the messages about an element's sites speak of them, in the words of its form (MJFX_FORM_*).
+static const struct {
+  const char* site[2];   // the two sites
+  const char* names;     // "... the frame site S" that the element names
+  const char* drop;      // how to drop that frame site
+  const char* drop_if;   // when to drop it
+} WORDS[2] = {
+    {{"site_a", "site_b"}, "its site attribute names", "drop the site attribute", "if site_a and site_b are right"},
+    {{"site a", "site b"}, "its record names", "drop \"site\" from its record", "if the element's own sites are right"},
+};
+
 // The optional frame site (attribute "site", written by add_flexure(..., site=...)): it must exist and
 // coincide with frame a at qpos0 (d holds the kinematics at qpos0). Returns 0 or -1 with a message.
-static int check_frame_site(const mjModel* m, const mjData* d, const char* name, const char* value, int site_a,
-                            double tol, char* err, int errsz) {
+static int check_frame_site(const mjModel* m, const mjData* d, const char* name, int form, const char* value,
+                            int site_a, double tol, char* err, int errsz) {
   if (!value[0]) return 0;
+  char head[300];
+  mjfx_element_head(name, form, head, sizeof(head));
   int id = config_site(m, name, value);
   if (id < 0) {
-    snprintf(err, errsz,
-             "mjflex: flexure '%.200s' (plugin instance of %s): its site attribute names the frame site '%.200s', "
-             "which the model does not have. Restore the site, or drop the site attribute if site_a and site_b are "
-             "right", name, MJFX_PLUGIN_NAME, value);
+    snprintf(err, errsz, "%s%s the frame site '%.200s', which the model does not have. Restore the site, or %s %s",
+             head, WORDS[form].names, value, WORDS[form].drop, WORDS[form].drop_if);
     return -1;
   }
   double R[9], p[3], dist, angle;
   mjfx_rest_offset(d, id, site_a, R, p, &dist, &angle);
   if (!coincide(dist, angle, tol)) {
     snprintf(err, errsz,
-             "mjflex: flexure '%.200s' (plugin instance of %s): its frame is %.3g m and %.3g rad away from the site "
-             "'%.200s' its site attribute names (at qpos0). %s", name, MJFX_PLUGIN_NAME, dist, angle, value,
+             "%sits frame is %.3g m and %.3g rad away from the site '%.200s' %s (at qpos0). %s%s", head, dist, angle,
+             value, WORDS[form].names,
              isfinite(dist) && isfinite(angle)
                  ? "The site was moved without the element: place the element again at the site "
-                   "(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or drop the site attribute"
-                 : NONFINITE);
+                   "(mjflex.add_flexure(..., site=...) or mjflex.make_compliant), or "
+                 : NONFINITE,
+             isfinite(dist) && isfinite(angle) ? WORDS[form].drop : "");
     return -1;
   }
   return 0;
 }
 
-// the two sites of an instance (ids into sites[2]); 0 or -1 with a message
-static int read_sites(const mjModel* m, const char* name, const char* const* values, int sites[2], char* err,
-                      int errsz) {
+// the two sites of an element (ids into sites[2]); 0 or -1 with a message
+static int read_sites(const mjModel* m, const char* name, int form, const char* const* values, int sites[2],
+                      char* err, int errsz) {
+  char head[300];
+  mjfx_element_head(name, form, head, sizeof(head));
   for (int k = 0; k < 2; k++) {
-    const char* key = k ? "site_b" : "site_a";
+    const char* key = WORDS[form].site[k];
     const char* site = values[k];
     if (!site[0]) {
       snprintf(err, errsz,
-               "mjflex: flexure '%.200s' (plugin instance of %s): %s is missing. Add <config key=\"%s\" "
-               "value=\"SITE\"/> naming the site of the element frame on body %s",
-               name, MJFX_PLUGIN_NAME, key, key, k ? "B" : "A");
+               "%s%s is missing. Add <config key=\"%s\" value=\"SITE\"/> naming the site of the element frame on "
+               "body %s", head, key, key, k ? "B" : "A");
       return -1;
     }
     sites[k] = config_site(m, name, site);
     if (sites[k] < 0) {
       snprintf(err, errsz,
-               "mjflex: flexure '%.200s' (plugin instance of %s): %s '%.200s' is not a site of the model. Add <site "
-               "name=\"%.200s\"/> at the element frame (body %s) or fix the name",
-               name, MJFX_PLUGIN_NAME, key, site, site, k ? "B" : "A");
+               "%s%s '%.200s' is not a site of the model. Add <site name=\"%.200s\"/> at the element frame (body %s) "
+               "or fix the name", head, key, site, site, k ? "B" : "A");
       return -1;
     }
   }
   if (m->site_bodyid[sites[0]] == m->site_bodyid[sites[1]]) {
     snprintf(err, errsz,
-             "mjflex: flexure '%.200s' (plugin instance of %s): both sites are on body '%.200s'. Put site_a on one "
-             "body and site_b on the other (a site of the world body grounds the element)",
-             name, MJFX_PLUGIN_NAME, m->names + m->name_bodyadr[m->site_bodyid[sites[0]]]);
+             "%sboth sites are on body '%.200s'. Put %s on one body and %s on the other (a site of the world body "
+             "grounds the element)", head, m->names + m->name_bodyadr[m->site_bodyid[sites[0]]],
+             WORDS[form].site[0], WORDS[form].site[1]);
     return -1;
   }
   return 0;
@@ -176,62 +199,50 @@ static int read_sites(const mjModel* m, const char* name, const char* const* val
 
 // The rest offset of the sites (d holds the kinematics of the reference configuration): it must be the
 // identity within the coincidence tolerance. 0 or -1 with a message.
-static int read_rest_offset(const mjModel* m, const mjData* d, const char* name, const char* const* values,
-                            mjfxElement* e, char* err, int errsz) {
+static int read_rest_offset(const mjModel* m, const mjData* d, const char* name, int form,
+                            const char* const* values, mjfxElement* e, char* err, int errsz) {
   double dist, angle;
   mjfx_rest_offset(d, e->site_a, e->site_b, e->R0, e->p0, &dist, &angle);
   double scale = mjfx_length_scale(m, e->site_a, e->site_b);
-  double tol = MJFX_COINCIDENCE_RTOL * (scale > 1e-9 ? scale : 1e-9);
+  double tol = mjfx_coincidence_tolerance(m, e->site_a, e->site_b);
   if (!coincide(dist, angle, tol)) {
+    char head[300];
+    mjfx_element_head(name, form, head, sizeof(head));
     int finite = isfinite(dist) && isfinite(angle) && isfinite(scale);
     snprintf(err, errsz,
-             "mjflex: flexure '%.200s' (plugin instance of %s): sites '%.100s' and '%.100s' are %.3g m apart and "
-             "%.3g rad apart at qpos0 (tolerance %.3g m: %g times the %.3g m of site and body positions that place "
-             "them, which covers their 6-digit rounding in saved files; %g rad). %s",
-             name, MJFX_PLUGIN_NAME, values[0], values[1], dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
+             "%ssites '%.100s' and '%.100s' are %.3g m apart and %.3g rad apart at qpos0 (tolerance %.3g m: %g times "
+             "the %.3g m of site and body positions that place them, which covers their 6-digit rounding in saved "
+             "files; %g rad). %s", head, values[0], values[1], dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
              MJFX_COINCIDENCE_ANGLE,
-             finite ? "Both frames must coincide in the reference configuration: place both at the same world pose"
+             finite ? "Both frames must coincide in the reference configuration: place both at the same world pose "
+                      "(mjflex.add_flexure does this)"
                     : NONFINITE);
     return -1;
   }
-  return check_frame_site(m, d, name, values[MJFX_NATTRIBUTE - 1], e->site_a, tol, err, errsz);
+  return check_frame_site(m, d, name, form, values[MJFX_NATTRIBUTE - 1], e->site_a, tol, err, errsz);
 }
 
-// Read instance `instance` of m into p, d holding the kinematics of the reference configuration
-// (measure_begin). 0, or -1 with a message in err (p holds nothing then).
-int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, char* err, int errsz) {
+int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int form, const char* const* values,
+                      Part* p, char* err, int errsz) {
   memset(p, 0, sizeof(Part));
-  const char* name = mjfx_instance_name(m, instance);
-  if (!name[0]) {
-    snprintf(err, errsz,
-             "mjflex: an instance of plugin %s (instance %d) has no name; an element is known by its name: declare it "
-             "as <instance name=\"...\"> under <extension><plugin plugin=\"%s\">",
-             MJFX_PLUGIN_NAME, instance, MJFX_PLUGIN_NAME);
-    return -1;
-  }
-  const char* values[MJFX_NATTRIBUTE];
-  for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
-    values[i] = mj_getPluginConfig(m, instance, MJFX_ATTRIBUTES[i]);
-    if (!values[i]) values[i] = "";
-  }
   mjfxParsed parsed;
   memset(&parsed, 0, sizeof(parsed));
-  if (mjfx_parse_config(name, values, &parsed, err, errsz)) return -1;
+  if (mjfx_parse_config(name, form, values, &parsed, err, errsz)) return -1;
   p->el = parsed.el;
   p->exps = parsed.exps, p->coefs = parsed.coefs, p->nterms = parsed.nterms;
   p->strain[0] = parsed.strain_per_radian, p->strain[1] = parsed.strain_scale;
   mjfxElement* e = &p->el;
-  const char* record = record_of(m, name);
+  const char* record = form == MJFX_FORM_PLUGIN ? record_of(m, name) : NULL;
   int sites[2];
   if (record) {
     snprintf(err, errsz,
              "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
              "added twice. Keep one of them (python -m mjflex convert writes either form)",
              name, record);
-  } else if (!read_sites(m, name, values, sites, err, errsz)) {
+  } else if (!read_sites(m, name, form, values, sites, err, errsz)) {
     e->site_a = sites[0], e->site_b = sites[1];
     e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
-    if (!read_rest_offset(m, d, name, values, e, err, errsz)) {
+    if (!read_rest_offset(m, d, name, form, values, e, err, errsz)) {
       mjfx_element_prepare(m, e);
       mjfx_inverse_inertia(m, e->body_a, e->body_b, &e->inv_mass, &e->inv_inertia);
       // generalized-force map: free-joint fast path or the dof chain of each body
@@ -254,6 +265,26 @@ int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, cha
   }
   mjfx_free_part(p);
   return -1;
+}
+
+// Read instance `instance` of m into p, d holding the kinematics of the reference configuration
+// (measure_begin). 0, or -1 with a message in err (p holds nothing then).
+int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, char* err, int errsz) {
+  memset(p, 0, sizeof(Part));
+  const char* name = mjfx_instance_name(m, instance);
+  if (!name[0]) {
+    snprintf(err, errsz,
+             "mjflex: an instance of plugin %s (instance %d) has no name; an element is known by its name: declare it "
+             "as <instance name=\"...\"> under <extension><plugin plugin=\"%s\">",
+             MJFX_PLUGIN_NAME, instance, MJFX_PLUGIN_NAME);
+    return -1;
+  }
+  const char* values[MJFX_NATTRIBUTE];
+  for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
+    values[i] = mj_getPluginConfig(m, instance, MJFX_ATTRIBUTES[i]);
+    if (!values[i]) values[i] = "";
+  }
+  return mjfx_read_element(m, d, name, MJFX_FORM_PLUGIN, values, p, err, errsz);
 }
 
 // The reference configuration in d's kinematics, for reading elements: qpos0 and the mocap bodies at
@@ -288,11 +319,13 @@ void mjfx_measure_end(const mjModel* m, mjData* d, double* saved, int kinematics
   if (kinematics) mj_kinematics(m, d);
 }
 
-// Every element of m read on d (its kinematics are put back bit for bit): the table, or NULL with a
-// message in err.
-Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz) {
-  int n = 0;
-  for (int i = 0; i < m->nplugin; i++) n += m->plugin[i] == slot;
+// Every element of m read on d (its kinematics are put back bit for bit): nrec text records first (names[k],
+// values[k * MJFX_NATTRIBUTE ...]), then every instance of the plugin at `slot` (-1: none) in order. The table,
+// or NULL with a message in err.
+static Table* read_elements(const mjModel* m, mjData* d, int slot, int nrec, const char* const* names,
+                            const char* const* values, char* err, int errsz) {
+  int n = nrec;
+  for (int i = 0; i < m->nplugin && slot >= 0; i++) n += m->plugin[i] == slot;
   Part* parts = calloc(n ? n : 1, sizeof(Part));
   int* instance = malloc(sizeof(int) * (n ? n : 1));
   double* saved = parts && instance ? mjfx_measure_begin(m, d) : NULL;
@@ -302,7 +335,12 @@ Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int err
     return NULL;
   }
   int k = 0, failed = 0;
-  for (int i = 0; i < m->nplugin && !failed; i++) {
+  for (int r = 0; r < nrec && !failed; r++) {
+    failed = mjfx_read_element(m, d, names[r], MJFX_FORM_RECORD, values + (size_t)r * MJFX_NATTRIBUTE, parts + k,
+                               err, errsz);
+    instance[k++] = -1;
+  }
+  for (int i = 0; i < m->nplugin && slot >= 0 && !failed; i++) {
     if (m->plugin[i] != slot) continue;
     failed = mjfx_read_part(m, d, i, parts + k, err, errsz);
     instance[k++] = i;
@@ -313,6 +351,25 @@ Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int err
   for (int j = 0; j < k; j++) mjfx_free_part(parts + j);
   free(parts), free(instance);
   return t;
+}
+
+Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz) {
+  return read_elements(m, d, slot, 0, NULL, NULL, err, errsz);
+}
+
+Table* mjfx_read_table(const mjModel* m, mjData* d, int nrec, const char* const* names, const char* const* values,
+                       char* err, int errsz) {
+  if (!m || !d || nrec < 0 || (nrec && (!names || !values)) || !err || errsz < 1) {
+    if (err && errsz > 0) snprintf(err, errsz, "mjflex: mjfx_read_table: invalid arguments");
+    return NULL;
+  }
+  for (long i = 0; i < (long)nrec * MJFX_NATTRIBUTE; i++) {
+    if (!values[i] || (i % MJFX_NATTRIBUTE == 0 && !names[i / MJFX_NATTRIBUTE])) {
+      snprintf(err, errsz, "mjflex: mjfx_read_table: invalid arguments");
+      return NULL;
+    }
+  }
+  return read_elements(m, d, mjfx_plugin_slot(), nrec, names, values, err, errsz);
 }
 
 // Sleeping: whether tree `t` may sleep: its policy lets MuJoCo put it to sleep.

@@ -449,19 +449,8 @@ static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt,
 
 //------------------------------------------------------------------------------ for Python (ctypes)
 
-// The element table row of instance `instance` in d (what Flexures builds from the config), or -1 when
-// the instance is not the plugin's, or d holds no table of model m.
-int mjfx_plugin_element(const mjModel* m, const mjData* d, int instance, mjfxElement* out) {
-  if (!is_ours(m, instance)) return -1;
-  const State* s = (const State*)mjfx_states_find(d, d->buffer);
-  if (!s || !s->table || !key_is(&s->key, m)) return -1;
-  for (int k = 0; k < s->table->n; k++) {
-    if (s->table->instance[k] == instance) {
-      *out = s->table->el[k];
-      return 0;
-    }
-  }
-  return -1;
+int mjfx_plugin_slot(void) {
+  return g_slot;
 }
 
 // The divergence watch of d (tallies indexed by the model's instances of the plugin, in order), or NULL.

@@ -103,7 +103,7 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
     --------
     >>> import mujoco, mujoco_warp as mjw
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjflex.warp.flexures(m)
@@ -156,7 +156,7 @@ def element_table(mjmodel: mujoco.MjModel, flex=None) -> ElementTable:
     --------
     >>> import copy, mujoco
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
     >>> table = mjflex.warp.element_table(copy.copy(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
     >>> table.names, table.K.shape, table.K[0, 2, 2]
     (('hinge',), (1, 6, 6), np.float64(0.25))
@@ -182,7 +182,7 @@ def flexures(m) -> WarpFlexures:
     --------
     >>> import mujoco
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
     >>> forces = mjflex.warp.flexures(mjflex.warp.put_model(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
     >>> forces.names, forces.precision, sorted(forces.parameters())
     (('hinge',), 'float32', ['B', 'K', 'enabled', 'stop_lower', 'stop_stiffness', 'stop_upper', 'viscous'])
@@ -251,7 +251,7 @@ def set_parameters(
 
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -288,7 +288,7 @@ def wrenches(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -320,7 +320,7 @@ def generalized_forces(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -352,7 +352,7 @@ def potential_energies(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -384,7 +384,7 @@ def dissipation_powers(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -421,7 +421,7 @@ def displacements(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -459,7 +459,7 @@ def stop_coordinates(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -497,7 +497,7 @@ def divergences(m, d) -> list[WorldDivergence]:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)
@@ -532,7 +532,7 @@ def diverged(m, d) -> np.ndarray:
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> mjdata = mujoco.MjData(mjmodel)

@@ -47,7 +47,7 @@ class WorldDivergence(NamedTuple):
     --------
     >>> import mujoco, mujoco_warp as mjw, numpy as np
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
     >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
     >>> m = mjflex.warp.put_model(mjmodel)
     >>> d = mjw.put_data(mjmodel, mujoco.MjData(mjmodel), nworld=3)
@@ -135,7 +135,7 @@ class WarpFlexures:
     --------
     >>> import mujoco
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
     >>> forces = mjflex.warp.flexures(mjflex.warp.put_model(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
     >>> forces.names, forces.kinds, forces.index("hinge"), forces.parameters()["K"].shape
     (('hinge',), ('record',), 0, (1, 1, 6, 6))

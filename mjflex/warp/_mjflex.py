@@ -13,10 +13,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..core._series import _coefficients
-from ..mj import Flexures, schema
-from ..mj import _native as native
-from ..mj import _tables as tables
+from ..core.series import series_coefficients
+from ..mjcf import schema
+from ..native import library
+from ..runtime.flexures import Flexures
 from . import _kernels as kn
 
 #: Record fields the kernels implement, or that do not change the forces (reports, colours, provenance).
@@ -92,7 +92,7 @@ class ElementTable:
     --------
     >>> import copy, mujoco
     >>> import mjflex.warp
-    >>> from mjflex.mj.convert import EXAMPLE_MODEL
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
     >>> table = mjflex.warp.element_table(copy.copy(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
     >>> table.names, table.kinds, bool(table.stop_derived[0]), table.stop_upper[0]
     (('hinge',), ('record',), True, array([inf, inf, inf, inf, inf, inf]))
@@ -176,7 +176,7 @@ def _equal(a, b):
 
 def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
     """Lay out ``flex``'s elements (of ``model``) for the kernels; refuses features the kernels lack."""
-    t = flex._tables
+    t = flex.element_table
     n = len(flex)
     for name, record in zip(t.names, t.records, strict=True):
         features = unsupported_features(record)
@@ -217,7 +217,7 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
     start = np.zeros(model.nv + 1, np.int32)
     start[1:] = np.cumsum([len(c) for c in contributions])
     flat = [c for dof in contributions for c in dof] or [(0, 0)]
-    series = _coefficients(kn.NSERIES)
+    series = series_coefficients(kn.NSERIES)
     return ElementTable(
         names=t.names, kinds=t.kinds, records=list(t.records), instances=t.instances, ints=ints, qa=qa, qb=qb, p0=p0,
         lever_a=lever_a, lever_b=lever_b, inv_mass=rows["inv_mass"].copy(), inv_inertia=rows["inv_inertia"].copy(),
@@ -234,9 +234,8 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
 
 def mjflex_instances(model: mujoco.MjModel) -> list[int]:
     """Ids of the model's ``mjflex.flexure`` plugin instances."""
-    return native.plugin_instances(model)
+    return library.plugin_instances(model)
 
 
 #: The planar coordinates [theta_z; x; y] in the 6-vector, and the sleep policies mjflex writes.
 PLANAR_INDEX = schema.PLANAR_INDEX
-RECORD, PLUGIN = tables.RECORD, tables.PLUGIN

@@ -1,6 +1,6 @@
 """End stops as per-world parameters of the Warp kernels: their limits and stiffness, checked once at the boundary.
 
-The rules are those of an element's stops in a model (:mod:`mjflex.mj.stops`), applied to every
+The rules are those of an element's stops in a model (:mod:`mjflex.mjcf.stops`), applied to every
 world: limits on ``[rx, ry, rz, x, y, z]`` (a planar element's on ``rz, x, y``, the rows of
 ``PLANAR_INDEX``), ``-inf`` / ``+inf`` where a coordinate has no stop, no NaN, rotation limits
 within ``[-pi, pi]``, ``lower <= upper``; a stiffness finite, ``>= 0`` and positive on every
@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core import validation
 from ..core.stops import SPATIAL_COORDINATES, STIFFNESS_FACTOR
-from ..mj.stops import MAX_ROTATION_LIMIT, MAX_STIFFNESS
+from ..mjcf.stops import MAX_ROTATION_LIMIT, MAX_STIFFNESS
 from ._mjflex import PLANAR_INDEX
 
 NAMES = ("stop_lower", "stop_upper", "stop_stiffness")

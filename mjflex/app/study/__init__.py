@@ -10,7 +10,7 @@
    Euler, implicitfast, discrete) x time step (log-spaced from past the stability limit
    down, every step a divisor of the sample interval so all runs are compared at the same
    times) x model **variants** (:data:`mjflex.app.study.variants.DEFAULT_VARIANTS` or
-   ``variants=``: :class:`mjflex.mj.variant.Variant` objects or builders);
+   ``variants=``: :class:`mjflex.variants.variant.Variant` objects or builders);
 3. measures for each: seconds of ``mj_step`` per simulated second (median of ``repeat``
    timings in this process, interleaved across candidates so that the load of a shared machine
    spreads evenly; wall and thread CPU time, ranked by ``clock``), the error against the
@@ -146,7 +146,9 @@ rk4 0.0002 s: 2e-05, rk4 0.0001 s: 2e-06, euler 0.0002 s: 1e-02, euler 0.0001 s:
 the report.
 """
 
-from ._result import Limit, Reference, Row, StudyResult
+from ._options import check_options
+from ._result import StudyResult
+from ._rows import Limit, Reference, Row
 from ._scene import StudyError
 from ._sweep import INTEGRATORS, METHODS, study
 from .variants import DEFAULT_VARIANTS
@@ -162,5 +164,6 @@ __all__ = [
     "Row",
     "StudyError",
     "StudyResult",
+    "check_options",
     "study",
 ]

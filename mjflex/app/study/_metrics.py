@@ -52,7 +52,7 @@ class PoseReader:
     model : mujoco.MjModel
         The model whose ``data`` will be read (the source model or a variant).
     body_map : dict[str, tuple[str, numpy.ndarray]] or None
-        ``source body -> (variant body, X_VS)`` as in :class:`mjflex.mj.variant.Variant`; None
+        ``source body -> (variant body, X_VS)`` as in :class:`mjflex.variants.variant.Variant`; None
         for the source model itself.
     items : list of TrackedItem
     frame : str or None
@@ -174,7 +174,7 @@ class Linearization(NamedTuple):
     rate: float  # largest |eigenvalue| of the first-order system with damping [1/s]
 
 
-def _jacobian(model, data, qpos, which, step):
+def jacobian(model, data, qpos, which, step):
     """``-d qacc / d qpos`` (``which="qpos"``, along ``mj_integratePos``) or ``-d qacc / d qvel``."""
     J = np.zeros((model.nv, model.nv))
     for i in range(model.nv):
@@ -221,8 +221,8 @@ def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=1e-6)
     if not model.nv:
         return Linearization(np.zeros(0), 0.0, 0.0)
     with flex:
-        A = _jacobian(model, data, qpos, "qpos", step)
-        D = _jacobian(model, data, qpos, "qvel", step)
+        A = jacobian(model, data, qpos, "qpos", step)
+        D = jacobian(model, data, qpos, "qvel", step)
     lam = np.sort(np.linalg.eigvals(A).real)
     top = float(lam[-1])
     n = model.nv

@@ -9,7 +9,7 @@ import math
 import os
 
 from ...core import validation
-from .._output import folder_problem
+from ..output import folder_problem
 from ._run import INTEGRATOR_ENUMS
 from ._scene import StudyError
 
@@ -102,3 +102,8 @@ def check_options(opts: dict, out=None, spell=lambda name: name) -> None:
         problem = folder_problem(os.fspath(out), spell("out"))
         if problem:
             raise StudyError(problem)
+
+
+def who(variant, integrator, method):
+    """``"[variant: ]integrator[, method]"``: the label of a candidate without its step."""
+    return f"{'' if variant == 'full' else variant + ': '}{integrator}{'' if method == '-' else ', ' + method}"

@@ -5,7 +5,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from ._result import who
+from ._options import who
 
 MARKERS = {"rk4": "o", "euler": "s", "implicitfast": "^", "implicit": "v", "discrete": "D"}
 

@@ -21,9 +21,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ...mj import Flexures, edit_elements
-from ...mj.convert import copy_spec
-from ...mj.divergence import step_phrase
+from ...mjcf.convert import copy_spec
+from ...mjcf.elements import edit_elements
+from ...runtime.divergence import step_phrase
+from ...runtime.flexures import Flexures
 from ._metrics import PoseReader, Trajectory
 
 INTEGRATOR_ENUMS = {"euler": "mjINT_EULER", "rk4": "mjINT_RK4", "implicit": "mjINT_IMPLICIT",
@@ -97,7 +98,7 @@ class Sim:
     model : mujoco.MjModel
         Copied; the study sets integrator and time step on its own copy.
     body_map : dict or None
-        As in :class:`mjflex.mj.variant.Variant`; None for the source model.
+        As in :class:`mjflex.variants.variant.Variant`; None for the source model.
     state : dict
         Initial ``qpos``, ``qvel`` and optionally ``act``, ``ctrl``, ``mocap_pos``, ``mocap_quat``.
     items, frame
@@ -265,7 +266,7 @@ def run_sampled(sim, integrator, method, h, *, samples, every, energy_limit=None
                 when = min(float(d.time), k * every * h) if np.isfinite(d.time) else k * every * h
                 element, body = sim.culprit(d, message, dof)
                 found = sorted(sim.flex.divergences(d).values(), key=lambda v: v.time) if sim.has_flexures else []
-                if found:  # mjflex named the element and the step (mjflex.mj.divergence)
+                if found:  # mjflex named the element and the step (mjflex.runtime.divergence)
                     divergence = Divergence(found[-1].time, h, found[-1].message, found[-1].element, body, exact=True)
                 else:
                     divergence = Divergence(when, h, reason, element, body)

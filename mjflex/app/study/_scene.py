@@ -10,9 +10,11 @@ import mujoco
 import numpy as np
 
 from ...core import validation
-from ...mj import Flexures, ModelError, variant
-from ...mj.convert import copy_spec
-from ...mj.variant import Variant
+from ...mjcf.convert import copy_spec
+from ...runtime.flexures import Flexures
+from ...runtime.tables import ModelError
+from ...variants import variant
+from ...variants.variant import Variant
 from ._metrics import TrackedItem, pose_matrix
 
 #: An initial state whose velocities are all zero and whose accelerations are below this
@@ -202,7 +204,9 @@ def build_variant(entry, source):
     built = list(built) if isinstance(built, list | tuple) else [built]
     for v in built:
         if not isinstance(v, Variant):
-            raise TypeError(f"variant builder {entry!r} returned {type(v).__name__}, not mjflex.mj.variant.Variant")
+            raise TypeError(
+                f"variant builder {entry!r} returned {type(v).__name__}, not mjflex.variants.variant.Variant"
+            )
     return built
 
 

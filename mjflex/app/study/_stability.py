@@ -27,8 +27,8 @@ import mujoco
 import numpy as np
 import scipy.linalg
 
-from ...mj._directions import element_directions
-from ._metrics import _jacobian
+from ...analysis.directions import element_directions
+from ._metrics import jacobian
 
 #: A one-step map whose spectral radius ``rho`` satisfies ``ln rho <= growth h + max(ln 2 h / duration,
 #: NOISE_TOL)`` is stable: beyond the model's own physical growth rate ``growth`` (0 at a stable
@@ -141,8 +141,8 @@ def linearization(sim):
     """
     m = sim.model
     with sim.flex:
-        A = _jacobian(m, _rest(sim), sim.state["qpos"], "qpos", 1e-6)
-        D = _jacobian(m, _rest(sim), sim.state["qpos"], "qvel", 1e-6)
+        A = jacobian(m, _rest(sim), sim.state["qpos"], "qpos", 1e-6)
+        D = jacobian(m, _rest(sim), sim.state["qpos"], "qvel", 1e-6)
     d = _rest(sim)
     mujoco.mj_forward(m, d)
     M = np.zeros((m.nv, m.nv))

@@ -10,10 +10,11 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from ...core import validation
-from ...mj.variant import VariantNotApplicableError
+from ...variants.variant import VariantNotApplicableError
 from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._options import METHODS, check_options
-from ._result import Limit, Reference, Row, StudyResult
+from ._result import StudyResult
+from ._rows import Limit, Reference, Row
 from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import (
     StudyError,

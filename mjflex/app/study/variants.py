@@ -1,6 +1,6 @@
 """The model variants a study compares by default: the one place to plug in new ones.
 
-Each entry is a :class:`mjflex.mj.variant.Variant` or a builder ``source -> Variant`` (or a list
+Each entry is a :class:`mjflex.variants.variant.Variant` or a builder ``source -> Variant`` (or a list
 of them, or None when the builder does not apply to the model), called with the study's source:
 the MJCF path or ``MjSpec`` it was given, else its ``MjModel``. :func:`mjflex.app.study.study`
 runs every entry of :data:`DEFAULT_VARIANTS` unless it is given ``variants=`` (``[]`` for none;
@@ -12,9 +12,9 @@ Each is swept over the same integrators and steps as the full model, so each add
 cost of one element method to a study.
 """
 
-from ...mj.native import pseudo_rigid_body_variant, weld_variant
-from ...mj.reduce import reduce
-from ...mj.variant import VariantNotApplicableError
+from ...variants.alternatives import pseudo_rigid_body_variant, weld_variant
+from ...variants.reduce import reduce
+from ...variants.variant import VariantNotApplicableError
 
 #: Upper end of the band the default reduction keeps [Hz] (the issue's example figure).
 REDUCE_KEEP_BELOW_HZ = 2000.0

@@ -18,7 +18,8 @@ Modules: :mod:`.recipe` (the picklable model family), :mod:`.grid` (parameter gr
 line ``python -m mjflex sweep``).
 """
 
+from ...mjcf.elements import edit_flexure, flexure_matrices
 from .api import sweep
-from .recipe import Recipe, edit_flexure, flexure_matrices
+from .recipe import Recipe
 
 __all__ = ["Recipe", "edit_flexure", "flexure_matrices", "sweep"]

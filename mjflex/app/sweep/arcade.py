@@ -16,14 +16,16 @@ import warnings
 
 import numpy as np
 
-from .recipe import Recipe, edit_flexure, flexure_matrices
+from ...mjcf.elements import edit_flexure, flexure_matrices
+from ..arcade import arcade_source
+from .recipe import Recipe
 
 
 def arcade_edit(spec, leaf_scale=1.0, beta=2e-6):
     """Scale the 12 leaf springs' stiffness by ``leaf_scale``; damping ``B = beta K`` [s] for all 48 flexures."""
     if not (leaf_scale > 0 and beta >= 0):
         raise ValueError(f"leaf_scale must be > 0 and beta >= 0; got {leaf_scale!r}, {beta!r}")
-    from ...mj.convert import spec_elements
+    from ...mjcf.elements import spec_elements
 
     for element in [e.name for e in spec_elements(spec)]:  # text records or plugin instances alike
         K, _ = flexure_matrices(spec, element)
@@ -44,17 +46,15 @@ def arcade_stroke(model, flex, data):
 
 def first_frequency(model, flex, data):
     """The lowest non-rigid natural frequency [Hz], linearized about ``qpos0`` (``data`` unused)."""
-    from ...mj.linearize import normal_modes
-    from ..analysis import RIGID_TOL_HZ
+    from ...analysis.linearize import normal_modes
+    from ..modes import RIGID_TOL_HZ
 
     freq, _ = normal_modes(model, flex)
     return {"first_frequency": float(freq[freq >= RIGID_TOL_HZ][0])}
 
 
 def arcade_recipe() -> Recipe:
-    """The recipe on ``models/arcade.xml`` (or the model built in memory, as text: ``cli.arcade_source``)."""
-    from ..cli import arcade_source
-
+    """The recipe on ``models/arcade.xml`` (or the model built in memory, as text): :func:`..arcade.arcade_source`."""
     source, _ = arcade_source()
     return Recipe(source if isinstance(source, str) else source.to_xml(), arcade_edit, keyframe="paper_run")
 
@@ -152,36 +152,43 @@ def summary(ds, modes) -> dict:
     return {"attrs": dict(ds.attrs), "variants": rows, "first_frequency_hz": freq}
 
 
-def run(args):
-    """The ``sweep`` command (arguments as parsed by :mod:`mjflex.app.cli`)."""
+def run_arcade_sweep(out, *, leaf_scale, beta, duration, samples, executor="batch", workers=2, device=None,
+                     threads=None, progress=True, provenance=None) -> dict:  # fmt: skip
+    """The ``sweep`` command: ARCADE over ``leaf_scale`` x ``beta``, the results written and printed; returns the JSON.
+
+    Writes ``sweep_arcade.nc`` (the Dataset), ``.png`` (:func:`plot`) and ``.json`` (:func:`summary`,
+    with ``provenance``: the command line and date) to folder ``out`` (created if missing). ``executor``
+    as :func:`make_executor`; ``threads``, ``samples`` and ``progress`` as :func:`mjflex.sweep`.
+    """
     from .api import sweep
 
     started = time.perf_counter()
-    executor, close = make_executor(args.executor, args.workers, getattr(args, "device", None))
+    executor_name, (executor, close) = executor, make_executor(executor, workers, device)
     recipe = arcade_recipe()
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message="mjflex.sweep: ", category=RuntimeWarning)  # listed below instead
-            grid = {"leaf_scale": args.leaf_scale, "beta": args.beta}
-            ds = sweep(recipe, grid, args.duration, arcade_stroke, executor=executor, threads=args.threads,
-                       progress=not args.quiet, samples=args.samples)  # fmt: skip
-            modes = sweep(recipe, {"leaf_scale": args.leaf_scale}, 0.0, first_frequency, executor=executor,
-                          threads=args.threads, progress=False)  # fmt: skip
+            grid = {"leaf_scale": leaf_scale, "beta": beta}
+            ds = sweep(recipe, grid, duration, arcade_stroke, executor=executor, threads=threads, progress=progress,
+                       samples=samples)  # fmt: skip
+            modes = sweep(recipe, {"leaf_scale": leaf_scale}, 0.0, first_frequency, executor=executor,
+                          threads=threads, progress=False)  # fmt: skip
     finally:
         close()
-    os.makedirs(args.out, exist_ok=True)  # checked by the command line before the run; made once there are results
-    stem = os.path.join(args.out, "sweep_arcade")
+    os.makedirs(out, exist_ok=True)  # checked by the command line before the run; made once there are results
+    stem = os.path.join(out, "sweep_arcade")
     ds.to_netcdf(stem + ".nc")
     plot(ds, modes, stem + ".png")
-    info = {**args.provenance, "command_wall_s": round(time.perf_counter() - started, 1), **summary(ds, modes)}
+    info = {**(provenance or {}), "command_wall_s": round(time.perf_counter() - started, 1), **summary(ds, modes)}
     with open(stem + ".json", "w") as f:
         json.dump(info, f, indent=2)
     print("first natural frequency [Hz] by leaf scale:", ", ".join(f"x{k}: {v:.2f}" for k, v in
                                                                info["first_frequency_hz"].items()))  # fmt: skip
     peak = peak_stroke(ds) * 1e3
-    print(f"peak stroke [mm] ({args.executor}, {ds.attrs['wall_time_s']:.2f} s wall):", file=sys.stdout)
+    print(f"peak stroke [mm] ({executor_name}, {ds.attrs['wall_time_s']:.2f} s wall):", file=sys.stdout)
     print(peak.to_pandas().to_string(float_format=lambda x: f"{x:.3f}", na_rep="diverged"))
     for v in info["variants"]:
         if v["status"] != "ok":
             print(f"leaf x{v['leaf_scale']:g}, beta {v['beta']:g}: {v['status']}: {v['error']}")
     print(f"wrote {stem}.nc, {stem}.png, {stem}.json")
+    return info

@@ -28,9 +28,9 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from ...mj import Flexures
-from ...mj import _callback as registry
-from ...mj.divergence import step_phrase
+from ...runtime import registry
+from ...runtime.divergence import step_phrase
+from ...runtime.flexures import Flexures
 from .recipe import Recipe
 
 BAD_STATE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
@@ -235,7 +235,7 @@ def replay(sim: _Sim, row: np.ndarray, nstep: int, reported: str = "") -> None:
     mjflex's message. When MuJoCo's checks fire and no element was that violent, the element
     named is the flexure that held the most elastic energy at the start of the failing step, the
     last finite state, and the message says so. Steps are named by the one convention of
-    :mod:`mjflex.mj.divergence` ("the step from t = ... s (step index k, counting from 0)").
+    :mod:`mjflex.runtime.divergence` ("the step from t = ... s (step index k, counting from 0)").
     ``reported`` is the error ``Batch`` reported, if any (kept if the replay does not fail).
     """
     m, d = sim.model, mujoco.MjData(sim.model)

@@ -12,7 +12,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
-import numpy as np
 
 
 def _is_xml_text(source: str) -> bool:
@@ -163,86 +162,3 @@ class Recipe:
             names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(model.nkey)]
             raise ValueError(f"recipe keyframe {key!r} is not in the model; its keyframes are {names}")
         return int(index)
-
-
-def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
-    """Replace the stiffness and/or damping of element ``element`` in ``spec`` (for ``edit`` functions).
-
-    Parameters
-    ----------
-    spec : mujoco.MjSpec
-        A spec holding the element, as a text record or an ``mjflex.flexure`` plugin instance
-        (it stays in its form).
-    element : str
-        The element's name.
-    K, B : array_like, optional
-        New 6x6 (or 3x3 planar) matrices, or their diagonals, in the element frame, rows
-        ``[rotation; translation]``, SI units; checked here by the record's rules (ValueError
-        naming the element). ``B`` may be 0-size (``[]``) to remove damping.
-
-    Examples
-    --------
-    >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> from mjflex.app.sweep import edit_flexure, flexure_matrices
-    >>> K, _ = flexure_matrices(spec, "leaf")
-    >>> edit_flexure(spec, "leaf", K=2 * K, B=1e-4 * K)  # twice as stiff, Rayleigh damping
-    >>> K2, B2 = flexure_matrices(spec, "leaf")
-    >>> print(K2[2, 2], B2[2, 2])
-    2.0 0.0001
-    """
-    from ...mj import convert, schema
-
-    record = convert.element_record(spec, element)  # KeyError naming close matches
-    if K is not None:
-        record.K = schema.element_matrix(K, f"K of flexure {element!r}")
-    if B is not None:
-        arr = np.asarray(B, dtype=float)
-        record.B = None if arr.size == 0 else schema.element_matrix(B, f"B of flexure {element!r}")
-        if arr.size == 0:
-            record.viscous = True
-    convert.write_record(spec, element, record)
-
-
-def flexure_matrices(spec: mujoco.MjSpec, element: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """``(K, B)`` of element ``element`` as written in ``spec`` (6x6 or 3x3; ``B`` None without damping).
-
-    Parameters
-    ----------
-    spec : mujoco.MjSpec
-        A spec that holds the element as a text record or an ``mjflex.flexure`` plugin instance.
-    element : str
-        The element's name.
-
-    Returns
-    -------
-    K : ndarray, shape (6, 6) or (3, 3)
-        Stiffness in the element frame, rows ``[rotation; translation]`` (N m/rad, N/m).
-    B : ndarray, shape (6, 6) or (3, 3), or None
-        Damping, the layout of ``K``; None without damping.
-
-    Examples
-    --------
-    >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> from mjflex.app.sweep import flexure_matrices
-    >>> K, B = flexure_matrices(spec, "leaf")
-    >>> print(K.diagonal(), B)
-    [2.e+00 2.e+00 1.e+00 1.e+04 1.e+04 1.e+04] None
-    """
-    from ...mj import convert
-
-    record = convert.element_record(spec, element)  # KeyError naming close matches
-    return record.K, record.B

@@ -1,0 +1,141 @@
+"""When a scene is planar, and what a planar variant changes.
+
+A scene stays in a plane with normal ``n`` when nothing pushes it out: gravity lies in the
+plane, every element's stiffness and damping couple no in-plane direction (rotation about
+``n``, translations normal to it) with an out-of-plane one, every free body has ``n`` as a
+principal axis of inertia (else its spin about ``n`` needs an out-of-plane moment), and the
+initial velocities are in-plane (angular velocity along ``n``, linear velocity normal to it).
+Then the out-of-plane modes are never excited, and a variant can put its free bodies on planar
+joints and its elements in 3x3 planar form. :func:`plane_of` checks all of it and says what
+fails.
+"""
+
+import mujoco
+import numpy as np
+
+from ..core import stiffness_in_frame
+from ..mjcf import schema
+
+TOL = 1e-9  # relative: these are exact properties of a planar model, not approximations
+
+
+def plane_frame(R_WE, n):
+    """Rotation ``R_EF`` from an element frame E to the frame F with ``z = n`` and x closest to E's x."""
+    x = R_WE[:, 0] - (R_WE[:, 0] @ n) * n
+    if np.linalg.norm(x) < 1e-6:
+        x = R_WE[:, 1] - (R_WE[:, 1] @ n) * n
+    x /= np.linalg.norm(x)
+    R_WF = np.column_stack([x, np.cross(n, x), n])
+    return R_WE.T @ R_WF
+
+
+def _matrices(rec):
+    K = schema.embed_planar(rec.K) if rec.planar else rec.K
+    B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
+    return K, B
+
+
+def _coupled(M):
+    inside, outside = list(schema.PLANAR_INDEX), [0, 1, 5]
+    return np.abs(M[np.ix_(inside, outside)]).max() > TOL * max(np.abs(M).max(), 1e-300)
+
+
+def _candidate_normal(model, flex):
+    """The common z axis of all element frames (mjflex's compliant axis), or None."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    axes = [data.site_xmat[int(a)].reshape(3, 3)[:, 2] for a, _ in flex.site_ids]
+    n = axes[0]
+    return n if all(abs(abs(a @ n) - 1.0) < TOL for a in axes) else None
+
+
+def _velocities_in_plane(model, data, n, bodies):
+    worst, scale = 0.0, 1e-300
+    for b in bodies:
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, b, vel, 0)
+        w, v = vel[:3], vel[3:]
+        worst = max(worst, np.linalg.norm(w - (w @ n) * n), abs(v @ n))
+        scale = max(scale, np.linalg.norm(w), np.linalg.norm(v))
+    return worst <= TOL * scale
+
+
+def plane_of(model, flex, free_bodies, plane, state=None):
+    """The unit normal of a planar scene, or ``(None, reason)``.
+
+    Parameters
+    ----------
+    plane : "auto" or array_like (3,)
+        ``"auto"``: the common z axis of the element frames, if there is one.
+    state : tuple, optional
+        ``(qpos, qvel)`` of the scene's initial state, checked for in-plane velocities.
+    free_bodies : iterable of int
+        The bodies that would move on planar joints (their inertia is checked).
+
+    Returns
+    -------
+    (normal, reason) : (ndarray or None, str or None)
+    """
+    n = _candidate_normal(model, flex) if isinstance(plane, str) else np.asarray(plane, dtype=float)
+    if n is None:
+        return None, "the element frames do not share one z axis"
+    if n.shape != (3,) or not np.linalg.norm(n) > 0:
+        raise ValueError(f"plane must be 'auto' or a nonzero normal vector (3,); got {plane!r}")
+    n = n / np.linalg.norm(n)
+    g = model.opt.gravity
+    if abs(g @ n) > TOL * max(np.linalg.norm(g), 1e-300):
+        return None, f"gravity {g.tolist()} has a component along the normal {np.round(n, 6).tolist()}"
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    for rec, (a, _) in zip(flex.records, flex.site_ids, strict=True):
+        R_EF = plane_frame(data.site_xmat[int(a)].reshape(3, 3), n)
+        if any(_coupled(stiffness_in_frame(M, R_EF, np.zeros(3), check=False)) for M in _matrices(rec)):
+            return None, f"element {rec.name!r} couples in-plane and out-of-plane motion"
+    for b in free_bodies:
+        R = data.ximat[b].reshape(3, 3)
+        I_n = R @ np.diag(model.body_inertia[b]) @ R.T @ n
+        if np.linalg.norm(I_n - (I_n @ n) * n) > TOL * max(model.body_inertia[b].max(), 1e-300):
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+            return None, f"the normal is not a principal axis of inertia of body {name!r}"
+    if state is not None:
+        data.qpos[:], data.qvel[:] = state
+        mujoco.mj_forward(model, data)
+        if not _velocities_in_plane(model, data, n, range(1, model.nbody)):
+            return None, "the scene's initial velocities leave the plane"
+    return n, None
+
+
+def out_of_plane(dirs, n):
+    """Boolean (n_el, 6): principal directions leaving the plane (rotations not about ``n``, translations along it)."""
+    out = np.zeros((len(dirs), 6), dtype=bool)
+    for e, d in enumerate(dirs):
+        dots = np.abs(d.axes_world @ n)
+        out[e, :3], out[e, 3:] = dots[:3] < 0.5, dots[3:] > 0.5
+    return out
+
+
+def in_plane_modes(model, modes, n):
+    """Boolean (nmodes,): modes whose kinetic energy is mostly in-plane (out-of-plane share below 1/2)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    out_share = np.zeros(modes.shape[1])
+    total = np.zeros(modes.shape[1])
+    for b in range(1, model.nbody):
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        mujoco.mj_jacBodyCom(model, data, jacp, jacr, b)
+        v, w = jacp @ modes, jacr @ modes
+        R = data.ximat[b].reshape(3, 3)
+        I = R @ np.diag(model.body_inertia[b]) @ R.T
+        w_out = w - np.outer(n, n @ w)
+        m = model.body_mass[b]
+        out_share += m * (n @ v) ** 2 + np.einsum("im,ij,jm->m", w_out, I, w_out)
+        total += m * np.sum(v**2, axis=0) + np.einsum("im,ij,jm->m", w, I, w)
+    return out_share < 0.5 * np.maximum(total, 1e-300)
+
+
+def planar_record(rec, R_EF):
+    """The element's record as a planar (3x3) one in frame F (``z`` the normal)."""
+    idx = list(schema.PLANAR_INDEX)
+    K, B = (stiffness_in_frame(M, R_EF, np.zeros(3), check=False)[np.ix_(idx, idx)] for M in _matrices(rec))
+    return schema.FlexureRecord(rec.name, rec.method, K, B if rec.B is not None else None, rec.enabled, rec.viscous,
+                                rec.strain_per_radian, rec.source)  # fmt: skip
