@@ -71,7 +71,7 @@ from .mjcf import *  # noqa: F403  (elements in MJCF and MjSpec, listed in mjcf.
 from .runtime import *  # noqa: F403  (the compiled model's elements and forces, listed in runtime.__all__)
 from .variants import *  # noqa: F403  (other models of the mechanism, listed in variants.__all__)
 
-__version__ = "0.1.0"
+__version__ = "1.0.0"
 
 #: The names of the MuJoCo layers, in one sorted list (as ``mjflex.mj.__all__`` gave them before the layers split).
 _LAYERS = sorted([*mjcf.__all__, *runtime.__all__, *analysis.__all__, *variants.__all__])

@@ -79,7 +79,9 @@ def test_the_release_carries_its_documents():
     assert project["urls"] and all(u.startswith("https://") for u in project["urls"].values())
     assert "Programming Language :: Python :: 3.13" in project["classifiers"]
     changelog = _read("CHANGELOG.md")
-    assert changelog.startswith("# Changelog") and "## Unreleased" in changelog
+    # the newest section is this version's (or work towards it, "Unreleased")
+    newest = re.search(r"^## (.+)$", changelog, re.M).group(1)
+    assert changelog.startswith("# Changelog") and newest.split()[0] in (mjflex.__version__, "Unreleased"), newest
     contributing = _read("CONTRIBUTING.md")
     for topic in ("## Test", "## Documentation", "## Benchmarks", "## The native library", "### The vector lanes",
                   "## Adding an element feature end to end", "## Releases"):  # fmt: skip
