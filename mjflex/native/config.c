@@ -287,37 +287,40 @@ static void rest_stiffness(int method, const int* exps, const double* coefs, int
   }
 }
 
-// the rows' order for the repeat check: by exponents, then by row
-static _Thread_local const int* g_sort_rows;  // the rows of this thread's qsort (qsort takes no context)
+// a row of exponents with its index, the sort key of the repeat check (qsort takes no context: each key is whole)
+typedef struct {
+  int exps[MJFX_TERM_COLUMNS];
+  int row;
+} mjfxTermKey;
 
 static int compare_rows(const void* a, const void* b) {
-  int ra = *(const int*)a, rb = *(const int*)b;
-  int c = memcmp(g_sort_rows + MJFX_TERM_COLUMNS * ra, g_sort_rows + MJFX_TERM_COLUMNS * rb,
-                 sizeof(int) * MJFX_TERM_COLUMNS);
-  return c ? c : (ra > rb) - (ra < rb);
+  const mjfxTermKey *ka = a, *kb = b;
+  int c = memcmp(ka->exps, kb->exps, sizeof(ka->exps));
+  return c ? c : (ka->row > kb->row) - (ka->row < kb->row);
 }
 
-// No row of exponents may repeat another. Rows sorted by their exponents (O(n log n): 100,000 terms in
-// milliseconds; comparing all pairs took seconds): equal rows are neighbours. The message names the
-// first row that repeats an earlier one, and the earliest row it repeats (what comparing all pairs in
-// order would find). 0, or -1 with the message.
+// No row of exponents may repeat another. Rows sorted by their exponents, then by row (O(n log n): 100,000 terms
+// in milliseconds; comparing all pairs took seconds): equal rows are neighbours. The message names the first row
+// that repeats an earlier one, and the earliest row it repeats (what comparing all pairs in order would find).
+// 0, or -1 with the message.
 static int check_repeats(const char* name, const int* exps, int nt, char* err, int errsz) {
   if (nt < 2) return 0;
-  int* order = malloc(sizeof(int) * nt);
-  if (!order) return fail(err, errsz, name, "out of memory for %d terms", nt);
-  for (int r = 0; r < nt; r++) order[r] = r;
-  g_sort_rows = exps;
-  qsort(order, nt, sizeof(int), compare_rows);
+  mjfxTermKey* keys = malloc(sizeof(mjfxTermKey) * nt);
+  if (!keys) return fail(err, errsz, name, "out of memory for %d terms", nt);
+  for (int r = 0; r < nt; r++) {
+    memcpy(keys[r].exps, exps + MJFX_TERM_COLUMNS * r, sizeof(keys[r].exps));
+    keys[r].row = r;
+  }
+  qsort(keys, nt, sizeof(mjfxTermKey), compare_rows);
   int first = -1, earliest = -1;
   for (int k = 1, start = 0; k < nt; k++) {
-    if (memcmp(exps + MJFX_TERM_COLUMNS * order[k], exps + MJFX_TERM_COLUMNS * order[start],
-               sizeof(int) * MJFX_TERM_COLUMNS)) {
+    if (memcmp(keys[k].exps, keys[start].exps, sizeof(keys[k].exps))) {
       start = k;
-    } else if (first < 0 || order[k] < first) {
-      first = order[k], earliest = order[start];  // order[start]: the group's smallest row
+    } else if (first < 0 || keys[k].row < first) {
+      first = keys[k].row, earliest = keys[start].row;  // keys[start]: the group's smallest row
     }
   }
-  free(order);
+  free(keys);
   if (first < 0) return 0;
   return fail(err, errsz, name, "exponents row %d repeats row %d: list each term once (add the coefficients)", first,
               earliest);
