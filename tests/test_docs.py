@@ -90,7 +90,9 @@ def test_the_docs_extra_holds_everything_the_build_imports():
     import ast
     from importlib import metadata
 
-    modules = __import__("pkgutil").walk_packages([os.path.join(ROOT, "mjflex")], "mjflex.")
+    import mjflex  # the package that runs: the installed wheel's, where the tree has no sources (build_release.py)
+
+    modules = __import__("pkgutil").walk_packages(mjflex.__path__, "mjflex.")
     imported = [m.name for m in modules if m.name.split(".")[-1].isidentifier()]  # the native library is no module
     imported = [name for name in imported if not name.endswith("__main__")]  # python -m mjflex: the command line
     for script in _tutorials():

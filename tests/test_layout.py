@@ -18,7 +18,10 @@ import textwrap
 
 import pytest
 
-ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "mjflex")
+import mjflex
+
+#: The package that runs: the checkout's, or the installed wheel's where the tree has no sources (build_release.py).
+ROOT = os.path.dirname(os.path.abspath(mjflex.__file__))
 
 #: Rank of each package: a module imports its own package or lower ranks only.
 LAYERS = {
@@ -176,6 +179,7 @@ def test_nothing_private_is_imported_across_modules():
 
 
 def test_every_package_module_is_in_a_layer_and_short():
+    assert {"mjflex.core.elements", "mjflex.runtime.flexures", "mjflex.app.cli"} <= set(modules(ROOT)), ROOT
     unplaced = [m for m in modules(ROOT) if _layer(m) is None]
     assert unplaced == []
     assert long_modules(ROOT) == []
