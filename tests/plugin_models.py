@@ -12,6 +12,16 @@ from tests.models import B_DEMO, K_DEMO
 MODELS = os.path.join(os.path.dirname(__file__), "..", "models")
 
 
+BAD_STATE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+
+
+def assert_not_diverged(data, what):
+    """A run compared bit for bit must not have diverged: after MuJoCo's auto-reset both sides would only agree on
+    the reset state (a diverged run must never look like a result)."""
+    bad = {str(w).split(".")[-1]: data.warning[w].number for w in BAD_STATE if data.warning[w].number}
+    assert not bad, f"{what} diverged (MuJoCo's warnings {bad}): compare a run that stays finite"
+
+
 def as_records(spec):
     """A copy of ``spec`` with its mjflex.flexure instances as text records."""
     copy = copy_spec(spec)

@@ -21,7 +21,7 @@ from mjflex.mjcf import elements, schema
 from mjflex.native import library as _native
 from mjflex.runtime.files import same_record
 from tests.models import B_DEMO, K_DEMO, push_after_rest, two_body_spec
-from tests.plugin_models import MODELS, as_plugins, as_records, polynomial_terms
+from tests.plugin_models import MODELS, as_plugins, as_records, assert_not_diverged, polynomial_terms
 
 pytestmark = pytest.mark.usefixtures("clean_callback")
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -39,6 +39,7 @@ def _trajectory(model, qvel=None, steps=1000, key=None):
     for i in range(steps):
         mujoco.mj_step(model, data)
         out[i, : model.nq], out[i, model.nq :] = data.qpos, data.qvel
+    assert_not_diverged(data, f"the run of {steps} steps")
     return out
 
 
@@ -123,7 +124,8 @@ def _tricky_record_spec():
     K[0, 1] = K[1, 0] = 0.1 + 0.2  # 0.30000000000000004
     B = np.diag(rng.uniform(1e-9, 1e-7, 6))
     B[2, 2] = 5e-300
-    spec = two_body_spec(K=K, B=B, terms=polynomial_terms("twist"))
+    # translational stiffness up to 1e7 N/m: the step is 1e-4 s (at 1e-3 s RK4 diverges in its fifth step)
+    spec = two_body_spec(K=K, B=B, terms=polynomial_terms("twist"), timestep=1e-4)
     spec.delete(spec.text("mjflex:link"))
     source = {"E": 7e10, "note": "Π ≈ 3.14", "n": [1, 2**70]}
     record = schema.FlexureRecord("link", "twist", K, B, True, False, 1 / 3, source, polynomial_terms("twist"), 4,
