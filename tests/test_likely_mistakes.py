@@ -61,7 +61,7 @@ def test_an_element_between_hinged_or_welded_bodies_is_said_and_a_free_body_is_n
     spec = mujoco.MjSpec.from_string(HINGED)
     with pytest.warns(mjflex.LikelyMistakeWarning) as record:
         mjflex.add_flexure(spec, "parallel", "base", "arm", pos=[0, 0, 0.6], K=K6)
-    (w,) = [r for r in record if r.category is mjflex.LikelyMistakeWarning]
+    (w,) = (r for r in record if r.category is mjflex.LikelyMistakeWarning)
     assert w.filename == __file__
     assert "joint(s) elbow (hinge), twist (hinge) already join: the element acts in parallel with them, along the " \
            "2 degree(s) of freedom" in str(w.message)  # fmt: skip

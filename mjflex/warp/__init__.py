@@ -158,8 +158,8 @@ def element_table(mjmodel: mujoco.MjModel, flex=None) -> ElementTable:
     >>> import mjflex.warp
     >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
     >>> table = mjflex.warp.element_table(copy.copy(mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)))
-    >>> table.names, table.K.shape, table.K[0, 2, 2]
-    (('hinge',), (1, 6, 6), np.float64(0.25))
+    >>> table.names, table.K.shape, float(table.K[0, 2, 2])
+    (('hinge',), (1, 6, 6), 0.25)
     """
     return _mjflex.element_table(mjmodel, flex if flex is not None else _mjflex.flexures(mjmodel))
 
