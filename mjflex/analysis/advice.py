@@ -86,7 +86,8 @@ class StepAdvice:
     integrator : str
         The integrator the limit is for (MuJoCo's name: ``"Euler"``, ``"RK4"``, ...).
     limit : float
-        Largest stable step of MuJoCo's step at the state [s] (the bisection's stable end).
+        Largest stable step of MuJoCo's step at the state [s]: the bisection's stable end, less its relative
+        width ``rtol`` (at the exact limit a mode is marginal: a knock grows there, linearly in time).
     recommended : float
         ``safety * limit`` [s].
     safety : float
@@ -102,7 +103,7 @@ class StepAdvice:
         The limiting mode's shape (the position part of its eigenvector, mass-normalized, ``qvel``
         coordinates).
     unstable : float
-        The bisection's first unstable step above ``limit`` [s] (within ``rtol`` of it).
+        The bisection's first unstable step [s] (within ``2 rtol`` above ``limit``).
     residual : float
         The largest residual force at the state [N or N m]: 0 at rest (a warning says where when not).
 
@@ -143,7 +144,7 @@ class StepAdvice:
 def integrator_name(integrator, model) -> str:
     """MuJoCo's name of ``integrator`` (any case; None: the model's); ValueError naming the choices."""
     if integrator is None:
-        return next(k for k, v in INTEGRATORS.items() if v == model.opt.integrator)
+        return next(k for k, v in INTEGRATORS.items() if int(v) == int(model.opt.integrator))
     names = {k.lower(): k for k in INTEGRATORS}
     if not isinstance(integrator, str) or integrator.lower() not in names:
         raise ValueError(f"integrator={integrator!r}: use one of {tuple(INTEGRATORS)} (MuJoCo's names)")
@@ -243,15 +244,16 @@ def _warn_unstable(lam, n):
 
 
 def advise(model, flex, base, integrator, options, *, safety=SAFETY, step=STEP, rtol=RTOL, horizon=None,
-           guess=None, factor=1.25, expand=60, warn=True):  # fmt: skip
+           guess=None, factor=1.25, expand=60, warn=True, margin=True):  # fmt: skip
     """:func:`step_advice` at the state of ``base`` (an ``MjData``) with the forces of ``options``.
 
     Returns ``(StepAdvice or None, last step tried, where none: "stable" or "unstable")``: None where the map
     is stable at every step tried (nothing at this state limits the step) or unstable at every one. ``guess`` [s]
     starts the bracketing (default: the continuous linearization's). ``warn``: say when the state is not at rest
-    or not a stable equilibrium.
+    or not a stable equilibrium. ``margin``: the limit one ``rtol`` below the bisection's stable end (else that
+    end itself, the bracket ``[limit, unstable]``).
     """
-    lin = linearize(model, flex, base, options, step=step, damping=True)
+    lin = linearize(model, flex, base, options, step=step, damping=True, dynamics=True)
     lam, vec = first_order(lin)
     w2, _ = modes_of(lin)
     if warn and not warn_not_at_rest(model, lin, "mjflex.step_advice", stacklevel=4):
@@ -266,6 +268,7 @@ def advise(model, flex, base, integrator, options, *, safety=SAFETY, step=STEP, 
         return None, last, "unstable" if lo is None else "stable"
     eigenvalue, mode = _limiting(T, lam, vec, lin.M)
     size = abs(eigenvalue)
+    lo = lo * (1.0 - rtol) if margin else lo
     return StepAdvice(integrator, float(lo), float(safety * lo), float(safety), float(size / (2.0 * np.pi)),
                       float(-eigenvalue.real / size) if size > 0 else 0.0,
                       np.sqrt(np.maximum(w2, 0.0)) / (2.0 * np.pi), mode, float(hi),

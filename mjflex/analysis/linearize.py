@@ -129,13 +129,13 @@ def _steady_activations(model, data):
     first-order filters and muscles; integrators and user dynamics keep theirs."""
     Dyn = mujoco.mjtDyn
     for i in range(model.nu):
-        adr = model.actuator_actadr[i]
-        if adr < 0 or model.actuator_dyntype[i] not in (Dyn.mjDYN_FILTER, Dyn.mjDYN_FILTEREXACT, Dyn.mjDYN_MUSCLE):
+        adr, dyn = model.actuator_actadr[i], int(model.actuator_dyntype[i])
+        if adr < 0 or dyn not in (int(Dyn.mjDYN_FILTER), int(Dyn.mjDYN_FILTEREXACT), int(Dyn.mjDYN_MUSCLE)):
             continue
         u = data.ctrl[i]
         if model.actuator_ctrllimited[i] and not model.opt.disableflags & _D.mjDSBL_CLAMPCTRL:
             u = np.clip(u, *model.actuator_ctrlrange[i])
-        if model.actuator_dyntype[i] == Dyn.mjDYN_MUSCLE:
+        if dyn == int(Dyn.mjDYN_MUSCLE):
             u = np.clip(u, 0.0, 1.0)
         if model.actuator_actlimited[i]:
             u = np.clip(u, *model.actuator_actrange[i])
@@ -207,7 +207,7 @@ def evaluating(model, flex, options=None, *, timestep=None, integrator=None, dis
         opt.timestep = opt.timestep if timestep is None else timestep
         if integrator is not None:
             opt.integrator = integrator
-        elif opt.integrator == mujoco.mjtIntegrator.mjINT_DISCRETE:
+        elif int(opt.integrator) == int(mujoco.mjtIntegrator.mjINT_DISCRETE):
             opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
         for name in springs:
             getattr(model, name)[:] = 0.0
@@ -299,10 +299,12 @@ def mass_at(model, data) -> np.ndarray:
     return M
 
 
-def linearize(model, flex, base, options, *, step=STEP, damping=False) -> Linearization:
+def linearize(model, flex, base, options, *, step=STEP, damping=False, dynamics=False) -> Linearization:
     """The model linearized at the configuration of ``base`` (an ``MjData``: its ``qpos``, controls, activations,
     mocap poses and applied loads; zero velocity), with the forces of ``options`` (:class:`Options`), by
-    :func:`central_differences`; ``damping``: also ``C``."""
+    :func:`central_differences`; ``damping``: also ``C``. ``dynamics``: differentiate the accelerations instead,
+    ``K = -M d qacc / d q`` and ``C = -M d qacc / d qvel`` (``M`` at ``base``): the same at rest, and away from it
+    the motion's own linearization (the inertia changing with the configuration, ``(dM/dq) qacc``, counts)."""
     data = data_at(model, base)
     data.qvel[:] = 0.0
     if options.load is not None:
@@ -310,13 +312,18 @@ def linearize(model, flex, base, options, *, step=STEP, damping=False) -> Linear
     with evaluating(model, flex, options):
         f, _ = forces(model, data, options.constraints)
         scale = _scale(data, f)
-        KG = central_differences(model, data, lambda d: np.concatenate(forces(model, d, options.constraints)),
-                                 step=step)  # fmt: skip
-        C = None
-        if damping:
-            C = -central_differences(model, data, lambda d: forces(model, d, options.constraints)[0], wrt="qvel",
-                                     step=step)  # fmt: skip
         M = mass_at(model, data)
+
+        def evaluate(d):
+            f, residual = forces(model, d, options.constraints)
+            return np.concatenate([M @ d.qacc if dynamics else f, residual])
+
+        KG = central_differences(model, data, evaluate, step=step)
+        C = (
+            -central_differences(model, data, lambda d: evaluate(d)[: model.nv], wrt="qvel", step=step)
+            if damping
+            else None
+        )
     return Linearization(M, -KG[: model.nv], C, KG[model.nv :], f, scale)
 
 

@@ -203,7 +203,7 @@ def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=STEP)
         base.ctrl[:] = ctrl
     if act is not None:
         base.act[:] = act
-    lin = linearize(model, flex, base, Options(True, "spring", True, True), step=step, damping=True)
+    lin = linearize(model, flex, base, Options(True, "spring", True, True), step=step, damping=True, dynamics=True)
     lam = np.sort(np.linalg.eigvals(np.linalg.solve(lin.M, lin.K)).real)
     top = float(lam[-1])
     rate = float(np.max(np.abs(first_order(lin)[0])))

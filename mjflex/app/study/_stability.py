@@ -59,7 +59,7 @@ def advised_limit(sim, integrator, method, guess, rtol, duration):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NotAtRestWarning)
         return advise(sim.model, sim.flex, _rest(sim), advice_name(integrator, sim.model), EVERYTHING, rtol=rtol,
-                      horizon=duration, guess=guess, expand=12, warn=False)  # fmt: skip
+                      horizon=duration, guess=guess, expand=12, warn=False, margin=False)  # fmt: skip
 
 
 def _scene_share(sim, k, w2, phi, M):
@@ -125,7 +125,7 @@ def limiting_mode(sim, advice):
 def linearization(sim):
     """The model linearized at the initial pose at rest with everything its step counts (the element methods as
     configured): :class:`mjflex.analysis.linearize.Linearization`."""
-    return linearize(sim.model, sim.flex, _rest(sim), EVERYTHING)
+    return linearize(sim.model, sim.flex, _rest(sim), EVERYTHING, dynamics=True)
 
 
 def perturbation(sim, energy, seed=0):
