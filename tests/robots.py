@@ -12,10 +12,9 @@
 * :func:`servo_held_arm` (the arm with its servo-held last joint replaced by an element, at its
   operating pose), :func:`arm_advice` (its step advice there, without the servo, unloaded),
   :func:`muscle_elbow` (a forearm on a compliant elbow held by two co-contracting muscles and a damper,
-  at its operating pose), :func:`diverges` (a knocked run from a state: does it leave any bound?) and
-  :func:`knock_grows` (does a small knock grow?), the models and the check of the advised time step:
-  used by tests/test_operating_pose.py and by scripts/operating_pose.py, which records the figures of
-  the how-to from them.
+  at its operating pose) and :func:`knock_grows` (does a small knock on a run from a state grow?),
+  the models and the check of the advised time step: used by tests/test_operating_pose.py,
+  tests/test_step_advice.py and scripts/operating_pose.py, which records the figures of the how-to.
 """
 
 import importlib.util
@@ -217,37 +216,9 @@ def arm_advice(model, flex, qpos):
     }
 
 
-#: A run that reaches this speed on any dof [rad/s or m/s] has left its bound: diverged.
-RUNAWAY_SPEED = 1e3
-
-
-def diverges(model, qpos, timestep, steps=3000, keyframe=None, xfrc_applied=None, knock=1e-2):
-    """A run of ``steps`` steps of ``timestep`` [s] from ``qpos``, knocked on every dof (``knock`` times a standard
-    normal velocity, seed 0), with the controls of ``keyframe`` and the load ``xfrc_applied`` (nbody, 6): does it
-    leave any bound (MuJoCo's bad-acceleration check, or ``RUNAWAY_SPEED``)? ``model.opt.timestep`` is restored;
-    mjflex's DivergenceWarning, expected here, is silenced."""
-    saved = model.opt.timestep
-    model.opt.timestep = timestep
-    try:
-        data = mujoco.MjData(model)
-        if keyframe is not None:
-            mujoco.mj_resetDataKeyframe(model, data, model.key(keyframe).id)
-        data.qpos[:], data.qvel[:] = qpos, knock * np.random.default_rng(0).normal(size=model.nv)
-        if xfrc_applied is not None:
-            data.xfrc_applied[:] = xfrc_applied
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", mjflex.DivergenceWarning)
-            for _ in range(steps):
-                mujoco.mj_step(model, data)
-                if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.abs(data.qvel).max() < RUNAWAY_SPEED:
-                    return True
-        return False
-    finally:
-        model.opt.timestep = saved
-
-
 #: A forearm on an elbow hinge (replaced by an element in :func:`muscle_elbow`), two co-contracting muscles on the
-#: elbow (MuJoCo's ``<muscle>``: force-length and force-velocity, activation dynamics) and a ``<damper>``.
+#: elbow (MuJoCo's ``<muscle>``: force-length and force-velocity, activation dynamics; their length range given, the
+#: joint's range times the gear, so that the compiler does not simulate to find it) and a ``<damper>``.
 MUSCLE_ELBOW = """<mujoco model="elbow">
   <option timestep="1e-3"/>
   <worldbody>
@@ -261,8 +232,8 @@ MUSCLE_ELBOW = """<mujoco model="elbow">
   </worldbody>
   <contact><exclude body1="upper" body2="forearm"/></contact>
   <actuator>
-    <muscle name="flexor" joint="elbow" gear="0.05" force="15000"/>
-    <muscle name="extensor" joint="elbow" gear="-0.05" force="15000"/>
+    <muscle name="flexor" joint="elbow" gear="0.05" force="1000" lengthrange="-0.075 0.075"/>
+    <muscle name="extensor" joint="elbow" gear="-0.05" force="1000" lengthrange="-0.075 0.075"/>
     <damper name="damper" joint="elbow" kv="1" ctrlrange="0 1"/>
   </actuator>
 </mujoco>"""

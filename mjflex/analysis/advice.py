@@ -39,7 +39,6 @@ Check a recommendation with a run that does not diverge.
 """
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import mujoco
@@ -57,7 +56,7 @@ from .linearize import (
     loads,
     modes_of,
     state,
-    warn_not_at_rest,
+    warn_state,
 )
 
 _I = mujoco.mjtIntegrator
@@ -106,6 +105,8 @@ class StepAdvice:
         The bisection's first unstable step [s] (within ``2 rtol`` above ``limit``).
     residual : float
         The largest residual force at the state [N or N m]: 0 at rest (a warning says where when not).
+    eigenvalue : complex
+        The limiting eigenvalue ``lambda`` of the continuous linearization [1/s].
 
     Examples
     --------
@@ -118,7 +119,7 @@ class StepAdvice:
     >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
     >>> model = spec.compile()
     >>> print(mjflex.step_advice(model, gravity=False))
-    RK4: stable below 6.01 ms at this state (limiting mode 74.8 Hz, damping ratio 0); take 3.01 ms (safety 0.5)
+    RK4: stable below 6.01 ms at this state (limiting mode 74.8 Hz, damping ratio 0); take 3 ms (safety 0.5)
     """
 
     integrator: str
@@ -228,21 +229,6 @@ def _limiting(T, lam, vec, M):
     return lam[j], v / math.sqrt(max(float(v @ M @ v), 1e-300))
 
 
-def _warn_unstable(lam, n):
-    """A warning when a state at rest is not a stable equilibrium: modes of negative stiffness grow at any step."""
-    negative = lam < -1e-9 * max(np.abs(lam).max(initial=0.0), 1e-300)
-    if negative.any():
-        rate = np.sqrt(-lam[negative].min())
-        warnings.warn(
-            f"mjflex.step_advice: {int(negative.sum())} of {n} modes have negative stiffness at this state (the "
-            f"fastest grows at {rate:.3g} 1/s): it is not a stable equilibrium, so a run from it leaves it at any "
-            "time step. Check the state (static_equilibrium can find a saddle; an element loaded hard across a soft "
-            "direction can buckle); the advice covers the stable modes only",
-            UserWarning,
-            stacklevel=4,
-        )
-
-
 def advise(model, flex, base, integrator, options, *, safety=SAFETY, step=STEP, rtol=RTOL, horizon=None,
            guess=None, factor=1.25, expand=60, warn=True, margin=True):  # fmt: skip
     """:func:`step_advice` at the state of ``base`` (an ``MjData``) with the forces of ``options``.
@@ -256,8 +242,8 @@ def advise(model, flex, base, integrator, options, *, safety=SAFETY, step=STEP, 
     lin = linearize(model, flex, base, options, step=step, damping=True, dynamics=True)
     lam, vec = first_order(lin)
     w2, _ = modes_of(lin)
-    if warn and not warn_not_at_rest(model, lin, "mjflex.step_advice", stacklevel=4):
-        _warn_unstable(w2, len(w2))
+    if warn:
+        warn_state(model, lin, w2, "mjflex.step_advice", always=True, stacklevel=4)
     fastest = float(np.max(np.abs(lam), initial=0.0))
     if guess is None:
         guess = (2.0 * math.sqrt(2.0) if integrator == "RK4" else 2.0) / max(fastest, 1e-300)
@@ -343,7 +329,7 @@ def step_advice(model, flex=None, *, integrator=None, keyframe=None, qpos=None, 
     >>> model = spec.compile()
     >>> advice = mjflex.step_advice(model, qpos=mjflex.static_equilibrium(model))
     >>> print(f"{advice.limit * 1e3:.2f} ms, take {advice.recommended * 1e3:.2f} ms")
-    5.99 ms, take 3.00 ms
+    5.99 ms, take 2.99 ms
     """
     check_constraints(constraints, ("spring", "ignore"))
     if not 0.0 < safety <= 1.0:

@@ -343,22 +343,34 @@ def dof_name(model, dof) -> str:
     return f"joint {name!r} ({kind.name[6:].lower()} of body {body!r}; {unit})"
 
 
-def warn_not_at_rest(model, lin, who, stacklevel=3) -> bool:
-    """A :class:`NotAtRestWarning` naming the largest residual force of ``lin`` and its dof, when the state is not
-    at rest (``REST_RTOL``); returns whether it warned."""
+def warn_state(model, lin, lam, who, *, always=False, stacklevel=3):
+    """Say what is wrong with the state of ``lin`` (``lam``: its undamped ``omega^2``): not at rest (a
+    :class:`NotAtRestWarning` naming the largest residual force and its dof; with ``always`` whether or not modes
+    came out of negative stiffness, else only then), or at rest but not a stable equilibrium (a UserWarning)."""
+    negative = lam < -1e-9 * max(np.abs(lam).max(initial=0.0), 1e-300)
     r = np.abs(lin.force)
-    if not model.nv or r.max() <= REST_RTOL * max(lin.scale, 1e-300):
-        return False
-    dof = int(np.argmax(r))
-    warnings.warn(
-        f"{who}: the state is not at rest: the forces counted leave {lin.force[dof]:.3g} on {dof_name(model, dof)}, "
-        f"{100 * r[dof] / lin.scale:.3g} % of the largest force acting there ({lin.scale:.3g}). A linearization here "
-        "describes a moment of a motion, not a rest (a negative stiffness can come from that); linearize where the "
-        "model rests: mjflex.static_equilibrium(...) with the same load and ctrl",
-        NotAtRestWarning,
-        stacklevel=stacklevel,
-    )
-    return True
+    resting = not model.nv or r.max() <= REST_RTOL * max(lin.scale, 1e-300)
+    if not resting and (always or negative.any()):
+        dof = int(np.argmax(r))
+        also = f" ({int(negative.sum())} of {len(lam)} modes come out of negative stiffness)" if negative.any() else ""
+        warnings.warn(
+            f"{who}: the state is not at rest: the forces counted leave {lin.force[dof]:.3g} on "
+            f"{dof_name(model, dof)}, {100 * r[dof] / lin.scale:.3g} % of the largest force acting there "
+            f"({lin.scale:.3g}). A linearization here describes a moment of a motion, not a rest{also}; linearize "
+            "where the model rests: mjflex.static_equilibrium(...) with the same load and ctrl",
+            NotAtRestWarning,
+            stacklevel=stacklevel,
+        )
+    elif resting and negative.any():
+        rate = np.sqrt(-lam[negative].min())
+        warnings.warn(
+            f"{who}: {int(negative.sum())} of {len(lam)} modes have negative stiffness at this state (the fastest "
+            f"grows at {rate:.3g} 1/s): it is not a stable equilibrium, so a run from it leaves it at any time step. "
+            "Check the state (static_equilibrium can find a saddle; an element loaded hard across a soft direction "
+            "can buckle); the frequencies and the advice cover the stable modes only",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
 
 
 def stiffness_matrix(model, flex, qpos=None, *, keyframe=None, ctrl=None, step=STEP, joint_springs=False,
@@ -417,8 +429,9 @@ def normal_modes(model, flex, *, keyframe=None, qpos=None, ctrl=None, actuator_s
     (a pendulum's ``m g l``; it matters for soft elements far from their equilibrium); MuJoCo's soft
     constraints with ``constraints="spring"`` (equalities, limits and contacts engaged at the pose,
     by their ``solref``/``solimp``). Without them, a joint that no element or spring holds is a
-    free, zero-frequency mode. A state where the forces counted do not balance is not at rest:
-    a :class:`NotAtRestWarning` gives the residual force and where it acts.
+    free, zero-frequency mode. Modes of negative stiffness (reported as 0 Hz) are said: at a state
+    where the forces counted do not balance, a :class:`NotAtRestWarning` gives the residual force
+    and where it acts; at rest, the equilibrium is unstable.
 
     At the operating pose (module docstring): pass the loaded configuration (``qpos``, e.g. from
     :func:`static_equilibrium`), the load (``gravity``, ``xfrc_applied``, ``qfrc_applied``), the
@@ -486,8 +499,11 @@ def normal_modes(model, flex, *, keyframe=None, qpos=None, ctrl=None, actuator_s
     check_constraints(constraints)
     options = Options(joint_springs, constraints, actuator_stiffness, gravity, loads(model, xfrc_applied, qfrc_applied))
     lin = linearize(model, flex, state(model, keyframe, qpos, ctrl), options, step=step)
-    warn_not_at_rest(model, lin, "mjflex.normal_modes")
+    if constraints == "project":  # the rigid constraints' forces, in the row space of G, hold the rest
+        N = null_space(lin.G, model.nv)
+        lin = lin._replace(force=N @ (N.T @ lin.force))
     lam, phi = modes_of(lin, project=constraints == "project")
+    warn_state(model, lin, lam, "mjflex.normal_modes")
     return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi), phi
 
 
