@@ -1,10 +1,10 @@
 """A compiled model linearized at an operating pose: statics, modes, damping and the time step.
 
 :mod:`.linearize` (the one central-difference routine, :func:`normal_modes`, stiffness and mass
-matrices, constraints), :mod:`.statics` (:func:`static_equilibrium`), :mod:`.damping` (damping
-matrices from modal ratios), :mod:`.advice` (the time step that a run can take: MuJoCo's step,
-linearized) and :mod:`.directions` (each element's principal directions and their
-share of the modes). Imports :mod:`mjflex.core`, :mod:`mjflex.mjcf` and :mod:`mjflex.runtime`.
+matrices, constraints), :mod:`mjflex.analysis.statics` (:func:`static_equilibrium`), :mod:`.damping`
+(damping matrices from modal ratios), :mod:`.advice` (the time step that a run can take: MuJoCo's
+step, linearized) and :mod:`.directions` (each element's principal directions and their share of
+the modes). Imports :mod:`mjflex.core`, :mod:`mjflex.mjcf` and :mod:`mjflex.runtime`.
 """
 
 from .advice import StepAdvice, step_advice

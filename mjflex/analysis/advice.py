@@ -174,6 +174,8 @@ def one_step_map(model, flex, base, h, integrator, options, step=STEP) -> np.nda
 
 
 def _stable(T, h, growth, horizon):
+    if not np.isfinite(T).all():  # the step itself overflowed
+        return False
     rho = float(np.max(np.abs(np.linalg.eigvals(T)), initial=0.0)) if len(T) else 0.0
     allowance = max(math.log(2.0) * h / horizon, NOISE_TOL) if horizon else NOISE_TOL
     return math.log(max(rho, 1e-300)) <= growth * h + allowance
@@ -245,8 +247,8 @@ def advise(model, flex, base, integrator, options, *, safety=SAFETY, step=STEP, 
     if warn:
         warn_state(model, lin, w2, "mjflex.step_advice", always=True, stacklevel=4)
     fastest = float(np.max(np.abs(lam), initial=0.0))
-    if guess is None:
-        guess = (2.0 * math.sqrt(2.0) if integrator == "RK4" else 2.0) / max(fastest, 1e-300)
+    if guess is None:  # the undamped limits of the fastest eigenvalue (the model's step when nothing moves)
+        guess = (2.0 * math.sqrt(2.0) if integrator == "RK4" else 2.0) / fastest if fastest > 0 else model.opt.timestep
     growth = max(0.0, float(np.max(lam.real, initial=0.0)))
     lo, hi, T, last = stable_step(lambda h: one_step_map(model, flex, base, h, integrator, options, step), guess,
                                   growth, rtol=rtol, horizon=horizon, factor=factor, expand=expand)  # fmt: skip

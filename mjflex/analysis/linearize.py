@@ -2,9 +2,9 @@
 
 One routine differentiates everything here, :func:`central_differences`: the forces for the
 stiffness and damping matrices, an element's twist (:mod:`.damping`), the residual of the statics
-(:mod:`.statics`) and MuJoCo's step itself (:mod:`.advice`, and the study through it). It moves
-``qpos`` along its tangent space (``mj_integratePos``), so free and ball joints are differentiated
-on their rotation manifold.
+(:mod:`mjflex.analysis.statics`) and MuJoCo's step itself (:mod:`.advice`, and the study through
+it). It moves ``qpos`` along its tangent space (``mj_integratePos``), so free and ball joints are
+differentiated on their rotation manifold.
 
 The forces are MuJoCo's own, ``qfrc_smooth`` of ``mj_forward`` at zero velocity with the elements
 installed; the options choose what they hold (default: the flexures only, the behaviour since the
@@ -20,7 +20,8 @@ first release). Models that carry MuJoCo's own elasticity, such as the variants 
   null space ``N`` of their Jacobian, ``N^T K N psi = omega^2 N^T M N psi``.
 
 Dry friction (``frictionloss``) is left out: sliding, it is a constant force that neither
-stiffens nor damps (at rest it holds the joint: :mod:`.statics` takes the frictionless point too).
+stiffens nor damps (at rest it holds the joint: :mod:`mjflex.analysis.statics` takes the
+frictionless point too).
 
 At the operating pose
 ---------------------
