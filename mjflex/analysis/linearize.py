@@ -232,9 +232,7 @@ def central_differences(model, data, evaluate, *, wrt="qpos", dofs=None, step=ST
     if wrt not in ("qpos", "qvel"):
         raise ValueError(f"wrt={wrt!r}: use 'qpos' or 'qvel'")
     cols = np.arange(model.nv) if dofs is None else np.asarray(dofs, dtype=int)
-    saved = np.empty(mujoco.mj_stateSize(model, _STATE))
-    mujoco.mj_getState(model, data, saved, _STATE)
-    out = None
+    saved, out = saved_state(model, data), None
     try:
         for j, dof in enumerate(cols):
             pair = []
