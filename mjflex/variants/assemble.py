@@ -161,8 +161,11 @@ def assemble(
     model = keyframes_converted(source_model, spec, model, state_from)
     state_from = PoseFit(model, body_map)
     lines = list(report)
-    lines.append(f"kinematic trees rooted at {', '.join(r for r in roots)}; {len(edges)} elements became tree "
-                 f"joints or rigid links, {len(closers)} close loops; nv {source_model.nv} -> {model.nv}")  # fmt: skip
+    if links:
+        lines.append(f"kinematic trees rooted at {', '.join(r for r in roots)}; {len(edges)} elements became tree "
+                     f"joints or rigid links, {len(closers)} close loops; nv {source_model.nv} -> {model.nv}")  # fmt: skip
+    else:
+        lines.append(f"nv {source_model.nv} -> {model.nv}")
     lines += inplace_lines
     lines += [line for line in loop_lines if line]
     details = dict(details)
