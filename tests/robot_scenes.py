@@ -4,8 +4,8 @@ Each scene is ``(rigid spec, full spec, info)``: the robot as its file has it, a
 compliant parts made elements by :func:`mjflex.make_compliant` (``replace_joints=True``); ``info`` names the
 scene's actuated run and loads.
 
-* :func:`gripper`: a parallel gripper whose fingers are closed four-bars (a driver and a follower on the
-  palm, a coupler carrying the pad, closed by a ``connect`` equality), driven by one position actuator on a
+* :func:`gripper`: a parallel gripper whose fingers are closed four-bars (parallelograms: a driver and a
+  follower on the palm, a coupler carrying the pad, closed by a ``connect`` equality), driven by one position actuator on a
   tendon over both drivers (their mirror tied by a joint equality), on a lifting slide; its four passive pivots
   (the followers' and the couplers' hinges, armature 1e-3 kg m^2 as a Robotiq 2F-85's) become steel notch hinges
   from :func:`mjflex.geometry.notch_hinge_stiffness`. Built here: the public 2F-85 files on PyPI ship in robosuite,
@@ -58,8 +58,8 @@ GRIPPER = """<mujoco model="four-bar gripper">
   </tendon>
   <equality>
     <joint name="mirror" joint1="right_driver" joint2="left_driver"/>
-    <connect name="left_loop" body1="left_coupler" body2="left_follower" anchor="0 0 -0.05"/>
-    <connect name="right_loop" body1="right_coupler" body2="right_follower" anchor="0 0 -0.05"/>
+    <connect name="left_loop" body1="left_coupler" body2="left_follower" anchor="0 0.02 0"/>
+    <connect name="right_loop" body1="right_coupler" body2="right_follower" anchor="0 -0.02 0"/>
   </equality>
   <actuator>
     <position name="fingers" tendon="split" kp="40" ctrlrange="0 0.6"/>
@@ -75,8 +75,8 @@ FINGER = """<body name="{s}_driver" pos="0 {y} -0.02">
         <geom type="capsule" fromto="0 0 0 0 0 -0.05" size="0.005"/>
         <body name="{s}_coupler" pos="0 0 -0.05">
           <joint name="{s}_coupler_pivot" class="pivot"/>
-          <geom type="capsule" fromto="0 0 0 0 0 -0.05" size="0.004"/>
-          <geom name="{s}_pad" type="box" pos="0 {pad} -0.06" size="0.01 0.003 0.015"/>
+          <geom type="capsule" fromto="0 0 0 0 {w} 0" size="0.004"/>
+          <geom name="{s}_pad" type="box" pos="0 {pad} -0.03" size="0.01 0.003 0.03"/>
         </body>
       </body>
       <body name="{s}_follower" pos="0 {y2} -0.02">
@@ -88,7 +88,7 @@ FINGER = """<body name="{s}_driver" pos="0 {y} -0.02">
 def gripper_xml():
     fingers = ""
     for s, sign in (("left", 1.0), ("right", -1.0)):
-        fingers += FINGER.format(s=s, y=0.015 * sign, y2=0.035 * sign, ax=-sign, pad=-0.004 * sign)
+        fingers += FINGER.format(s=s, y=0.015 * sign, y2=0.035 * sign, ax=-sign, w=0.02 * sign, pad=-0.004 * sign)
     return GRIPPER.format(arm=PIVOT_ARMATURE, fingers=fingers)
 
 

@@ -181,7 +181,7 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
     if timestep == "file":
         timestep = float(model.opt.timestep)
     step_mode = timestep is not None
-    freq, modes = normal_modes(model, flex, joint_springs=True, actuator_stiffness=step_mode,
+    freq, modes = normal_modes(model, flex, joint_springs=True, actuator_stiffness=True,
                                constraints="project" if model.neq else "ignore")  # fmt: skip
     normal, plane_line = _plane(model, flex, plane, scene)
     dirs = element_directions(model, flex, normal)
@@ -296,7 +296,7 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
                      for e, d in enumerate(dirs)},
     }  # fmt: skip
     details["plane"] = None if normal is None else normal.tolist()
-    details["actuator_stiffness"] = step_mode
+    details["actuator_stiffness"] = True  # a robot's servos hold its mechanism: their modes are elastic
     if step is not None:
         details["step"] = {k: v for k, v in step.items() if k != "limit"}
     return Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details, normal, edges, restricted)
@@ -472,8 +472,8 @@ def _statics(model, flex, keyframe):
 
 def _verify_step(variant, plan):
     """The variant's step advice, and its statics against the full model's under the scene's loads (each keyframe's
-    controls and gravity, or gravity at ``qpos0``): the largest error of a body's pose (position, plus rotation
-    angle times the model's extent) over the largest such displacement from ``qpos0``."""
+    controls and gravity, or gravity at ``qpos0``): the largest error of a geom's centre (the parts, where they are:
+    positions and rotations of the bodies that carry them) over the largest displacement of one from ``qpos0``."""
     flex = Flexures(variant.model) if variant.has_flexures else None
     step = variant.details["step"] = dict(plan.details["step"])
     try:
@@ -489,30 +489,27 @@ def _verify_step(variant, plan):
     )
     keys = list(range(plan.model.nkey)) or [None]
     src_names = body_names(plan.model)
-    L = max(float(plan.model.stat.extent), 1e-3)  # rotations count as the motion of a point this far away
+    src = plan.model
     errors = []
-
-    def angle(R):
-        return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
-
     try:
-        ref = mujoco.MjData(plan.model)
-        mujoco.mj_kinematics(plan.model, ref)
+        ref = mujoco.MjData(src)
+        mujoco.mj_kinematics(src, ref)
         for key in keys:
-            full = _statics(plan.model, plan.flex, key)
+            full = _statics(src, plan.flex, key)
             red = _statics(variant.model, flex, key)
             moved, err = 0.0, 0.0
-            for b, n in enumerate(src_names[1:], start=1):
-                vb, X_VS = variant.body_map.get(n, (None, None)) if n else (None, None)
+            for g in range(src.ngeom):  # every part's centre (and so the bodies' rotations), where it is
+                b = int(src.geom_bodyid[g])
+                vb, X_VS = variant.body_map.get(src_names[b], (None, None)) if b and src_names[b] else (None, None)
                 if vb is None:
                     continue
                 v = variant.model.body(vb).id
+                r = full.xmat[b].reshape(3, 3).T @ (full.geom_xpos[g] - full.xpos[b])  # in the source body's frame
                 R_v = red.xmat[v].reshape(3, 3)
-                p, R = red.xpos[v] + R_v @ X_VS[:3, 3], R_v @ X_VS[:3, :3]
-                R_full, R_ref = full.xmat[b].reshape(3, 3), ref.xmat[b].reshape(3, 3)
-                moved = max(moved, float(np.linalg.norm(full.xpos[b] - ref.xpos[b])) + L * angle(R_full @ R_ref.T))
-                err = max(err, float(np.linalg.norm(p - full.xpos[b])) + L * angle(R @ R_full.T))
-            scale = max(moved, 1e-9 * L)  # no load: judge against the model's size
+                point = red.xpos[v] + R_v @ (X_VS[:3, :3] @ r + X_VS[:3, 3])
+                moved = max(moved, float(np.linalg.norm(full.geom_xpos[g] - ref.geom_xpos[g])))
+                err = max(err, float(np.linalg.norm(point - full.geom_xpos[g])))
+            scale = max(moved, 1e-9 * max(float(src.stat.extent), 1e-3))  # no load: judge against the model's size
             errors.append({"keyframe": key, "moved": moved, "error": err, "relative": err / scale})
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # a scene without a rest (a free body)
         variant.details["statics"] = {"failed": str(exc)}
@@ -522,8 +519,8 @@ def _verify_step(variant, plan):
     worst = max(errors, key=lambda r: r["relative"])
     variant.report += (
         f"\nstatics under the scene's loads ({len(errors)} state(s): gravity and each keyframe's controls): largest "
-        f"body pose error {worst['error']:.3g} m, {100 * worst['relative']:.3g} % of the largest displacement "
-        f"{worst['moved']:.3g} m (rotations as the motion of a point at the model's extent, {L:.3g} m)"
+        f"error of a part's position {worst['error']:.3g} m, {100 * worst['relative']:.3g} % of the largest "
+        f"displacement {worst['moved']:.3g} m"
     )
 
 
