@@ -1,38 +1,35 @@
 """Three robot scenes with compliant parts, for the reduction to the file's own time step (mjflex.reduce).
 
 Each scene is ``(rigid spec, full spec, info)``: the robot as its file has it, and the same robot with its
-compliant parts made elements by :func:`mjflex.make_compliant` (``replace_joints=True``); ``info`` names the
-scene's actuated run and loads.
+compliant parts made elements by :func:`mjflex.make_compliant` (``replace_joints=True``); ``info`` gives the
+controls of the scene's actuated run (``ctrl(t)``) and the keyframe that holds its loads.
 
 * :func:`gripper`: a parallel gripper whose fingers are closed four-bars (parallelograms: a driver and a
-  follower on the palm, a coupler carrying the pad, closed by a ``connect`` equality), driven by one position actuator on a
-  tendon over both drivers (their mirror tied by a joint equality), on a lifting slide; its four passive pivots
-  (the followers' and the couplers' hinges, armature 1e-3 kg m^2 as a Robotiq 2F-85's) become steel notch hinges
-  from :func:`mjflex.geometry.notch_hinge_stiffness`. Built here: the public 2F-85 files on PyPI ship in robosuite,
-  whose dependencies (numba, opencv, pynput, a pinned mink) the test extra does not take.
+  follower on the palm, a coupler carrying the pad, closed by a ``connect`` equality), driven by one position
+  actuator on a tendon over both drivers (their mirror tied by a joint equality), on a lifting slide; its four
+  passive pivots (the followers' and the couplers' hinges, armature 1e-3 kg m^2 as a Robotiq 2F-85's) become
+  steel notch hinges from :func:`mjflex.geometry.notch_hinge_stiffness`. Built here: the public 2F-85 files on
+  PyPI ship in robosuite, whose dependencies (numba, opencv, pynput, a pinned mink) the test extra does not take.
 * :func:`spine`: the lumbar spine of ``tests/spine.py`` (three hinges per level, joint equalities tying the
-  levels to L5, a fixed tendon, motors, a servo), at the 2 ms implicitfast step, with vertebrae of 0.1 kg and facet armature 1e-3 kg m^2,
-  two muscles on tendons over the flexion and bending hinges, and L3's hinges replaced by a disc of
-  literature stiffness.
+  levels to L5, a fixed tendon, motors, a servo), at the 2 ms implicitfast step, with vertebrae of 0.1 kg and
+  facet armature 1e-3 kg m^2, two muscles on tendons over the flexion and bending hinges, and L3's hinges
+  replaced by a disc of literature stiffness.
 * :func:`pusher_wrist`: gymnasium's pusher arm as the package ships it (10 ms, Euler), its wrist flexion made a
   compliant wrist (a series-elastic flexure, soft about the flexion axis).
 
-Until ``replace_joints`` keeps the replaced joints' armature (issue 32 item 3, on another branch), each scene gives it
-back, as that change will.
+Until ``replace_joints`` keeps the replaced joints' armature (issue 32 item 3, on another branch), each scene gives
+it back, as that change will.
 """
 
 import math
-import sys
 
 import mujoco
 import numpy as np
 
 import mjflex
 from mjflex.geometry import notch_hinge_stiffness
-
-sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from robots import pusher_path  # noqa: E402
-from spine import spine_xml  # noqa: E402
+from tests.robots import pusher_path
+from tests.spine import spine_xml
 
 #: Steel notch hinges (R, t, b [m], E [Pa], nu) for the gripper's pivots.
 NOTCH = dict(R=2e-3, t=0.4e-3, b=6e-3, E=200e9, nu=0.3)
@@ -128,8 +125,12 @@ def gripper():
 
 
 SPINE_MUSCLES = """<tendon>
-    <fixed name="erector"><joint joint="L4_flex" coef="1"/><joint joint="L3_flex" coef="1"/><joint joint="L2_flex" coef="1"/></fixed>
-    <fixed name="oblique"><joint joint="L4_bend" coef="1"/><joint joint="L3_bend" coef="1"/><joint joint="L2_bend" coef="1"/></fixed>
+    <fixed name="erector">
+      <joint joint="L4_flex" coef="1"/><joint joint="L3_flex" coef="1"/><joint joint="L2_flex" coef="1"/>
+    </fixed>
+    <fixed name="oblique">
+      <joint joint="L4_bend" coef="1"/><joint joint="L3_bend" coef="1"/><joint joint="L2_bend" coef="1"/>
+    </fixed>
   </tendon>
   <actuator>
     <muscle name="erector_m" tendon="erector" lengthrange="-0.6 0.6" force="60"/>
@@ -143,7 +144,7 @@ FACET_ARMATURE = 1e-3
 
 def spine_scene_xml():
     xml = spine_xml(torso_mass=2.0)
-    xml = xml.replace('<option timestep="5e-4" integrator="RK4"/>', '<option timestep="0.002" integrator="implicitfast"/>')
+    xml = xml.replace('timestep="5e-4" integrator="RK4"', 'timestep="0.002" integrator="implicitfast"')
     xml = xml.replace('density="1500"', 'mass="0.1"').replace('armature="1e-4"', f'armature="{FACET_ARMATURE}"')
     xml = xml.replace('ctrl="0.1 0.02 0"/>', 'ctrl="0.1 0.02 0 0.2 0.1"/>')
     return xml.replace("</mujoco>", SPINE_MUSCLES + "\n</mujoco>")

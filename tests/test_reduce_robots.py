@@ -94,7 +94,7 @@ def test_state_from_maps_a_full_state_to_the_reduced_one(reached):
             data.qpos[full.jnt_qposadr[j]] += 0.01 * rng.normal()
             data.qvel[full.jnt_dofadr[j]] = 0.1 * rng.normal()
     mujoco.mj_forward(full, data)
-    qpos, qvel = variant.state_from(full, data)
+    qpos, _ = variant.state_from(full, data)
     for j in kept:
         v = variant.model.joint(full.joint(j).name)
         n = {0: 7, 1: 4}.get(int(full.jnt_type[j]), 1)
@@ -116,7 +116,8 @@ def test_a_notch_pivot_becomes_a_mujoco_spring_with_its_compliant_stiffness():
             v = variant.model.joint(joint)
             assert v.stiffness[0] == pytest.approx(K[2, 2], rel=1e-12)
             qposadr = variant.model.jnt_qposadr[v.id]
-            assert variant.model.qpos_spring[qposadr] == pytest.approx(full.qpos0[full.joint(joint).qposadr[0]], abs=1e-15)
+            rest = full.qpos0[full.joint(joint).qposadr[0]]
+            assert variant.model.qpos_spring[qposadr] == pytest.approx(rest, abs=1e-15)
             for theta in (0.05, 0.4):
                 data.qpos[:] = full.qpos0
                 data.qpos[full.joint(joint).qposadr[0]] += theta
@@ -192,7 +193,7 @@ def test_an_element_that_cannot_be_reduced_is_named_and_the_rest_is_reduced():
 
 def test_mocap_bodies_and_keyframes_with_mocap_poses_are_kept():
     """A mocap target beside the gripper: the reduced model keeps it and the keyframes' mocap poses."""
-    rigid_spec, full_spec, _ = robot_scenes.gripper()
+    _, full_spec, _ = robot_scenes.gripper()
     target = full_spec.worldbody.add_body(name="target", mocap=True, pos=[0.1, 0.2, 0.3])
     target.add_geom(size=[0.01, 0.0, 0.0], contype=0, conaffinity=0)
     full = full_spec.compile()

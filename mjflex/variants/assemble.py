@@ -162,8 +162,10 @@ def assemble(
     state_from = PoseFit(model, body_map)
     lines = list(report)
     if links:
-        lines.append(f"kinematic trees rooted at {', '.join(r for r in roots)}; {len(edges)} elements became tree "
-                     f"joints or rigid links, {len(closers)} close loops; nv {source_model.nv} -> {model.nv}")  # fmt: skip
+        lines.append(
+            f"kinematic trees rooted at {', '.join(r for r in roots)}; {len(edges)} elements became tree "
+            f"joints or rigid links, {len(closers)} close loops; nv {source_model.nv} -> {model.nv}"
+        )
     else:
         lines.append(f"nv {source_model.nv} -> {model.nv}")
     lines += inplace_lines
