@@ -82,6 +82,7 @@ from _readme_speed import (
     row_reduce_arcade,
     row_study_arcade,
 )
+from _readme_reduce import block_reduce_robots
 from _readme_warp import WARP_BENCH, block_warp_bench, block_warp_float32
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -621,6 +622,7 @@ TIMED = [
     "bench_polynomial",
     "compare_alternatives",
     "reduce_arcade",
+    "reduce_robots",
     "bench_sweep",
 ]
 
@@ -648,6 +650,7 @@ BLOCKS = {
     "native": (["compare_alternatives"], block_native),
     "native-verdict": (["compare_alternatives"], block_native_verdict),
     "reduce-arcade": (["reduce_arcade"], block_reduce_arcade),
+    "reduce-robots": (["reduce_robots"], block_reduce_robots),
     "long-run": (LONG_RUNS, block_long_run),
     "long-run-verdict": (LONG_RUNS, block_long_run_verdict),
     "sweep-arcade": (["sweep_arcade"], block_sweep_arcade),

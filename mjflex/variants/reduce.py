@@ -346,7 +346,7 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
         Upper end of the band to resolve [Hz]: modes of the full model below it are kept. Alone, it
         selects the band mode: everything the band does not need is held rigid.
     timestep : float, optional
-        The step the reduced model must run at [s] with the source's integrator: directions whose
+        The step the reduced model must run at [s] (its ``opt.timestep``) with the source's integrator: directions whose
         modes the step does not resolve with the advice's margin (:func:`mjflex.step_advice`,
         ``SAFETY``) are held rigid, stiffest first, and nothing else; the modes below that band
         (or below ``keep_below_hz`` if given) are checked. When neither is given: the file's own
@@ -433,6 +433,10 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
                 f"\nloops kept as elements: closing them by constraints would need second-order corrections "
                 f"{ratio:.3g} times the motion of the kept modes (a singular or over-constrained mechanism)"
             )
+    if step:  # the reduced model runs at the step it was made for
+        variant.model.opt.timestep = step["timestep"]
+        if variant.spec is not None:
+            variant.spec.option.timestep = step["timestep"]
     if verify:
         _verify(variant, plan.freq, plan.mask)
         if step:
