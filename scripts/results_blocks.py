@@ -66,6 +66,7 @@ from _readme_inline import (
     row_encoder_quality,
     row_operating_pose,
 )
+from _readme_reduce import block_reduce_robots
 from _readme_speed import (
     LONG_RUNS,
     block_long_run,
@@ -82,7 +83,6 @@ from _readme_speed import (
     row_reduce_arcade,
     row_study_arcade,
 )
-from _readme_reduce import block_reduce_robots
 from _readme_warp import WARP_BENCH, block_warp_bench, block_warp_float32
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")

@@ -368,11 +368,12 @@ class StudyResult:
                    and abs(r.timestep - own.get("timestep", -1.0)) <= 1e-9 * r.timestep]  # fmt: skip
         if at_file:
             out += ["", "## At the model file's step", "",
-                    f"Every model at the file's own step ({own['timestep']:.3g} s) and integrator ({own['integrator']}): "
-                    "cost per simulated second and error against the reference, side by side.", "",
+                    f"Every model at the file's own step ({own['timestep']:.3g} s) and integrator "
+                    f"({own['integrator']}): cost per simulated second and error against the reference, side by side.",
+                    "",
                     "| variant | method | status | cost per sim s | pose error |", "|---|---|---|---|---|"]  # fmt: skip
-            out += [f"| {r.variant} | {r.method} | {r.status} | {_fmt(r.cost, '.3g')} | {_percent(r.pose_error, floor)} |"
-                    for r in at_file]  # fmt: skip
+            out += [f"| {r.variant} | {r.method} | {r.status} | {_fmt(r.cost, '.3g')} | "
+                    f"{_percent(r.pose_error, floor)} |" for r in at_file]  # fmt: skip
         if self.variants:
             out += ["", "## Variants", ""] + [f"- **{k}**: {v}" for k, v in self.variants.items()]
         clock = "CPU" if self.clock == "cpu" else "wall"
