@@ -34,13 +34,16 @@ from tests.spine import spine_xml
 #: Steel notch hinges (R, t, b [m], E [Pa], nu) for the gripper's pivots.
 NOTCH = dict(R=2e-3, t=0.4e-3, b=6e-3, E=200e9, nu=0.3)
 PIVOT_ARMATURE = 1e-3
+#: The pivots' reference angle [rad] (their value at the modelled pose: the notches rest there).
+PIVOT_REF = 0.05
 
 GRIPPER = """<mujoco model="four-bar gripper">
+  <compiler angle="radian"/>
   <option timestep="0.002" integrator="implicitfast"/>
   <default>
     <joint damping="0.05"/>
     <geom density="2700" friction="1 0.05 0.001"/>
-    <default class="pivot"><joint type="hinge" axis="1 0 0" armature="{arm}" damping="0.002"/></default>
+    <default class="pivot"><joint type="hinge" axis="1 0 0" armature="{arm}" damping="0.002" ref="{ref}"/></default>
   </default>
   <worldbody>
     <geom name="floor" type="plane" size="1 1 0.1"/>
@@ -64,7 +67,7 @@ GRIPPER = """<mujoco model="four-bar gripper">
   </actuator>
   <sensor><jointpos name="left_angle" joint="left_driver"/><framepos name="box_pos" objtype="body" objname="box"/>
   </sensor>
-  <keyframe><key name="open" qpos="0 0 0.03 1 0 0 0 0 0 0 0 0 0 0" ctrl="0 0"/></keyframe>
+  <keyframe><key name="open" qpos="0 0 0.03 1 0 0 0 0 0 {ref} {ref} 0 {ref} {ref}" ctrl="0 0.01"/></keyframe>
 </mujoco>"""
 
 FINGER = """<body name="{s}_driver" pos="0 {y} -0.02">
@@ -86,7 +89,7 @@ def gripper_xml():
     fingers = ""
     for s, sign in (("left", 1.0), ("right", -1.0)):
         fingers += FINGER.format(s=s, y=0.015 * sign, y2=0.035 * sign, ax=-sign, w=0.02 * sign, pad=-0.004 * sign)
-    return GRIPPER.format(arm=PIVOT_ARMATURE, fingers=fingers)
+    return GRIPPER.format(arm=PIVOT_ARMATURE, ref=PIVOT_REF, fingers=fingers)
 
 
 def _hinge_frame(spec, body):

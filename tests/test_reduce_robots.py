@@ -144,6 +144,8 @@ def test_the_spine_says_which_direction_its_band_needs_and_the_step_that_keeps_i
     assert kept.details["modes"]["max_relative_error"] < 0.01
     assert max(s["relative"] for s in kept.details["statics"]) < 0.01
     assert {"L3_flex", "L3_bend", "L3_rot"} <= {kept.model.joint(j).name for j in range(kept.model.njnt)}
+    assert kept.has_flexures and "disc: in place on L3's joints" in kept.report  # three hinges in series: not springs
+    assert "it becomes the element in" in kept.report
     assert kept.details["elements"]["disc"]["needed"]["ry"] == ["actuator L3_flexor", "tendon erector"]
     kept.model.opt.timestep = largest
     data = actuated_run(kept.model, info["ctrl"], 2.0, info["keyframe"])
