@@ -61,6 +61,11 @@ def test_the_reduced_robot_runs_at_the_file_step_and_matches_the_full_model(reac
     assert len(variant.details["modes"]["reduced_hz"]) == len(variant.details["modes"]["full_hz"]) >= 1
     assert max(s["relative"] for s in variant.details["statics"]) < 0.01
     assert variant.model.nv == rigid.nv  # the notch hinges and the wrist are their hinges again
+    if name == "pusher_wrist":  # its hinge's range became the element's stops: not a spring, the element in 1 direction
+        assert variant.has_flexures and "wrist: in place on r_wrist_flex_link's joints: compliant rz" in variant.report
+        assert "it becomes the element in 1 of 6 directions (rz)" in variant.report
+    else:  # the notches: MuJoCo's own springs, nothing of mjflex left
+        assert not variant.has_flexures
     data = actuated_run(variant.model, info["ctrl"], 10.0, info["keyframe"])
     assert_not_diverged(data, f"{name} reduced, 10 s at {full.opt.timestep} s")
     assert np.isfinite(data.qpos).all() and data.time >= 10.0
