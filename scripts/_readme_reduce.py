@@ -1,10 +1,10 @@
 """Page text of scripts/results_blocks.py for the reduction of robots to the file's step (scripts/reduce_robots.py)."""
 
-from _readme_format import pct, sci, sig, table
+from _readme_format import machines_note, pct, sci, sig, table
 
 
 def _cost(row):
-    return f"{row['ratio_median']:.2f}× ({row['ratio_min']:.2f}–{row['ratio_max']:.2f})"
+    return f"{sig(row['ratio_median'], 3)}× ({sig(row['ratio_min'], 3)}–{sig(row['ratio_max'], 3)})"
 
 
 def block_reduce_robots(results):
@@ -19,7 +19,7 @@ def block_reduce_robots(results):
         rows.append([name, f"{sig(row['step'] * 1e3, 3)} ms ({row['integrator']})",
                      f"{nv['rigid']} / {nv['full']} / {nv['reduced']}", f"{sci(row['full_advised_step'])} s",
                      pct(row["modes"]["max_relative_error"]), pct(statics), _cost(row["cost"]["reduced"]),
-                     f"{sig(row['cost']['full']['ratio_median'], 3)}×",
+                     _cost(row["cost"]["full"]),
                      f"{pct(ref['relative_error'])} ({pct(ref['rigid_relative_error'])})",
                      "finite" if row["run"]["finite"] else "diverged"])  # fmt: skip
     notes = []
@@ -35,4 +35,5 @@ def block_reduce_robots(results):
         f"interleaved repeats, each an equal stretch of simulated time of the scene's actuated run; against the full "
         f"model's run: the largest distance of a part's centre over {reference:g} s of the actuated run, from the "
         f"same state, over the largest distance a part moved):\n\n" + table(head, rows) + "\n" + "\n".join(notes) + "\n"
+        + "\n" + machines_note(results, ["reduce_robots"])
     )

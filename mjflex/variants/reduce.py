@@ -408,12 +408,13 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
     >>> print(reduced.report.splitlines()[1])
     leaf: 3 joints (rx 19 Hz, ry 19 Hz, rz 14 Hz local) ; rigid: x 0.65 %, y 0.65 %, z 0 %
 
-    At the file's step (MuJoCo's default, 2 ms, Euler) the same: the translations' modes (about 70 Hz) lie above
-    the 80 Hz x 0.5 the step resolves with the advice's margin.
+    At the file's step (MuJoCo's default, 2 ms, Euler) the step resolves the rotations and the axial stretch (71 Hz
+    local): only the two shear directions (229 Hz) are held rigid, and the four left are joints with the element in
+    those four directions.
 
     >>> at_step = mjflex.reduce(spec)
     >>> at_step.name, at_step.model.nv, at_step.details["step"]["reached"]
-    ('reduced(0.002 s)', 3, True)
+    ('reduced(0.002 s)', 4, True)
     """
     _check_arguments(keep_below_hz, timestep, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify,
                      name)  # fmt: skip
