@@ -34,6 +34,11 @@ def block_reduce_robots(results):
         f"`{r['command']}` (recorded {r['date'][:10]}, {r['script_wall_s']:.0f} s; cost ratios: medians (min–max) of "
         f"interleaved repeats, each an equal stretch of simulated time of the scene's actuated run; against the full "
         f"model's run: the largest distance of a part's centre over {reference:g} s of the actuated run, from the "
-        f"same state, over the largest distance a part moved):\n\n" + table(head, rows) + "\n" + "\n".join(notes) + "\n"
-        + "\n" + machines_note(results, ["reduce_robots"])
+        f"same state, over the largest distance a part moved):\n\n"
+        + table(head, rows)
+        + "\n"
+        + "\n".join(notes)
+        + "\n"
+        + "\n"
+        + machines_note(results, ["reduce_robots"])
     )
