@@ -111,10 +111,11 @@ def _hinge_frame(spec, body):
     return p, q_P
 
 
-def gripper():
-    """``(rigid, full, info)``: the four-bar gripper, and with its four passive pivots as steel notch hinges."""
-    rigid = mujoco.MjSpec.from_string(gripper_xml())
-    full = mujoco.MjSpec.from_string(gripper_xml())
+def gripper(xml=None):
+    """``(rigid, full, info)``: the four-bar gripper (or ``xml``, a variant of it), and with its four passive pivots
+    as steel notch hinges."""
+    rigid = mujoco.MjSpec.from_string(xml or gripper_xml())
+    full = mujoco.MjSpec.from_string(xml or gripper_xml())
     K = notch_hinge_stiffness(**NOTCH)
     for s in ("left", "right"):
         for part in ("follower", "coupler"):

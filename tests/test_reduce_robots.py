@@ -212,3 +212,62 @@ def test_mocap_bodies_and_keyframes_with_mocap_poses_are_kept():
     assert m.nmocap == 1 and m.body("target").mocapid[0] == 0
     assert np.allclose(m.key_mpos, full.key_mpos) and np.allclose(m.key_mquat, full.key_mquat)
     del key
+
+
+def test_the_study_compares_the_reduction_at_the_file_step():
+    """The study's default variants include the reduction at the file's step, and its step grid the file's step (so
+    every model is run there, side by side); a model the file's step holds nothing rigid in gets no such variant."""
+    from mjflex.app.study import _sweep
+    from mjflex.app.study.variants import DEFAULT_VARIANTS, reduced_at_file_step
+
+    assert reduced_at_file_step in DEFAULT_VARIANTS
+    variant = reduced_at_file_step(robot_scenes.gripper()[1])
+    assert variant.name == "reduced(file step)" and variant.model.opt.timestep == 0.002
+    spec = mujoco.MjSpec.from_string(
+        '<mujoco><option timestep="1e-5"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+        '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    )
+    mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e5, 1e5, 1e5])
+    with pytest.raises(mjflex.VariantNotApplicableError, match="holds nothing rigid"):
+        reduced_at_file_step(spec)
+    plan = _sweep._plan(0.002, np.array([10.0]), 1e3, duration=0.1, samples=10, steps=None, step_count=4,
+                        max_step=7e-3, min_step=None)  # fmt: skip
+    assert any(abs(plan.h(n) - 0.002) < 1e-12 for n in plan.grid)  # the file's step is a candidate
+
+
+def test_arcade_reduces_as_recorded():
+    """Free bodies coupled by elements (ARCADE) take the path they took before trees were reduced: the 50 Hz
+    reduction keeps the directions, degrees of freedom and modes of docs/results/reduce_arcade.json."""
+    import json
+    import os
+
+    root = os.path.join(os.path.dirname(__file__), "..")
+    with open(os.path.join(root, "docs", "results", "reduce_arcade.json")) as f:
+        recorded = json.load(f)["details"]["reduced(50 Hz)"]
+    variant = mjflex.reduce(os.path.join(root, "models", "arcade.xml"), 50.0)
+    assert variant.model.nv == recorded["nv"]
+    assert {e: d["soft"] for e, d in variant.details["elements"].items()} == {
+        e: d["soft"] for e, d in recorded["elements"].items()
+    }
+    assert variant.details["modes"]["reduced_hz"] == pytest.approx(recorded["modes"]["reduced_hz"], rel=1e-6)
+
+
+def test_a_plugin_other_than_mjflex_is_kept():
+    """The gripper's lifter as MuJoCo's own PID actuator plugin: the reduced model keeps the plugin, its actuator and
+    its activation, and runs."""
+    xml = robot_scenes.gripper_xml().replace(
+        '<position name="lifter" joint="lift" kp="2000" ctrlrange="-0.2 0.2"/>',
+        '<plugin name="lifter" plugin="mujoco.pid" joint="lift" actdim="1"><config key="kp" value="2000"/>'
+        '<config key="ki" value="10"/></plugin>',
+    )
+    xml = xml.replace("<worldbody>", '<extension><plugin plugin="mujoco.pid"/></extension><worldbody>', 1)
+    xml = xml.replace('ctrl="0 0.01"', 'ctrl="0 0.01" act="0.001"')
+    _, full_spec, info = robot_scenes.gripper(xml)
+    full = full_spec.compile()
+    variant = mjflex.reduce(full_spec)
+    m = variant.model
+    assert not variant.has_flexures and m.nplugin == 1 and m.na == full.na == 1
+    assert mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, int(m.actuator_plugin.argmax())) == "lifter"
+    assert np.array_equal(m.key_act, full.key_act)
+    data = actuated_run(m, info["ctrl"], 2.0, info["keyframe"])
+    assert_not_diverged(data, "the gripper with a PID lifter, reduced")
