@@ -28,6 +28,19 @@ and returns a :class:`~mjflex.variants.variant.Variant` in which
   constraints are as stiff as the time step allows (MuJoCo's ``refsafe`` keeps their time
   constant at ``2 h``), so they cost a constraint solve but add no stiff mode.
 
+**Any model.** Elements on a body's own joints (the body's parent is the element's other body, as
+:func:`mjflex.make_compliant` makes them, ``replace_joints`` or not) are reduced in place
+(:mod:`mjflex.variants.reduce_edges`): the joints the compliant directions need stay, with their names
+and armature, and the element becomes MuJoCo's springs where they are exact, else the element in
+fewer directions; a direction that an actuator, a tendon or an equality moves is never held rigid.
+Free bodies nest under the model's own trees; elements between two bodies of the trees close loops.
+
+**A time step** (``timestep=``, by default the file's own when no band is given): the directions
+carrying the modes that the step and integrator do not resolve with the step advice's margin are held
+rigid, the fewest that bring every mode below that band (:mod:`mjflex.variants.reduce_choice`); the
+modes below the band are checked as in the band mode, and the reduced model's own step advice and its
+statics against the full model's are reported.
+
 How "stiff" is decided: the normal modes of the full model below ``keep_below_hz`` are
 computed, and each direction's modal strain-energy share is measured. Holding a direction
 rigid raises the square of a mode's frequency by about the share it stored there when it acts
@@ -351,7 +364,7 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
         ``SAFETY``) are held rigid, stiffest first, and nothing else; the modes below that band
         (or below ``keep_below_hz`` if given) are checked. When neither is given: the file's own
         ``opt.timestep``. ValueError naming the element and direction when no reduction reaches
-        it; a :class:`ReductionWarning` when it takes a direction the band's modes need (the
+        it; a :class:`mjflex.ReductionWarning` when it takes a direction the band's modes need (the
         report gives the largest step that keeps it).
     scene : tuple, optional
         ``(initial, duration)``: a keyframe name or index (or ``(qpos, qvel)``) and a duration
@@ -447,7 +460,7 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
 
 
 def _warn(variant, plan):
-    """A :class:`ReductionWarning` for elements that could not be reduced and for directions the band needs."""
+    """A :class:`mjflex.ReductionWarning` for elements that could not be reduced and for directions the band needs."""
     whole = [f"{d.element} ({r})" for d, r in zip(plan.dirs, plan.reasons, strict=True)
              if r and not r.startswith(("none of its directions", "more than"))]  # fmt: skip
     if whole:

@@ -1,7 +1,7 @@
 """Build the model :func:`mjflex.reduce` planned: joints, merged bodies, restricted elements, loop closures.
 
-:func:`build` turns a :class:`Plan` into a :class:`~mjflex.variants.variant.Variant` through
-:func:`mjflex.variants.assemble.assemble`; :func:`closure_singularity` measures whether loops closed
+``build`` turns a ``Plan`` into a :class:`mjflex.Variant` through
+``mjflex.variants.assemble.assemble``; :func:`mjflex.variants.reduce.closure_singularity` measures whether loops closed
 by constraints would lock the mechanism.
 """
 

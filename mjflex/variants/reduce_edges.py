@@ -22,8 +22,8 @@ reduction rewrites the body's joints instead of re-rooting it:
   no longer ring at deflected poses), its stops kept with the stiffness they had.
 * sensors that read a joint that goes (``jointpos``, ...) are removed and reported by name.
 
-:func:`edge_of` decides whether an element is such an edge, :func:`joint_users` finds what names a
-joint, :func:`edge_result` what an edge becomes, and :func:`rejoint` edits the model file.
+``edge_of`` decides whether an element is such an edge, ``joint_users`` finds what names a
+joint, ``edge_result`` what an edge becomes, and ``rejoint`` edits the model file.
 """
 
 import dataclasses
