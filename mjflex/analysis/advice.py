@@ -173,28 +173,28 @@ def one_step_map(model, flex, base, h, integrator, options, step=STEP) -> np.nda
         return np.hstack([central_differences(model, data, after_step, wrt=w, step=step) for w in ("qpos", "qvel")])
 
 
-def _stable(T, h, growth, horizon):
+def _stable(T, h, growth, horizon, noise):
     if not np.isfinite(T).all():  # the step itself overflowed
         return False
     rho = float(np.max(np.abs(np.linalg.eigvals(T)), initial=0.0)) if len(T) else 0.0
-    allowance = max(math.log(2.0) * h / horizon, NOISE_TOL) if horizon else NOISE_TOL
+    allowance = max(math.log(2.0) * h / horizon, noise) if horizon else noise
     return math.log(max(rho, 1e-300)) <= growth * h + allowance
 
 
-def stable_step(step_map, guess, growth=0.0, *, rtol=RTOL, horizon=None, factor=1.25, expand=60):
+def stable_step(step_map, guess, growth=0.0, *, rtol=RTOL, horizon=None, factor=1.25, expand=60, noise=NOISE_TOL):
     """``(largest stable step or None, first unstable step or None, the map there or None, last step tried)``.
 
     ``step_map(h)``: the one-step map of a step ``h`` [s]. From ``guess`` the step is multiplied or divided by
     ``factor`` (at most ``expand`` times) until the limit is bracketed, then bisected geometrically to ``rtol``.
-    Stable means ``ln rho <= growth h + max(ln 2 h / horizon, NOISE_TOL)`` (``growth`` [1/s]: the model's own
-    fastest physical growth, 0 at a stable equilibrium). None where the map is stable (or unstable) at every step
-    tried.
+    Stable means ``ln rho <= growth h + max(ln 2 h / horizon, noise)`` (``growth`` [1/s]: the model's own
+    fastest physical growth, 0 at a stable equilibrium; ``noise``: the map's, default ``NOISE_TOL``). None where
+    the map is stable (or unstable) at every step tried.
     """
     lo = hi = T_hi = None
     h = guess
     for _ in range(expand + 1):
         T = step_map(h)
-        if _stable(T, h, growth, horizon):
+        if _stable(T, h, growth, horizon, noise):
             lo, h = h, h * factor
         else:
             hi, T_hi, h = h, T, h / factor
@@ -205,11 +205,29 @@ def stable_step(step_map, guess, growth=0.0, *, rtol=RTOL, horizon=None, factor=
     while hi / lo > 1.0 + rtol:
         h = math.sqrt(lo * hi)
         T = step_map(h)
-        if _stable(T, h, growth, horizon):
+        if _stable(T, h, growth, horizon, noise):
             lo = h
         else:
             hi, T_hi = h, T
     return lo, hi, T_hi, hi
+
+
+def mode_limit(omega, zeta, integrator) -> float:
+    """Largest step [s] at which one mode (``omega`` [rad/s], damping ratio ``zeta``, both explicit) stays stable:
+    the bisection of :func:`stable_step` on its one-step map (symplectic Euler's for the single-step integrators,
+    ``R(h lambda)`` for RK4); ``2 / omega`` and ``2 sqrt(2) / omega`` undamped. ``inf`` when none limits it."""
+    a = np.array([[0.0, 1.0], [-(omega**2), -2.0 * zeta * omega]])
+
+    def step_map(h):
+        if integrator == "RK4":
+            z = h * a
+            return np.eye(2) + z + z @ z / 2 + z @ z @ z / 6 + z @ z @ z @ z / 24
+        c = 1.0 - 2.0 * zeta * omega * h
+        return np.array([[1.0 - (h * omega) ** 2, h * c], [-h * omega**2, c]])
+
+    guess = (2.0 * math.sqrt(2.0) if integrator == "RK4" else 2.0) / omega
+    lo, hi, _, _ = stable_step(step_map, guess, rtol=1e-12, expand=40, noise=1e-14)  # an exact map: no noise
+    return math.inf if hi is None else float(lo)
 
 
 def first_order(lin):
