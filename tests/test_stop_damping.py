@@ -343,7 +343,7 @@ def test_the_energy_balance_closes_with_damped_stops(kind):
     conservative stops lose none."""
     stops = mjflex.Stops(upper=[None, None, 0.1, None, None, None], damping_ratio=0.3)
     runs = [_bounce(rotor_spec(stops=stops, kind=kind, h=h).compile()) for h in (2.5e-4, 1.25e-4, 6.25e-5)]
-    for error, W, E0, angle in runs:
+    for _error, W, E0, angle in runs:
         assert angle.max() > 0.1 and W > 0.5 * E0
     ratios = [a[0] / b[0] for a, b in itertools.pairwise(runs)]
     assert all(1.8 < r < 2.2 for r in ratios), ratios

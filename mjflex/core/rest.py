@@ -75,8 +75,9 @@ def rest_pose(rest, name="rest"):
     norm = np.linalg.norm(q, axis=-1)
     if np.any(np.abs(norm - 1.0) > REST_QUAT_TOLERANCE):
         bad = float(np.ravel(norm)[np.argmax(np.abs(np.ravel(norm) - 1.0))])
-        raise ValueError(f"{name} quat has norm {bad:.9g}, so it is not a rotation: give a unit quaternion [w, x, y, "
-                         f"z] (norm 1 within {REST_QUAT_TOLERANCE:g}: write enough digits, or normalize it)")  # fmt: skip
+        raise ValueError(f"{name} quat has norm {bad:.9g}, so it is not a rotation: give a unit quaternion "
+                         f"[w, x, y, z] (norm 1 within {REST_QUAT_TOLERANCE:g}: write enough digits, or normalize "
+                         "it)")  # fmt: skip
     q = q / norm[..., None]
     w, x, y, z = np.moveaxis(q, -1, 0)
     R = np.stack(

@@ -155,7 +155,7 @@ def _gradient(z, lo, hi, k):
 
 
 def _damped(z, zdot, lo, hi, k, b):
-    """``(G', P)``: the damped stops' total force ``(..., n)`` (module docstring) and their dissipated power ``(...)``."""
+    """``(G', P)``: the damped stops' total force ``(..., n)`` (module docstring) and dissipated power ``(...)``."""
     with np.errstate(invalid="ignore"):
         over, under = np.maximum(z - hi, 0.0), np.maximum(lo - z, 0.0)
     eo, eu = k * over, k * under
@@ -194,8 +194,9 @@ def _p_map(r, x, sign):
 def _rates(R_WA, p_WA, R_Wb, p_Wb, z, velocities):
     """The rates ``zdot`` of the stop coordinates ``z`` of frames a and b* (module docstring) from the world
     velocities ``(w_WA, v_WA, w_WB, v_WB)`` (None: zero; ``v_WB`` of frame b*'s origin)."""
+    names = ("w_WA", "v_WA", "w_WB", "v_WB")
     w_WA, v_WA, w_WB, v_WB = (np.zeros(3) if v is None else as_array(v, name, (3,))
-                              for v, name in zip(velocities, ("w_WA", "v_WA", "w_WB", "v_WB"), strict=True))  # fmt: skip
+                              for v, name in zip(velocities, names, strict=True))  # fmt: skip
     w_b = np.einsum("...ji,...j->...i", R_Wb, w_WB - w_WA)
     dp = v_WB - v_WA - np.cross(w_WA, p_Wb - p_WA)
     return np.concatenate(np.broadcast_arrays(_p_map(z[..., :3], w_b, 1.0), np.einsum("...ji,...j->...i", R_WA, dp)),

@@ -473,8 +473,8 @@ def _rest(payload):
     if data is None:
         return None
     if not isinstance(data, dict) or set(data) - set(REST_KEYS):
-        raise ValueError(f'"rest" must be an object with the keys "pos" ([x, y, z], m) and "quat" ([w, x, y, z], a unit '
-                         f"quaternion): the pose of frame b in frame a at rest; got {shorten(data)}")  # fmt: skip
+        raise ValueError(f'"rest" must be an object with the keys "pos" ([x, y, z], m) and "quat" ([w, x, y, z], a '
+                         f"unit quaternion): the pose of frame b in frame a at rest; got {shorten(data)}")  # fmt: skip
     for key, n in (("pos", 3), ("quat", 4)):
         if data.get(key) is not None and not (isinstance(data[key], list) and len(data[key]) == n):
             raise ValueError(f'"rest" "{key}" must be a list of {n} numbers; got {shorten(data[key])}')

@@ -307,7 +307,7 @@ class Stops:
             raise ValueError(f'"stops": {exc}') from None
 
     def config(self) -> dict[str, str]:
-        """The plugin attributes ``stop_lower``, ``stop_upper``, ``stop_stiffness``, ``stop_damping`` (lossless text)."""
+        """The plugin attributes ``stop_lower``, ``stop_upper``, ``stop_stiffness``, ``stop_damping`` (lossless)."""
         out = {}
         for key, attribute in zip(("lower", "upper"), ATTRIBUTES, strict=False):
             values = getattr(self, key)
@@ -341,7 +341,7 @@ class Stops:
 
 
 def coordinate_masses(model, data, body_a: int, body_b: int, p_WE, R_WE, n: int = 6) -> np.ndarray:
-    """The effective mass (inertia) of each stop coordinate of an element at the state of ``data``: ``1 / (J M^-1 J^T)``.
+    """The effective mass (inertia) of each stop coordinate of an element at ``data``'s state: ``1 / (J M^-1 J^T)``.
 
     ``J`` is the row of the coordinate's rate in the relative velocity of the bodies' points at
     the element frame's origin ``p_WE`` (world [m]), in its axes ``R_WE`` (3x3): what MuJoCo's
@@ -403,8 +403,9 @@ def resolved(stops, K, masses, element: str):
     bad = limited & ~(np.isfinite(b) & (b <= MAX_STIFFNESS) & np.isfinite(k) & (k <= MAX_STIFFNESS))
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"flexure {element!r}: the stop on {_coordinates(n)[i]} gets stiffness {k[i]:g} and damping "
-                         f"{b[i]:g} from its effective mass {m[i]:g}; check the time constant and the masses")  # fmt: skip
+        raise ValueError(f"flexure {element!r}: the stop on {_coordinates(n)[i]} gets stiffness {k[i]:g} and "
+                         f"damping {b[i]:g} from its effective mass {m[i]:g}; check the time constant and the "
+                         "masses")  # fmt: skip
     return Stops(stops.lower, stops.upper, stiffness, tuple(float(v) for v in np.where(limited, b, 0.0)))
 
 
