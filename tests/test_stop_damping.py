@@ -353,6 +353,25 @@ def test_the_energy_balance_closes_with_damped_stops(kind):
     assert W == 0.0 and error < 1e-3 * E0
 
 
+@pytest.mark.parametrize("kind", ["plugin", "record"])
+def test_c_stop_never_pulls_the_body_back_in(kind):
+    """The rotor 0.05 rad past its stop (an element of stops alone, k = 10, b = 2): moving back out faster than
+    k over / b = 0.25 rad/s the stop pushes with nothing; slower, with k over + b zdot; moving in, with more; the
+    force is continuous where the clamp starts to hold."""
+    stops = mjflex.Stops(upper=[None, None, 0.1, None, None, None], stiffness=10.0, damping=2.0)
+    model = rotor_spec(stops=stops, kind=kind, K=[0.0] * 6).compile()
+    flex, data = mjflex.Flexures(model), mujoco.MjData(model)
+    data.qpos[3:7] = [np.cos(0.075), 0, 0, np.sin(0.075)]
+    with flex:
+        for rate in (1.0, 0.0, -0.2, -0.25 + 1e-9, -0.25 - 1e-9, -0.3, -3.0):
+            data.qvel[5] = rate
+            mujoco.mj_forward(model, data)
+            assert np.isclose(data.qfrc_passive[5], -max(10 * 0.05 + 2.0 * rate, 0.0), rtol=1e-12, atol=1e-8)
+            assert data.qfrc_passive[5] <= 0.0
+            if rate < -0.25:
+                assert data.qfrc_passive[5] == 0.0 and flex.dissipation_power(data) > 0
+
+
 # ------------------------------------------------------------------ a damping from a ratio or a time constant
 
 
