@@ -84,7 +84,7 @@ def test_core_refuses_a_rest_pose_that_is_not_one(rest, match):
 RESTS = {"grounded": ([0.003, -0.002, 0.001], _quat([0.3, -0.1, 0.2])), "joint": ([0.0, 0.0, 0.0], _quat([0, 0, 0.4]))}
 
 
-def residual_spec(kind, stops=None):
+def residual_spec(kind):
     """Two free bodies, a grounded element and one between them, both with rest poses; site b of each moved by a
     residual within the coincidence tolerance (1.5 um, 6 urad: what a model's rounding might leave)."""
     spec = mujoco.MjSpec()
@@ -96,7 +96,7 @@ def residual_spec(kind, stops=None):
         body.add_freejoint()
     for name, a, b, method in (("grounded", "world", "b0", "twist"), ("joint", "b0", "b1", "dualquat")):
         handle = mjflex.add_flexure(spec, name, a, b, pos=[0.15, 0.01, 0.0], quat=_quat([0.2, 0.1, 0]), K=K,
-                                    method=method, kind=kind, rest=RESTS[name], stops=(stops or {}).get(name))  # fmt: skip
+                                    method=method, kind=kind, rest=RESTS[name])  # fmt: skip
         site = handle.site_b
         site.pos = site.pos + [1e-6, -0.5e-6, 1e-6]
         q = np.empty(4)
