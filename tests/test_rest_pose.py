@@ -244,7 +244,7 @@ def test_a_plugin_instance_with_a_bad_rest_pose_fails_to_compile_naming_the_elem
         ('{"pos": [0, 0, 0], "quat": [1, 1, 0, 0]}', "not a rotation"),
         ('{"pos": [0, 0]}', '"rest" "pos" must be a list of 3 numbers'),
         ('{"angle": 1}', '"rest" must be an object with the keys "pos"'),
-        ('[0, 0, 0]', '"rest" must be an object'),
+        ("[0, 0, 0]", '"rest" must be an object'),
     ],
 )
 def test_a_record_with_a_bad_rest_pose_is_a_model_error_naming_the_element(rest_json, match):
