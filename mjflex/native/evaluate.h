@@ -36,7 +36,7 @@ EV_INLINE int kind_of(const mjfxElement* e, int spring_on, int damper_on, int co
          (damper_on & e->viscous) << 5 |
          e->offset << 6 | (spring_on & (e->terms_hi > e->terms_lo)) << 7 | (e->free_a >= 0) << 8 |
          (e->free_b >= 0) << 9 | (spring_on & !coords & e->stops) << 10 |
-         (spring_on & damper_on & !coords & e->stops & e->stop_damped) << 11;
+         (spring_on & damper_on & !coords & e->stop_damped) << 11;  // stop_damped: the element has stops
 }
 
 // the end stops' limits, stiffness and damping of each lane (when the kind has stops)
