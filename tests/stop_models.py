@@ -243,7 +243,8 @@ def figures():
         "link": {v: link_figures(v) for v in ("rigid", "derived", "stiff", "damped")},
         "finger": finger_figures(),
         "parameters": {
-            "step_s": H, "solref": [TAU, ZETA], "stiff_stop": STIFF, "bounce_rad": BOUNCE,
+            "step_s": H, "solref": [TAU, ZETA], "stiff_stop": STIFF, "bounce_rad": BOUNCE, "upper_rad": UPPER,
+            "release_rad": START,
             "finger_solref_s": FINGER_TAU, "fine_step_s": FINE_H, "fine_solref_s": FINE_TAU,
             "spring": [SPRING_K, SPRINGREF],
         },

@@ -253,3 +253,14 @@ def test_a_record_with_a_bad_rest_pose_is_a_model_error_naming_the_element(rest_
     text.data = text.data[:-1] + f', "rest": {rest_json}}}'
     with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': text record 'mjflex:disc' is malformed: .*{match}"):
         mjflex.Flexures(spec.compile())
+
+
+def test_variants_say_what_becomes_of_a_rest_pose():
+    """The MuJoCo-native variants cannot hold a preload: their reports say so; reduce keeps the rest pose of an
+    element it keeps whole, also where it rewrites its record (here: its negligible damping dropped)."""
+    spec, _ = _one(rest=([0, 0, 0.001], list(_quat([0, 0, 0.1]))), B=[1e-9] * 6)
+    for build in (mjflex.bushing_variant, mjflex.weld_variant):
+        assert "disc: its rest pose (a preload) is kept by an element kept whole only" in build(spec).report
+    kept = mjflex.reduce(spec, keep_below_hz=1e9)
+    assert "disc: kept as an element" in kept.report and not mjflex.Flexures(kept.model).records[0].viscous
+    assert mjflex.Flexures(kept.model).records[0].rest == mjflex.Flexures(spec.compile()).records[0].rest
