@@ -346,7 +346,9 @@ def stops_lines(flex, fate: str) -> list[str]:
     pairs = list(zip(flex.names, flex.records, strict=True))
     return [f"{name}: its end stops {fate}" for name, rec in pairs if rec.stops] + [
         f"{name}: its rest pose (a preload) is kept by an element kept whole only; a MuJoCo-native replacement (weld, "
-        "bushing, joints) is at rest where the model compiled it" for name, rec in pairs if rec.rest is not None
+        "bushing, joints) is at rest where the model compiled it"
+        for name, rec in pairs
+        if rec.rest is not None
     ]
 
 
