@@ -372,6 +372,23 @@ def test_c_stop_never_pulls_the_body_back_in(kind):
                 assert data.qfrc_passive[5] == 0.0 and flex.dissipation_power(data) > 0
 
 
+def test_the_damper_disable_flag_switches_the_stops_damping_off():
+    """MuJoCo's damper flag off: the stop is conservative (its elastic force only); the spring flag off: no stop."""
+    stops = mjflex.Stops(upper=[None, None, 0.1, None, None, None], stiffness=10.0, damping=2.0)
+    model = rotor_spec(stops=stops, K=[0.0] * 6).compile()
+    flex, data = mjflex.Flexures(model), mujoco.MjData(model)
+    data.qpos[3:7] = [np.cos(0.075), 0, 0, np.sin(0.075)]
+    data.qvel[5] = 1.0
+    mujoco.mj_forward(model, data)
+    assert np.isclose(data.qfrc_passive[5], -(10 * 0.05 + 2.0), rtol=1e-12)
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_DAMPER
+    mujoco.mj_forward(model, data)
+    assert np.isclose(data.qfrc_passive[5], -10 * 0.05, rtol=1e-12) and flex.dissipation_power(data) == 0.0
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_SPRING
+    mujoco.mj_forward(model, data)
+    assert not data.qfrc_passive.any()
+
+
 # ------------------------------------------------------------------ a damping from a ratio or a time constant
 
 
@@ -480,3 +497,30 @@ def test_a_record_with_bad_stop_damping_is_a_model_error_naming_the_element(stop
     text.data = text.data[:-1] + f', "stops": {stops_json}}}'
     with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': text record 'mjflex:disc' is malformed: .*{match}"):
         mjflex.Flexures(spec.compile())
+
+
+def test_a_planar_elements_stop_damping_lands_on_rz_x_y():
+    """A planar element's damping on [theta, x, y] is the spatial element's on rz, x, y (K embedded), bit for bit:
+    the same rows, and the same forces when both move alike."""
+    planar = mjflex.Stops([-0.05, None, -0.002], [0.1, 0.001, None], stiffness=[40.0, 9e3, 1.2e4], damping=[0.5, 3, 4])
+    spatial = mjflex.Stops([None, None, -0.05, None, -0.002, None], [None, None, 0.1, 0.001, None, None],
+                           stiffness=[1.0, 1.0, 40.0, 9e3, 1.2e4, 1.0], damping=[7.0, 7.0, 0.5, 3, 4, 7.0])  # fmt: skip
+    K3 = np.array([[0.4, 0.02, -0.01], [0.02, 90.0, 4.0], [-0.01, 4.0, 120.0]])
+    spec = _bodies(mujoco.MjSpec(), 2)
+    mjflex.add_flexure(spec, "planar", "world", "b0", pos=[0.1, 0, 0], K=K3, stops=planar)
+    mjflex.add_flexure(spec, "spatial", "world", "b1", pos=[0.2, 0, 0], K=mjflex.mjcf.schema.embed_planar(K3),
+                       stops=spatial)  # fmt: skip
+    model = spec.compile()
+    flex = mjflex.Flexures(model)
+    rows = flex.element_table.elements
+    for field in ("stop_lo", "stop_hi", "stop_k", "stop_b", "stop_damped"):
+        assert np.array_equal(rows[field][0], rows[field][1]), field
+    assert np.array_equal(rows["stop_b"][0], [0, 0, 0.5, 3, 4, 0])
+    data = mujoco.MjData(model)
+    for body in range(2):  # the same in-plane motion, past the theta and x stops, moving on into them
+        data.qpos[7 * body : 7 * body + 3] += [0.003, -0.001, 0.0]
+        data.qpos[7 * body + 3 : 7 * body + 7] = [np.cos(0.06), 0, 0, np.sin(0.06)]
+        data.qvel[6 * body : 6 * body + 6] = [0.1, 0.02, 0, 0, 0, 0.5]
+    mujoco.mj_forward(model, data)
+    W, P = flex.wrenches(data), flex.dissipation_powers(data)
+    assert np.array_equal(W[0], W[1]) and P[0] == P[1] and P[0] > 0

@@ -24,7 +24,7 @@ extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 #define MJFX_COINCIDENCE_ANGLE 1e-5
 #define MJFX_REST_STRESS_RTOL 1e-12
 #define MJFX_MAX_TERMS 100000
-// largest |norm - 1| of an element's rest_quat (mjflex.mjcf.schema.REST_QUAT_TOLERANCE): a quaternion written with
+// largest |norm - 1| of an element's rest_quat (mjflex.core.rest.REST_QUAT_TOLERANCE): a quaternion written with
 // 7 significant digits passes, one that is not a rotation does not
 #define MJFX_REST_QUAT_TOL 1e-6
 // derived stiffness of an end stop: this times K_ii (mjflex.core.stops.STIFFNESS_FACTOR)
