@@ -35,7 +35,7 @@ def block_stop_bounces(results):
         depths = ", ".join(sig(d, 2) for d in x["rebounds_rad"][:5]) + (", …" if len(x["rebounds_rad"]) > 5 else "")
         losses = ", ".join(sci(v, 2) for v in x["bounce_losses_J"][:4])
         body.append([label, _stop(x), str(len(x["rebounds_rad"])), depths, losses, sci(x["energy_lost_J"], 3),
-                     sci(x["nudge_after_1s_rad"], 1)])  # fmt: skip
+                     sci(x["nudge_after_1s_rad"], 1) if x["nudge_after_1s_rad"] else "0"])  # fmt: skip
     head = ["stop", "law", "bounces", "their depths [rad]", "energy lost by the first four [J]",
             "energy lost in 1 s [J]", "a 1e-9 rad nudge after 1 s [rad]"]  # fmt: skip
     return (
