@@ -14,6 +14,7 @@ import scipy.linalg
 from ..mjcf import schema
 from ..mjcf.notices import warn_likely_mistake
 from ..runtime.flexures import Flexures
+from .directions import element_matrices
 from .linearize import (
     STEP,
     Options,
@@ -204,7 +205,7 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     if flex.model is not model:
         raise ValueError("flex must be the Flexures of this model (flex.model is model)")
     record = flex.records[flex.index(element)]
-    Ke = schema.embed_planar(record.K) if record.planar else record.K
+    Ke = element_matrices(record)[0]
     given = checked_ratios(ratios, 3 if record.planar else 6, strict=strict, stacklevel=3)
     r = given
     if record.planar:  # the other directions do not move a planar element: their weights are zero
