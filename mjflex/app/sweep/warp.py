@@ -103,13 +103,6 @@ def _taken_as_is(field, value) -> bool:
     return want is not None and np.array_equal(got, want)
 
 
-def _initial_state(sim):
-    data = mujoco.MjData(sim.model)
-    if sim.key >= 0:
-        mujoco.mj_resetDataKeyframe(sim.model, data, sim.key)
-    return data
-
-
 def _run_group(plan, group, progress, wp, mjw, mw):
     sims = group.sims
     n = len(sims)
@@ -124,7 +117,7 @@ def _run_group(plan, group, progress, wp, mjw, mw):
                       stop_lower=np.stack([x.stop_lower for x in t]), stop_upper=np.stack([x.stop_upper for x in t]),
                       stop_stiffness=np.stack([x.stop_stiffness for x in t]))  # fmt: skip
     d = mjw.make_data(group.ref.model, nworld=n)
-    starts = [_initial_state(s) for s in sims]
+    starts = [s.initial_data() for s in sims]
     for name in ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "time"):
         if getattr(d, name).size:
             getattr(d, name).assign(np.stack([np.asarray(getattr(x, name), dtype=float) for x in starts]))
@@ -189,7 +182,7 @@ def _groups(sims, mw):
     return out
 
 
-def run_part(plan, rows, progress, stepping, stats):
+def run_part(plan, rows, progress, stats):
     """Build, group, step and observe the variants ``rows`` (a list of ``(index, params)``); their outcomes."""
     import mujoco_warp as mjw
     import warp as wp
@@ -205,29 +198,11 @@ def run_part(plan, rows, progress, stepping, stats):
         for group in _groups(stepped, mw):
             try:
                 _run_group(plan, group, progress, wp, mjw, mw)
-                stepping.add(WARP)
-                stats["batches"] += 1
+                stats["stepping"].add(WARP)
+                stats["warp_batches"] += 1
             except Exception as exc:  # MuJoCo Warp refused the model: every variant of the group failed
                 message = f"MuJoCo Warp could not run the variant: {engine._exc_text(exc)}"
                 for s in group.sims:
                     if s.alive:
                         s.fail(message)
     return [s.outcome if isinstance(s, engine._Sim) else s for s in built]
-
-
-def run_chunk(plan, rows, progress=None, part_size=PART_SIZE):
-    """All variants ``rows`` on MuJoCo Warp, in parts of ``part_size`` (see :func:`engine.run_chunk`)."""
-    outcomes, parts, stepping, stats = [], 0, set(), {"batches": 0}
-    for start in range(0, len(rows), part_size):
-        part = rows[start : start + part_size]
-        ticks = [0.0]
-
-        def tick(n, ticks=ticks):
-            ticks[0] += n
-            progress(n)
-
-        outcomes += run_part(plan, part, tick if progress else None, stepping, stats)
-        if progress:
-            progress(len(part) * (1 if plan.samples is None else plan.samples - 1) - ticks[0])
-        parts += 1
-    return outcomes, {"parts": parts, "stepping": stepping, "warp_batches": stats["batches"]}
