@@ -171,12 +171,16 @@ class Sim:
             if kind == "record":
                 self.flex.set_method(name, method or file_method)
 
-    def reset(self):
+    def reset(self, rest=False):
+        """``self.data`` at the initial state, forwarded; ``rest``: at zero velocity, not forwarded."""
         d = self.data
         mujoco.mj_resetData(self.model, d)
         for key, value in self.state.items():
             getattr(d, key)[:] = value
-        mujoco.mj_forward(self.model, d)
+        if rest:
+            d.qvel[:] = 0.0
+        else:
+            mujoco.mj_forward(self.model, d)
         return d
 
     def sample(self, d):
