@@ -10,7 +10,7 @@ import os
 
 from ...core import validation
 from ..output import folder_problem
-from ._run import INTEGRATOR_ENUMS
+from ..simulate import INTEGRATORS
 from ._scene import StudyError
 
 METHODS = ("twist", "dualquat")
@@ -79,7 +79,7 @@ def check_options(opts: dict, out=None, spell=lambda name: name) -> None:
     _numbers(opts["targets"], spell("targets"), "relative errors", ": targets are relative pose errors, 0.01 = 1 %",
              above=0.0, at_most=1.0)  # fmt: skip
     _names(opts["methods"], spell("methods"), METHODS)
-    _names(opts["integrators"], spell("integrators"), sorted(INTEGRATOR_ENUMS))
+    _names(opts["integrators"], spell("integrators"), sorted(INTEGRATORS))
     if opts["clock"] not in CLOCKS:
         raise StudyError(f"{spell('clock')} must be 'cpu' or 'wall'; got {validation.shorten(opts['clock'])}")
     track = opts["track"]

@@ -11,11 +11,12 @@ from tqdm.auto import tqdm
 
 from ...core import validation
 from ...variants.variant import VariantNotApplicableError
+from ..simulate import integrator_label
 from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._options import METHODS, check_options
 from ._result import StudyResult
 from ._rows import Limit, Reference, Row
-from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
+from ._run import Sim, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import (
     StudyError,
     build_variant,
@@ -424,7 +425,7 @@ def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps
     problem = full.method_switch_problem(methods)
     if problem:
         raise StudyError(problem)
-    result.model_setting = {"integrator": integrator_name(src), "timestep": float(src.opt.timestep),
+    result.model_setting = {"integrator": integrator_label(src), "timestep": float(src.opt.timestep),
                             "method": full.methods_label(None)}  # fmt: skip
     lin = linearized_frequencies(full.model, full.flex, state["qpos"], ctrl=state["ctrl"], act=state["act"])
     freq, result.highest_frequency, result.fastest_rate = lin
