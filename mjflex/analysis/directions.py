@@ -108,17 +108,15 @@ def _principal_axes(block, normal=None):
     is planar, so that in-plane and out-of-plane directions never mix, even for an isotropic
     block).
     """
+    off = block - np.diag(np.diag(block))
     if normal is not None:
         u = np.linalg.svd(np.outer(normal, normal))[0][:, 1:]  # orthonormal basis of the plane
         _, v = np.linalg.eigh(u.T @ block @ u)
         Q = np.column_stack([u @ v, normal])
-        order = np.argmax(np.abs(Q), axis=0)
-        Q = Q[:, np.argsort(order)] if len(set(order)) == 3 else Q
-        return Q * np.sign(Q[np.argmax(np.abs(Q), axis=0), range(3)])
-    off = block - np.diag(np.diag(block))
-    if np.abs(off).max() <= 1e-12 * max(np.abs(block).max(), 1e-300):
+    elif np.abs(off).max() <= 1e-12 * max(np.abs(block).max(), 1e-300):
         return np.eye(3)
-    _, Q = np.linalg.eigh(block)
+    else:
+        _, Q = np.linalg.eigh(block)
     order = np.argmax(np.abs(Q), axis=0)
     if len(set(order)) == 3:
         Q = Q[:, np.argsort(order)]

@@ -77,7 +77,7 @@ import numpy as np
 
 from ..analysis.advice import SAFETY, mode_limit, step_advice
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
-from ..analysis.linearize import normal_modes
+from ..analysis.linearize import normal_modes, state
 from ..analysis.statics import static_equilibrium
 from ..core import validation
 from ..mjcf.spec import compile_spec
@@ -471,11 +471,8 @@ def _warn(variant, plan):
 
 
 def _statics(model, flex, keyframe):
-    data = mujoco.MjData(model)
     qpos = static_equilibrium(model, flex, keyframe=keyframe, tol=1e-8)  # positions to 1e-8 of the load: enough for 1 %
-    if keyframe is not None:
-        mujoco.mj_resetDataKeyframe(model, data, keyframe)
-    data.qpos[:] = qpos
+    data = state(model, keyframe, qpos)
     mujoco.mj_kinematics(model, data)
     return data
 

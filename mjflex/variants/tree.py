@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from ..mjcf.spec import compile_spec
-from .variant import body_names, reference_poses
+from .variant import body_names, identity_body_map, reference_poses
 
 WORLD = "world"
 
@@ -308,12 +308,8 @@ class TreeXml:
 
 def merged_body_map(variant_model, source_model):
     """``body_map`` when every named source body survives by name (jointless children included)."""
-    names = set(body_names(variant_model))
-    out = {}
-    for name in body_names(source_model)[1:]:
-        if not name:
-            continue
+    out, names = identity_body_map(source_model), set(body_names(variant_model))
+    for name in out:
         if name not in names:
             raise ValueError(f"source body {name!r} is missing from the variant")
-        out[name] = (name, np.eye(4))
     return out
