@@ -63,10 +63,6 @@ def provenance(argv=None):
     return {"command": shlex.join(["python", "-m", "mjflex", *args]), "date": date}
 
 
-def _print_command_time(started):
-    print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
-
-
 def _simulate_command(args):
     started = time.perf_counter()
     check_output(args.json, "--json")
@@ -79,7 +75,7 @@ def _simulate_command(args):
             fps=args.fps, slowdown=args.slowdown, progress=not args.quiet,
         )  # fmt: skip
     print(summary.text())
-    _print_command_time(started)
+    print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(summary.to_dict(), f, indent=2)

@@ -48,10 +48,6 @@ def _options(model):
     return tuple(np.asarray(getattr(o, a)).tobytes() for a in names)
 
 
-def _group_key(sim):
-    return (*sim.layout(), _options(sim.model))
-
-
 def _element_structure(table):
     return (table.names, table.ints.tobytes(), np.float32(table.qa).tobytes(), np.float32(table.qb).tobytes(),
             np.float32(table.p0).tobytes(), table.exps.tobytes(), table.coefs.tobytes(), table.start.tobytes(),
@@ -163,10 +159,9 @@ def _flag_diverged(sims, alive, divergences, d, h):
 
 def _groups(sims, mw):
     """Variants grouped so that each group can share one MuJoCo Warp model; incompatible ones get their own."""
-    pending, out = list(sims), []
-    by_key = {}
-    for s in pending:
-        by_key.setdefault(_group_key(s), []).append(s)
+    out, by_key = [], {}
+    for s in sims:
+        by_key.setdefault((*s.layout(), _options(s.model)), []).append(s)
     for members in by_key.values():
         while members:
             group = _Group(members, mw)
