@@ -11,7 +11,7 @@ they share (:mod:`.spec`). Nothing here reads a compiled model's elements: that 
 """
 
 from .build import FlexureHandle, add_flexure, add_flexure_in_body_frame, remove_flexure
-from .convert import attach, convert_model, copy_spec
+from .convert import attach, convert_model, copy_spec, spec_xml
 from .elements import edit_elements
 from .joints import Replacement
 from .notices import LikelyMistakeWarning
@@ -33,4 +33,5 @@ __all__ = [
     "edit_elements",
     "reference_body_poses",
     "remove_flexure",
+    "spec_xml",
 ]
