@@ -260,8 +260,9 @@ def test_the_rigid_file_loads_in_a_mujoco_without_mjflex(tmp_path):
     (tmp_path / "declared.xml").write_text(spec.to_xml())
     (tmp_path / "empty").mkdir()
     env = {**os.environ, "MJFLEX_NATIVE_DIR": str(tmp_path / "empty")}
-    out = subprocess.run([sys.executable, "-c", PLAIN_MUJOCO, str(tmp_path / "rigid.xml"), str(tmp_path / "declared.xml")],
-                         env=env, capture_output=True, text=True, check=True, cwd=tmp_path).stdout.splitlines()  # fmt: skip
+    files = [str(tmp_path / "rigid.xml"), str(tmp_path / "declared.xml")]
+    out = subprocess.run([sys.executable, "-c", PLAIN_MUJOCO, *files], env=env, capture_output=True, text=True,
+                         check=True, cwd=tmp_path).stdout.splitlines()  # fmt: skip
     assert out[0] == f"loaded {original.nq} {original.nv} {original.nbody} {original.njnt} 0", out
     assert out[1] == "refused XML Error: plugin mjflex.flexure not found", out  # the plugin is truly absent there
     assert mjflex.spec_xml(spec) == spec.to_xml().replace(
@@ -421,7 +422,8 @@ def test_a_ball_joint_keeps_its_ball_and_its_cone_becomes_the_circumscribed_box(
 
 def test_a_loaded_disc_stays_within_the_range_of_the_hinges_it_replaced():
     """40 N forward on the torso extends L3's disc past the hinges' 4.8 deg: without stops it rests at 12.6 deg; with
-    the ranges carried as element stops (``stops="element"``) it rests 0.09 deg past the limit (the stop's own compliance, 100 times the disc's stiffness), and
+    the ranges carried as element stops (``stops="element"``) it rests 0.09 deg past the limit (the stop's own
+    compliance, 100 times the disc's stiffness), and
     a run from rest at the step advised for that loaded, engaged state peaks 0.2 deg past it, without diverging. The
     engaged stop raises the stiffest frequency 3.6-fold, which the advice at qpos0 would miss."""
     static, runs = {}, {}

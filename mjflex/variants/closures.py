@@ -46,6 +46,8 @@ class Closure:
         the angle of a weld's rotation error [rad], a joint or tendon equality's residual [rad or m].
     unit : str
         ``"m"`` or ``"rad"``.
+    opened : bool
+        Whether it opened more than ``GROWTH`` times, above the round-off ``FLOOR`` (warned about).
     """
 
     equality: str
@@ -53,6 +55,7 @@ class Closure:
     rigid: float
     compliant: float
     unit: str
+    opened: bool = False
 
     @property
     def growth(self) -> float:
@@ -127,10 +130,10 @@ def closures(rigid, compliant, matched, keyframe=None, element="", stacklevel=2)
         name = mujoco.mj_id2name(compliant, mujoco.mjtObj.mjOBJ_EQUALITY, b) or f"#{b}"
         for (kind, before, unit), (_, after, _) in zip(held["rigid"].get(a, ()), held["compliant"].get(b, ()),
                                                         strict=False):  # fmt: skip
-            out.append(Closure(name, kind, before, after, unit))
+            floor = FLOOR * (rigid.stat.extent if unit == "m" else 1.0)
+            out.append(Closure(name, kind, before, after, unit, after > floor and after > GROWTH * before))
     for c in out:
-        floor = FLOOR * (rigid.stat.extent if c.unit == "m" else 1.0)
-        if c.compliant > floor and c.growth > GROWTH:
+        if c.opened:
             warn_likely_mistake(
                 f"flexure {element!r}: equality {c.equality!r} ({c.type}) is open {c.compliant:.3g} {c.unit} at the "
                 f"operating pose, {c.growth:.3g} times the rigid model's {c.rigid:.3g} {c.unit}. Its solref sets a "

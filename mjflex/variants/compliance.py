@@ -118,8 +118,8 @@ class Compliance:
             replaced = (f", replaced={list(r.joints)}{kept} (stops: {r.stops}, {len(r.edits)} edits, "
                         f"{len(r.notes)} notes)")  # fmt: skip
         if self.closures:
-            worst = max(self.closures, key=lambda c: c.growth)
-            replaced += f", closures: {len(self.closures)} (most opened: {worst.equality} x{worst.growth:.3g})"
+            opened = sorted({c.equality for c in self.closures if c.opened})
+            replaced += f", closures: {len(self.closures)} ({'opened: ' + ', '.join(opened) if opened else 'held'})"
         return (
             f"Compliance(body={self.body!r} on {self.parent!r}, element={self.element!r}, "
             f"directions={''.join(f'{d} ' for d in self.directions).strip()!r}, joints={list(self.joints)}, "
