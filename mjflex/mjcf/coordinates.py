@@ -274,14 +274,14 @@ def axis_mismatch(rigid, element, replaced, R_BE, K, directions, stacklevel=2) -
     if not values[0] > 0 or about <= SOFTEST_RATIO * values[0]:
         return None
     soft = vectors[:, 0] * np.sign(vectors[np.argmax(np.abs(vectors[:, 0])), 0])
-    unit, what = ("N m/rad", "rotation about") if kind == _HINGE else ("N/m", "translation along")
+    unit, what, how = ("N m/rad", "rotation", "about") if kind == _HINGE else ("N/m", "translation", "along")
     labels = [DIRECTIONS[i] for i in block]
     message = (
         f"flexure {element!r} replaces {KIND[kind]} {name!r}, whose axis is the element's "
         f"{_axis_label(axis, labels)}, but K there is {about:.4g} {unit}, {about / values[0]:.3g} times K's softest "
-        f"{what} ({values[0]:.4g} {unit}, {_axis_label(soft, labels)}): the joint's motion meets a stiffer element "
-        f"than its compliant direction. The element frame's z axis is a replaced hinge's (or lone slide's) axis, as "
-        "mjflex.geometry's hinges turn about z: give the compliant stiffness on "
+        f"{what} ({values[0]:.4g} {unit}, {how} {_axis_label(soft, labels)}): the joint's motion meets a stiffer "
+        "element than its compliant direction. The element frame's z axis is a replaced hinge's (or lone slide's) "
+        "axis, as mjflex.geometry's hinges turn about z: give the compliant stiffness on "
         f"{'rz' if kind == _HINGE else 'z'} (or the frame you mean with site= or pos=/quat=), or silence "
         "mjflex.LikelyMistakeWarning to keep it"
     )

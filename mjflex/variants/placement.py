@@ -83,7 +83,7 @@ def find_body(spec, body):
 def check_body(spec, body, replace_joints=False):
     """Refuse a body with joints (without ``replace_joints``) or a mocap body."""
     joints = [j.name or f"#{i}" for i, j in enumerate(body.joints)]
-    if joints and not replace_joints:
+    if joints and (replace_joints is False or replace_joints is None):
         raise ValueError(
             f"body {body.name!r} already has joints ({', '.join(joints)}): make_compliant turns the weld between a "
             "body and its parent into an element, and a joint's motion would deflect the element. Pass "
