@@ -205,9 +205,7 @@ def test_a_second_element_on_one_body_is_refused():
                                          r"make_rigid.*mjflex.add_flexure\(spec, name, 'L4', 'L3'"):  # fmt: skip
         mjflex.make_compliant(spec, "L3", [50, 50, 30, 2e5, 2e5, 5e5], replace_joints=True, name="again")
     assert spec.to_xml() == before
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # the plugin declaration left in the spec
-        mjflex.make_rigid(spec, first)
+    mjflex.make_rigid(spec, first)
     again = mjflex.make_compliant(spec, "L3", [50, 50, 30, 2e5, 2e5, 5e5], replace_joints=True)
     assert again.replaced.joints == first.replaced.joints
     hand = arm_spec()  # a welded body with an element on its weld already (add_flexure warned that it never deflects)
@@ -273,9 +271,7 @@ def test_one_hinge_of_three_is_replaced_and_the_others_stay_joints():
     free = ["nod", "tilt", "turn", *c.joints]
     assert math.isclose(_rest_angle(model, "nod", 1e-3, free), 1e-3 / 7.0, rel_tol=1e-6)
     assert math.isclose(_rest_angle(model, "tilt", 1e-3, free), 1e-3 / 20.0, rel_tol=1e-6)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # the plugin declaration left in the spec
-        mjflex.make_rigid(spec, c)
+    mjflex.make_rigid(spec, c)
     back = spec.compile()
     for field in ("jnt_stiffness", "dof_damping", "dof_armature", "jnt_range", "qpos0", "body_pos"):
         np.testing.assert_array_equal(getattr(back, field), getattr(rigid, field), err_msg=field)

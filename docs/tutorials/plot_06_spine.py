@@ -155,7 +155,7 @@ fig.tight_layout()
 # ------------------
 # :func:`mjflex.make_rigid` puts it all back: the hinges' ranges, springs and dampers, the three equalities in their
 # places, the keyframes. The compiled model is the original one. (The spec still declares the plugin, which MjSpec
-# cannot take back, and make_rigid says so: save it with :func:`mjflex.spec_xml`.)
+# cannot take back: save it with :func:`mjflex.spec_xml`, which leaves the declaration out.)
 mjflex.make_rigid(spec, disc)
 again = spec.compile()
 same = all(np.array_equal(getattr(again, n), getattr(original, n)) for n in ("jnt_range", "eq_data", "eq_obj1id",

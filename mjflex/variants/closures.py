@@ -48,6 +48,16 @@ class Closure:
         ``"m"`` or ``"rad"``.
     opened : bool
         Whether it opened more than ``GROWTH`` times, above the round-off ``FLOOR`` (warned about).
+
+    Examples
+    --------
+    A four-bar's ``connect`` that held to 6.4 um and opens 0.70 mm once a pivot is an element's coordinate (the
+    test ``tests/test_compliance_replace.py`` makes it):
+
+    >>> import mjflex
+    >>> loop = mjflex.Closure("loop", "connect", rigid=6.4e-6, compliant=7.0e-4, unit="m", opened=True)
+    >>> print(f"{loop.equality}: {loop.growth:.0f} times the rigid model's opening")
+    loop: 109 times the rigid model's opening
     """
 
     equality: str

@@ -25,7 +25,7 @@ from ..analysis.damping import DIRECTIONS, checked_ratios, damping_from_ratios
 from ..mjcf import coordinates, keyframes
 from ..mjcf import joints as joint_replacement
 from ..mjcf.build import add_flexure, joints_checked, remove_flexure
-from ..mjcf.elements import element_record, flexure_instances, spec_elements, write_record
+from ..mjcf.elements import element_record, spec_elements, write_record
 from ..mjcf.keyframes import KeyframeEdit
 from ..mjcf.spec import compile_spec, quaternion_from_rotation
 from ..mjcf.stops import Stops
@@ -476,8 +476,9 @@ def make_rigid(spec, compliance: Compliance) -> None:
 
     Saving: MuJoCo's MjSpec cannot take back the declaration of the engine plugin
     ``mjflex.flexure`` that a plugin element brought, so ``spec.to_xml()`` still names it after
-    the last element goes (a UserWarning says so), and a MuJoCo without mjflex refuses that file.
-    :func:`mjflex.spec_xml` writes the spec without the unused declaration.
+    the last element goes, and a MuJoCo without mjflex refuses that file ("plugin mjflex.flexure
+    not found"). Write the rigid model with :func:`mjflex.spec_xml`, which leaves the unused
+    declaration out. (The compiled model has no plugin either way.)
 
     Parameters
     ----------
@@ -525,18 +526,8 @@ def make_rigid(spec, compliance: Compliance) -> None:
     if compliance.replaced is not None:
         joint_replacement.undo(spec, compliance.replaced)
     keyframes.restore_keys(spec, shrunk)
-    plugin = any(p.name == compliance.element for p in flexure_instances(spec))
     remove_flexure(spec, compliance.element)
     _delete_excludes(spec, compliance.excludes)
-    if plugin and not flexure_instances(spec):
-        warnings.warn(
-            f"make_rigid: {compliance.element!r} was the spec's last mjflex.flexure instance, but the spec still "
-            'declares the engine plugin (<extension><plugin plugin="mjflex.flexure"/>), which MuJoCo\'s MjSpec '
-            "cannot take back: spec.to_xml() would not load in a MuJoCo without mjflex. Save the rigid model with "
-            "mjflex.spec_xml(spec), which leaves the unused declaration out; the compiled model has no plugin",
-            UserWarning,
-            stacklevel=2,
-        )
 
 
 def _delete_excludes(spec, pairs):
