@@ -50,7 +50,8 @@ class Compliance:
         The body made compliant and the body it is now joined to (``"world"`` possible).
     directions : tuple of str
         The element directions the body may move in, of ``("rx", "ry", "rz", "x", "y", "z")``
-        (rotations about and translations along the element frame's axes).
+        (rotations about and translations along the element frame's axes); with kept joints
+        (``replace_joints=[...]``) those they move are not the element's.
     joints : tuple of str
         The joints added to the body, in order: slides, then a ball (three rotations) or hinges.
     frame : str or tuple
