@@ -177,6 +177,21 @@ def test_the_joint_limits_kept_bounce_and_lose_energy_as_the_rigid_arm():
     assert rigid_losses[0] > 0.5  # an impact that matters: the limit's solref takes most of the energy
 
 
+def test_element_stops_take_the_ranges_with_the_stops_arguments_given():
+    """``stops={"stiffness": 500}``: the elbow's range on the element's rz, with that stiffness; the joint's MuJoCo
+    limit goes (one kind of stop, not two). A limit among the arguments is refused: the ranges give them."""
+    spec = _pusher()
+    c = mjflex.make_compliant(spec, ELBOW, K_BEARINGS, replace_joints=True, stops={"stiffness": 500.0})
+    model = spec.compile()
+    stops = mjflex.Flexures(model).records[0].stops
+    assert c.replaced.stops == "element" and not model.jnt_limited[model.joint(ELBOW_JOINT).id]
+    np.testing.assert_array_equal(stops.lower, [-np.inf, -np.inf, -2.3213, -np.inf, -np.inf, -np.inf])
+    np.testing.assert_array_equal(stops.upper, [np.inf, np.inf, 0.0, np.inf, np.inf, np.inf])
+    assert stops.stiffness == 500.0
+    with pytest.raises(ValueError, match=r"\['upper'\] are not arguments of mjflex.Stops that make_compliant lets"):
+        mjflex.make_compliant(_pusher(), ELBOW, K_BEARINGS, replace_joints=True, stops={"upper": [0.1] * 6})
+
+
 def test_a_stop_kind_without_replaced_joints_is_refused():
     """MuJoCo's limits, or the ranges as element stops, need replaced joints: on a welded body they are a clear
     error, as is an unknown kind; the spec is untouched."""
@@ -185,7 +200,7 @@ def test_a_stop_kind_without_replaced_joints_is_refused():
     for kind in ("limits", "element"):
         with pytest.raises(ValueError, match=rf"stops='{kind}' keeps the replaced joints' ranges.*mjflex.Stops"):
             mjflex.make_compliant(spec, "hand", [5, 5, 5, 1e4, 1e4, 1e4], stops=kind)
-    with pytest.raises(TypeError, match=r"stops must be 'limits', 'element', a mjflex.Stops"):
+    with pytest.raises(TypeError, match=r"stops must be 'limits', 'element', a dict of mjflex.Stops arguments"):
         mjflex.make_compliant(spec, "hand", [5, 5, 5, 1e4, 1e4, 1e4], stops="soft")
     assert spec.to_xml() == before
 

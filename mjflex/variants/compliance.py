@@ -226,14 +226,16 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         ``replace_joints``): ``"auto"`` removes those that drive a replaced joint (``joint1``)
         and keeps those in which it drives another (``joint2``); ``"remove"`` removes them all;
         ``"refuse"`` refuses (ValueError naming them).
-    stops : {"limits", "element"}, Stops or False, optional
+    stops : {"limits", "element"}, dict, Stops or False, optional
         What stops the motion. Default (None): with ``replace_joints``, ``"limits"``; without it,
         none. ``"limits"``: the replaced joints keep MuJoCo's joint limits (range, ``solref``,
         ``solimp``, margin: constraints, dissipative and stable at the file's time step, exactly
         as the rigid model stops). ``"element"``: their ranges become the element's stops
         (:class:`mjflex.Stops` with the derived stiffness, in element coordinates: explicit
-        forces, in the element's energy, which need a short enough step). A
-        :class:`mjflex.Stops`: those element stops (the replaced joints' limits go). False: none.
+        forces, in the element's energy, which need a short enough step); a dict of
+        :class:`mjflex.Stops`' other arguments (``{"stiffness": 500}``) gives them to those
+        stops. A :class:`mjflex.Stops`: those element stops (the replaced joints' limits go).
+        False: none.
         ``"limits"`` and ``"element"`` need replaced joints.
     strict : bool
         Refuse (ValueError) what is only warned about otherwise: a damping ratio above 1.
@@ -393,6 +395,20 @@ def _stop_kind(stops, replaced, body):
         return "none", None
     if isinstance(stops, Stops):
         return "given", stops
+    if isinstance(stops, dict):
+        allowed = {f.name for f in dataclasses.fields(Stops)} - {"lower", "upper"}  # the ranges give the limits
+        unknown = sorted(set(stops) - allowed)
+        if unknown:
+            raise ValueError(
+                f"stops={stops!r}: {unknown} are not arguments of mjflex.Stops that make_compliant lets you give (the "
+                "ranges come from the replaced joints); give the others, or a mjflex.Stops"
+            )
+        if not replaced:
+            raise ValueError(
+                f"stops={stops!r} gives the replaced joints' ranges as element stops, but no joint of body {body!r} is "
+                "replaced (replace_joints=...); give a mjflex.Stops(lower=..., upper=...)"
+            )
+        return "element", stops
     if isinstance(stops, str) and stops in STOP_KINDS:
         if not replaced:
             how = "as MuJoCo's joint limits" if stops == "limits" else "as the element's stops"
@@ -401,8 +417,8 @@ def _stop_kind(stops, replaced, body):
                 "(replace_joints=...); give the element stops as mjflex.Stops(lower=..., upper=...), or stops=False"
             )
         return stops, None
-    raise TypeError(f"stops must be 'limits', 'element', a mjflex.Stops, False (none) or None (with replace_joints: "
-                    f"'limits'); got {stops!r}")  # fmt: skip
+    raise TypeError(f"stops must be 'limits', 'element', a dict of mjflex.Stops arguments, a mjflex.Stops, False "
+                    f"(none) or None (with replace_joints: 'limits'); got {stops!r}")  # fmt: skip
 
 
 def _element_matrices(rigid, body, kept, R_BE, directions, K, B, damping_ratio, strict):
@@ -439,12 +455,13 @@ def _element_matrices(rigid, body, kept, R_BE, directions, K, B, damping_ratio, 
 
 
 def _element_stops(kind, given, ranges):
-    """The element's :class:`Stops`: the user's, the replaced joints' ranges (``"element"``), or None."""
+    """The element's :class:`Stops`: the user's, the replaced joints' ranges (``"element"``, with the arguments of
+    ``given``, a dict, if any), or None."""
     if kind == "given":
         return given
     if kind != "element" or not (np.isfinite(ranges[0]).any() or np.isfinite(ranges[1]).any()):
         return None
-    return Stops(lower=ranges[0].tolist(), upper=ranges[1].tolist())
+    return Stops(lower=ranges[0].tolist(), upper=ranges[1].tolist(), **(given or {}))
 
 
 def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):

@@ -25,6 +25,8 @@ CLEAN = ("actfrclimited", "actfrcrange", "actgravcomp", "armature", "damping", "
 
 
 def directions_named(directions) -> tuple[str, ...]:
+    """The element directions ``directions`` names (a group of ``GROUPS`` or names), checked, in the order of
+    ``DIRECTIONS``."""
     if isinstance(directions, str):
         directions = GROUPS.get(directions, (directions,))
     try:
@@ -63,6 +65,7 @@ def matrix6(value, directions, what):
 
 
 def find_body(spec, body):
+    """The ``MjsBody`` to make compliant (a name or the body), checked: in the spec, named, not the world."""
     if isinstance(body, mujoco.MjsBody):
         found, label = body, body.name
     elif isinstance(body, str):
@@ -213,5 +216,6 @@ def pairs(spec, collide):
 
 
 def kept(pair, wanted):
+    """Whether the body pair ``pair`` is one of ``wanted`` (:func:`pairs`): to keep colliding."""
     a, b = pair
     return frozenset((a, b)) in wanted or frozenset((a, "*")) in wanted or frozenset((b, "*")) in wanted
