@@ -7,7 +7,8 @@
 * :func:`missing_directions`: the element directions that need a joint added;
 * :func:`too_many_dofs`: the redundant joints that would give the body more than six degrees of freedom;
 * :func:`stops_from_ranges`: the replaced joints' ranges in element coordinates;
-* :func:`axis_mismatch`: a replaced hinge (or slide) that ``K`` is not softest about (along).
+* :func:`axis_mismatch`: a replaced hinge (or slide) that ``K`` is not softest about (along);
+* :func:`rest_from_springs`: the element's rest pose where the replaced joints' springs rest (``springref``).
 
 **The element frame of replaced joints** (when neither ``site`` nor ``pos``/``quat`` gives it):
 
@@ -294,3 +295,35 @@ def _axis_label(v, labels) -> str:
     if abs(abs(v[k]) - 1) < 1e-6:
         return ("-" if v[k] < 0 else "") + labels[k]
     return "axis " + " ".join(f"{x:+.3f}{label}" for x, label in zip(v, labels, strict=True))
+
+
+def rest_from_springs(rigid, body_name, replaced, R_BE, p_BE) -> tuple[np.ndarray, np.ndarray] | None:
+    """The element's rest pose ``(pos, quat)`` (frame b in frame a) where the replaced joints' springs rest, or None.
+
+    A replaced joint with a spring (stiffness > 0) whose ``springref`` is not its ``ref`` held the
+    body preloaded toward ``springref``; the element keeps that preload when its energy is zero
+    with the replaced joints at their ``springref`` (the other joints, added or kept, at their
+    rest). ``R_BE``, ``p_BE``: the element frame in the body's frame. None when no replaced joint
+    has a spring away from its ``ref``.
+    """
+    qpos = rigid.qpos0.copy()
+    moved = False
+    for _, j in replaced:
+        n = {_HINGE: 1, _SLIDE: 1, _BALL: 4, _FREE: 7}[int(rigid.jnt_type[j])]
+        adr = slice(rigid.jnt_qposadr[j], rigid.jnt_qposadr[j] + n)
+        if rigid.jnt_stiffness[j] > 0 and not np.array_equal(rigid.qpos_spring[adr], rigid.qpos0[adr]):
+            qpos[adr], moved = rigid.qpos_spring[adr], True
+    if not moved:
+        return None
+    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
+    poses = []
+    for q in (rigid.qpos0, qpos):
+        data = mujoco.MjData(rigid)
+        data.qpos[:] = q
+        mujoco.mj_kinematics(rigid, data)
+        R_WB = data.xmat[ib].reshape(3, 3)
+        poses.append((R_WB @ R_BE, data.xpos[ib] + R_WB @ p_BE))  # frame b; at qpos0 it is frame a too
+    (R_Wa, p_Wa), (R_Wb, p_Wb) = poses
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, (R_Wa.T @ R_Wb).ravel())
+    return R_Wa.T @ (p_Wb - p_Wa), quat
