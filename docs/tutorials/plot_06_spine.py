@@ -5,8 +5,8 @@ A spine: vertebrae on hinges, one level replaced by a disc with stops
 Musculoskeletal models join vertebrae by three hinges per level (flexion, lateral bending, axial rotation) and tie
 the levels together with equality constraints; ranges limit each hinge. Here such a model is built from scratch,
 one level is replaced by an intervertebral disc (a full 6×6 element with literature stiffness) in one call, and the
-disc's statics, modes, time step and a loaded run are checked: the hinges' ranges become the disc's end stops, and
-the run stays within them.
+disc's statics, modes, time step and a loaded run are checked: the hinges' ranges become the disc's end stops
+(``stops="element"``; by default they would stay MuJoCo's joint limits), and the run stays within them.
 
 Run it as a script: ``python docs/tutorials/plot_06_spine.py``.
 """
