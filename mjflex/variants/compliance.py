@@ -328,6 +328,7 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         if plan is not None:
             limited = any(rigid.jnt_limited[j] for _, j in replaced)
             kind_done = stop_kind if stop_kind in ("given", "none") or limited else "none"
+            kind_done = "none" if kind_done == "element" and element_stops is None else kind_done
             notes = ranges[2] if stop_kind == "element" else []
             replacement = joint_replacement.apply(spec, plan, rigid, (ranges[0], ranges[1], notes), kind_done,
                                                   [n for n, _ in kept])  # fmt: skip
