@@ -165,8 +165,7 @@ def spine():
     """``(rigid, full, info)``: the spine with muscles at 2 ms, and with L3's hinges replaced by a disc."""
     rigid = mujoco.MjSpec.from_string(spine_scene_xml())
     full = mujoco.MjSpec.from_string(spine_scene_xml())
-    c = mjflex.make_compliant(full, "L3", K_DISC, replace_joints=True, name="disc", damping_ratio=0.05,
-                              stops="element")
+    c = mjflex.make_compliant(full, "L3", K_DISC, replace_joints=True, name="disc", damping_ratio=0.05, stops="element")
     for j in c.replaced.joints:
         full.joint(j).armature = FACET_ARMATURE
     return rigid, full, {"ctrl": lambda t: [0.3 * math.sin(3 * t), 0.1, 0.0, 0.5 + 0.4 * math.sin(2 * t), 0.3],
