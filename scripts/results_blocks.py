@@ -50,13 +50,14 @@ from _readme_format import (
     times,
 )
 from _readme_inline import (
+    block_operating_pose,
     fit_reach,
     inline_encoder_quality,
     inline_fit_reach,
     inline_long_run_divergence,
     inline_method_difference,
-    inline_operating_pose_arm,
     inline_operating_pose_blind,
+    inline_operating_pose_muscles,
     inline_operating_pose_servo,
     inline_operating_pose_solref,
     inline_operating_pose_spine,
@@ -83,6 +84,7 @@ from _readme_speed import (
     row_reduce_arcade,
     row_study_arcade,
 )
+from _readme_stops import block_stop_bounces, block_stop_preload, inline_stop_damping_instructions
 from _readme_warp import WARP_BENCH, block_warp_bench, block_warp_float32
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -663,11 +665,15 @@ BLOCKS = {
     "encoder-quality": (["encoder_quality", "demo"], inline_encoder_quality),
     "stop-cost": (["count_step_instructions"], inline_stop_cost),
     "stop-instructions": (["count_step_instructions"], inline_stop_instructions),
+    "stop-bounces": (["stops_and_preload"], block_stop_bounces),
+    "stop-preload": (["stops_and_preload"], block_stop_preload),
+    "stop-damping-instructions": (["count_step_instructions_damping"], inline_stop_damping_instructions),
     "fit-reach": (["fit_flexure"], inline_fit_reach),
     "long-run-divergence": (["long_run_arcade", "long_run_arcade_1e-5"], inline_long_run_divergence),
     "method-difference": (["study_arcade"], inline_method_difference),
     "operating-pose-servo": (["operating_pose"], inline_operating_pose_servo),
-    "operating-pose-arm": (["operating_pose"], inline_operating_pose_arm),
+    "operating-pose": (["operating_pose"], block_operating_pose),
+    "operating-pose-muscles": (["operating_pose"], inline_operating_pose_muscles),
     "operating-pose-blind": (["operating_pose"], inline_operating_pose_blind),
     "operating-pose-spine": (["operating_pose"], inline_operating_pose_spine),
     "operating-pose-solref": (["operating_pose"], inline_operating_pose_solref),
