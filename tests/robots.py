@@ -243,8 +243,8 @@ MUSCLE_ELBOW = """<mujoco model="elbow">
     <damper name="damper" joint="elbow" kv="1" ctrlrange="0 1"/>
   </actuator>
 </mujoco>"""
-#: The elbow element: soft about the hinge axis (element y), stiffer in the other directions.
-K_ELBOW = [200.0, 50.0, 200.0, 2e5, 2e5, 2e5]
+#: The elbow element: soft about the hinge axis (element z, a replaced hinge's axis), stiffer in the other directions.
+K_ELBOW = [200.0, 200.0, 50.0, 2e5, 2e5, 2e5]
 #: The muscles' and the damper's commands at the operating pose: half activation each, the damper at 1 N m s/rad.
 ELBOW_CTRL = (0.5, 0.5, 1.0)
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..analysis.linearize import static_equilibrium
+from ..analysis.statics import static_equilibrium
 from ..mjcf.notices import warn_likely_mistake
 from ..runtime.flexures import Flexures
 
