@@ -177,6 +177,21 @@ def test_the_joint_limits_kept_bounce_and_lose_energy_as_the_rigid_arm():
     assert rigid_losses[0] > 0.5  # an impact that matters: the limit's solref takes most of the energy
 
 
+def test_element_stops_damped_by_the_files_solref_bounce_like_its_limit():
+    """Issue 31: the elbow's range as element stops with a damping mapped from the file's solref (0.02 s, ratio 1:
+    ``stops={"time_constant": 0.02, "damping_ratio": 1.0}``, mjflex.Stops' arguments) carries the 1e-9 rad nudge for
+    1 s at 2 ms without growth, where undamped element stops chatter, and its first two bounces rebound and lose
+    energy as the rigid arm's MuJoCo limit within 20 %."""
+    solref = _pusher().compile().jnt_solref[0]
+    model = _elastic_elbow({"time_constant": float(solref[0]), "damping_ratio": float(solref[1])})
+    assert mjflex.Flexures(model).records[0].stops.damping is not None
+    assert np.abs(_pressed(model) - _pressed(model, nudge=1e-9)).max() < 1e-6
+    rigid_rebounds, rigid_losses = _bounces(_pusher(timestep=2e-3, elbow_spring=K_BEARINGS[2]).compile())
+    rebounds, losses = _bounces(model)
+    np.testing.assert_allclose(rebounds[:2], rigid_rebounds[:2], rtol=0.2)
+    np.testing.assert_allclose(losses[:2], rigid_losses[:2], rtol=0.2)
+
+
 def test_element_stops_take_the_ranges_with_the_stops_arguments_given():
     """``stops={"stiffness": 500}``: the elbow's range on the element's rz, with that stiffness; the joint's MuJoCo
     limit goes (one kind of stop, not two). A limit among the arguments is refused: the ranges give them."""
@@ -395,3 +410,45 @@ def test_the_spine_closures_hold_after_its_disc_replaces_the_hinges():
     }
     assert c.closure_note is None and all(x.unit == "rad" and x.type == "joint" for x in c.closures)
     assert all(0 < x.compliant <= x.rigid for x in c.closures) and not any(x.opened for x in c.closures)
+
+
+# ----------------------------------------------------------------------------- a spring's reference (issue 31)
+
+PRELOADED = """<mujoco><compiler angle="radian"/><option gravity="0 0 0"/><worldbody>
+  <body name="base"><geom size="0.05"/><body name="finger" pos="0 0 0.1">
+    <joint name="pivot" axis="0 1 0" stiffness="20" springref="0.3" range="-0.4 0.6" armature="1e-3"/><geom type="box" size="0.04 0.01 0.01" pos="0.04 0 0"/></body></body></worldbody></mujoco>"""
+K_PIVOT = [2e3, 2e3, 20.0, 1e6, 1e6, 1e6]  # the pivot's spring, 20 N m/rad, about the element's z
+
+
+def _pivot_at_rest(spec, torque=0.0):
+    model = spec.compile()
+    qfrc = np.zeros(model.nv)
+    qfrc[model.joint("pivot").dofadr[0]] = torque
+    return mjflex.static_equilibrium(model, qfrc_applied=qfrc)[model.joint("pivot").qposadr[0]]
+
+
+def test_a_replaced_spring_keeps_its_preload_as_the_elements_rest_pose():
+    """A pivot's spring rests at its springref (0.3 rad), away from the compiled pose (0): the element that replaces
+    it rests there too (its rest pose, 0.3 rad about its z), as in the rigid model; rest=False rests at the compiled
+    pose. Element stops made from the range [-0.4, 0.6] count from the rest pose, so they still stop the pivot at
+    0.6 rad: pushed by 50 N m it rests where the spring and the stop (100 times the spring) balance it."""
+    rigid = mujoco.MjSpec.from_string(PRELOADED)
+    assert math.isclose(_pivot_at_rest(rigid), 0.3, abs_tol=1e-9)
+    spec = mujoco.MjSpec.from_string(PRELOADED)
+    c = mjflex.make_compliant(spec, "finger", K_PIVOT, replace_joints=True)
+    np.testing.assert_allclose(c.rest[1], [math.cos(0.15), 0, 0, math.sin(0.15)], atol=1e-15)
+    np.testing.assert_allclose(c.rest[0], [0, 0, 0], atol=1e-15)
+    assert "spring reference 0.3 != ref 0 (carried over: the element rests there)" in c.replaced.notes[0]
+    assert math.isclose(_pivot_at_rest(spec), 0.3, abs_tol=1e-9)
+    relaxed = mujoco.MjSpec.from_string(PRELOADED)
+    assert mjflex.make_compliant(relaxed, "finger", K_PIVOT, replace_joints=True, rest=False).rest is None
+    assert abs(_pivot_at_rest(relaxed)) < 1e-9
+
+    stopped = mujoco.MjSpec.from_string(PRELOADED)
+    c = mjflex.make_compliant(stopped, "finger", K_PIVOT, replace_joints=True, stops="element")
+    np.testing.assert_allclose([c.replaced.lower[2], c.replaced.upper[2]], [-0.4, 0.6], rtol=1e-15)  # from ref
+    stops = mjflex.Flexures(stopped.compile()).records[0].stops
+    np.testing.assert_allclose([stops.lower[2], stops.upper[2]], [-0.7, 0.3], rtol=1e-12)  # from the rest pose
+    k_stop = 100 * K_PIVOT[2]
+    expected = (50.0 + K_PIVOT[2] * 0.3 + k_stop * 0.6) / (K_PIVOT[2] + k_stop)
+    assert math.isclose(_pivot_at_rest(stopped, 50.0), expected, rel_tol=1e-6)

@@ -287,7 +287,7 @@ def _equality_plan(spec, body, names, choice):
     return plan
 
 
-def dropped_properties(rigid, joints) -> list[str]:
+def dropped_properties(rigid, joints, springs_carried=False) -> list[str]:
     """Notes on joint properties the element does not carry (give them in K and B); the armature stays."""
     notes = []
     for name, j in joints:
@@ -297,8 +297,10 @@ def dropped_properties(rigid, joints) -> list[str]:
             found.append(f"stiffness {rigid.jnt_stiffness[j]:.6g} (give it in K)")
         q = rigid.jnt_qposadr[j]
         if rigid.jnt_stiffness[j] and rigid.jnt_type[j] in (_HINGE, _SLIDE) and rigid.qpos_spring[q] != rigid.qpos0[q]:
-            found.append(f"spring reference {rigid.qpos_spring[q]:.6g} != ref {rigid.qpos0[q]:.6g} (the element is "
-                         "unstressed at ref)")  # fmt: skip
+            found.append(
+                f"spring reference {rigid.qpos_spring[q]:.6g} != ref {rigid.qpos0[q]:.6g} ("
+                + ("carried over: the element rests there)" if springs_carried else "the element is unstressed at ref)")
+            )
         for what, values, hint in (("damping", rigid.dof_damping, "give it in B or damping_ratio"),
                                    ("friction loss", rigid.dof_frictionloss, "not carried")):  # fmt: skip
             if np.any(values[dofs]):
@@ -316,11 +318,12 @@ def _dofs(model, j):
 # ------------------------------------------------------------------ apply and undo
 
 
-def apply(spec, plan: Plan, rigid, stops, kind="limits", kept=()) -> Replacement:
+def apply(spec, plan: Plan, rigid, stops, kind="limits", kept=(), springs_carried=False) -> Replacement:
     """Strip the replaced joints of their joint model and carry over what named them (snapshots for :func:`undo`).
 
     ``stops``: ``(lower, upper, notes)`` of :func:`mjflex.mjcf.coordinates.stops_from_ranges`; ``kind``: what
-    became of the ranges (:attr:`Replacement.stops`); ``kept``: the names of the body's joints left as they are.
+    became of the ranges (:attr:`Replacement.stops`); ``kept``: the names of the body's joints left as they are;
+    ``springs_carried``: the joints' spring references became the element's rest pose.
     """
     body = spec.body(plan.body)
     joints = list(body.joints)
@@ -366,7 +369,8 @@ def apply(spec, plan: Plan, rigid, stops, kind="limits", kept=()) -> Replacement
     lower, upper, notes = stops
     return Replacement(tuple(n for n, _ in plan.joints), np.asarray(lower, dtype=float),
                        np.asarray(upper, dtype=float), tuple(edits),
-                       (*notes, *dropped_properties(rigid, plan.joints)), saved, kind, tuple(kept))  # fmt: skip
+                       (*notes, *dropped_properties(rigid, plan.joints, springs_carried)), saved, kind,
+                       tuple(kept))  # fmt: skip
 
 
 def undo(spec, replacement: Replacement) -> None:

@@ -22,11 +22,13 @@ import mujoco
 import numpy as np
 
 from ..analysis.damping import DIRECTIONS, checked_ratios, damping_from_ratios
+from ..core.stops import stop_coordinates
 from ..mjcf import coordinates, keyframes
 from ..mjcf import joints as joint_replacement
 from ..mjcf.build import add_flexure, joints_checked, remove_flexure
 from ..mjcf.elements import element_record, spec_elements, write_record
 from ..mjcf.keyframes import KeyframeEdit
+from ..mjcf.schema import checked_rest
 from ..mjcf.spec import compile_spec, quaternion_from_rotation
 from ..mjcf.stops import Stops
 from ..runtime import contacts
@@ -78,6 +80,9 @@ class Compliance:
         than 10 times is warned about. Empty when the model has no equality.
     closure_note : str or None
         Why the closures were not measured (a model with no rest at the operating pose).
+    rest : tuple (pos, quat) or None
+        The element's rest pose (frame b in frame a; m, w-first quaternion): given (``rest=``),
+        or where the replaced joints' springs rested (their ``springref``); None: the compiled pose.
 
     Examples
     --------
@@ -110,6 +115,7 @@ class Compliance:
     replaced: "joint_replacement.Replacement | None" = None
     closures: tuple[Closure, ...] = ()
     closure_note: str | None = None
+    rest: tuple | None = None
 
     def __repr__(self):
         replaced = ""
@@ -132,7 +138,8 @@ class Compliance:
 def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, frame=None,
                    directions="all", name=None, method="twist", collide=(), joint_attributes=None, keyframe=None,
                    others="locked", actuator_stiffness=False, constraints="ignore", kind="plugin",
-                   replace_joints=False, equalities="auto", stops=None, strict=False) -> Compliance:  # fmt: skip
+                   replace_joints=False, equalities="auto", stops=None, rest=None,
+                   strict=False) -> Compliance:  # fmt: skip
     """Make a body of ``spec`` compliant relative to its parent, in place: its weld, or its joints with
     ``replace_joints=True``, become a flexure element; returns what was done.
 
@@ -237,6 +244,12 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         stops. A :class:`mjflex.Stops`: those element stops (the replaced joints' limits go).
         False: none.
         ``"limits"`` and ``"element"`` need replaced joints.
+    rest : tuple (pos, quat) or False, optional
+        The element's rest pose: the pose of frame b in frame a at which its energy is zero
+        (:func:`mjflex.add_flexure`; m, w-first unit quaternion). Default (None): with
+        ``replace_joints``, where the replaced joints' springs rested (their ``springref``, for
+        joints with a stiffness), so that the element keeps their preload; else the compiled
+        pose. False: the compiled pose. Element stops made from the ranges count from it.
     strict : bool
         Refuse (ValueError) what is only warned about otherwise: a damping ratio above 1.
 
@@ -316,7 +329,9 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     R_BE = R_WB.T @ R_WE
     dirs, K6, B6, ratios = _element_matrices(rigid, target.name, kept, R_BE, directions, K, B, damping_ratio, strict)
     ranges = coordinates.stops_from_ranges(rigid, replaced, R_BE) if plan is not None else None
-    element_stops = _element_stops(stop_kind, given, ranges)
+    p_BE = R_WB.T @ (p_WE - p_WB)
+    rest_pose = _rest_pose(rest, rigid, target.name, replaced, R_BE, p_BE, name)
+    element_stops = _element_stops(stop_kind, given, ranges, rest_pose)
     added = coordinates.missing_directions(rigid, target.name, R_BE, dirs) if plan is not None else dirs
     if plan is not None:
         too_many = coordinates.too_many_dofs(rigid, target.name, added)
@@ -330,14 +345,15 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
             kind_done = stop_kind if stop_kind in ("given", "none") or limited else "none"
             kind_done = "none" if kind_done == "element" and element_stops is None else kind_done
             notes = ranges[2] if stop_kind == "element" else []
+            carried = rest is None and rest_pose is not None
             replacement = joint_replacement.apply(spec, plan, rigid, (ranges[0], ranges[1], notes), kind_done,
-                                                  [n for n, _ in kept])  # fmt: skip
-        joints = placement.add_joints(target, name, added, R_BE, R_WB.T @ (p_WE - p_WB), joint_attributes)
+                                                  [n for n, _ in kept], springs_carried=carried)  # fmt: skip
+        joints = placement.add_joints(target, name, added, R_BE, p_BE, joint_attributes)
         place = {"site": frame} if isinstance(frame, str) else {"pos": p_WE, "quat": quaternion_from_rotation(R_WE)}
         parent_name = "world" if parent.name in ("", "world") else parent.name
         with joints_checked(False):  # the element replaces the weld (or the joints): not in parallel with them
             add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
-                        kind=kind, stops=element_stops, **place)  # fmt: skip
+                        kind=kind, stops=element_stops, rest=rest_pose, **place)  # fmt: skip
         element = name
         compliant = compile_spec(spec, "make a body compliant")
         exposed = [tuple(contacts.body_name(compliant, b) for b in p) for p in contacts.exposed_pairs(rigid, compliant)]
@@ -370,7 +386,7 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         raise
     return Compliance(name, target.name, parent_name, dirs, tuple(j.name for j in joints), frame, K6, B6, ratios,
                       tuple((e.bodyname1, e.bodyname2) for e in excludes), tuple(p for p in exposed
-                      if placement.kept(p, wanted)), edits, replacement, closed, note)  # fmt: skip
+                      if placement.kept(p, wanted)), edits, replacement, closed, note, rest_pose)  # fmt: skip
 
 
 def _refuse_second_element(spec, body):
@@ -455,14 +471,29 @@ def _element_matrices(rigid, body, kept, R_BE, directions, K, B, damping_ratio, 
     return dirs, K6, B6, ratios
 
 
-def _element_stops(kind, given, ranges):
+def _element_stops(kind, given, ranges, rest=None):
     """The element's :class:`Stops`: the user's, the replaced joints' ranges (``"element"``, with the arguments of
-    ``given``, a dict, if any), or None."""
+    ``given``, a dict, if any; counted from the rest pose ``rest``), or None."""
     if kind == "given":
         return given
     if kind != "element" or not (np.isfinite(ranges[0]).any() or np.isfinite(ranges[1]).any()):
         return None
-    return Stops(lower=ranges[0].tolist(), upper=ranges[1].tolist(), **(given or {}))
+    lower, upper = ranges[0].copy(), ranges[1].copy()
+    if rest is not None:  # the ranges count from the compiled pose, the stops from the rest pose: where it is seen
+        eye = np.eye(3)  # from there (exact along one axis, to second order across axes)
+        z0 = stop_coordinates(eye, np.zeros(3), eye, np.zeros(3), rest=rest)
+        lower, upper = lower + z0, upper + z0
+    return Stops(lower=lower.tolist(), upper=upper.tolist(), **(given or {}))
+
+
+def _rest_pose(rest, rigid, body, replaced, R_BE, p_BE, name):
+    """The element's rest pose: given, none (False), or where the replaced joints' springs rest (None)."""
+    if rest is False:
+        return None
+    if rest is None:
+        found = coordinates.rest_from_springs(rigid, body, replaced, R_BE, p_BE) if replaced else None
+        return None if found is None else (tuple(found[0].tolist()), tuple(found[1].tolist()))
+    return checked_rest(rest, f"rest of flexure {name!r}")
 
 
 def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
