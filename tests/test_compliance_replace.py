@@ -416,7 +416,8 @@ def test_the_spine_closures_hold_after_its_disc_replaces_the_hinges():
 
 PRELOADED = """<mujoco><compiler angle="radian"/><option gravity="0 0 0"/><worldbody>
   <body name="base"><geom size="0.05"/><body name="finger" pos="0 0 0.1">
-    <joint name="pivot" axis="0 1 0" stiffness="20" springref="0.3" range="-0.4 0.6" armature="1e-3"/><geom type="box" size="0.04 0.01 0.01" pos="0.04 0 0"/></body></body></worldbody></mujoco>"""
+    <joint name="pivot" axis="0 1 0" stiffness="20" springref="0.3" range="-0.4 0.6" armature="1e-3"/>
+    <geom type="box" size="0.04 0.01 0.01" pos="0.04 0 0"/></body></body></worldbody></mujoco>"""
 K_PIVOT = [2e3, 2e3, 20.0, 1e6, 1e6, 1e6]  # the pivot's spring, 20 N m/rad, about the element's z
 
 
