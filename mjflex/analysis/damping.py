@@ -225,7 +225,8 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     psi = J @ phi
     strain = np.einsum("ik,ij,jk->k", psi, Ke, psi)
     elastic = lam > 1e-12 * max(lam.max(initial=0.0), 1e-300)
-    sv = np.linalg.svd(J, compute_uv=False)
+    stiff = np.flatnonzero(np.any(Ke != 0, axis=0))  # a direction without stiffness (a kept joint's) gets no damping
+    sv = np.linalg.svd(J[stiff], compute_uv=False)
     n = int(np.sum(sv > 1e-9 * max(sv.max(initial=0.0), 1e-300)))
     share = np.where(elastic, strain / np.where(elastic, lam, 1.0), -np.inf)
     chosen = np.argsort(-share)[:n]
@@ -235,12 +236,13 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
             f"but the element moves in {n} direction(s): a direction without stiffness has no damping ratio. "
             "Give the element stiffness in every direction its joints allow"
         )
-    P = psi[:, chosen]
-    w = np.maximum(P * (Ke @ P), 0.0)
+    P = psi[np.ix_(stiff, chosen)]
+    w = np.maximum(P * (Ke[np.ix_(stiff, stiff)] @ P), 0.0)
     w = w / np.maximum(w.sum(axis=0), 1e-300)
-    zeta = r @ w
+    zeta = r[stiff] @ w
     omega = np.sqrt(lam[chosen])
     Pp = np.linalg.pinv(P)
-    B = Pp.T @ np.diag(2.0 * zeta * omega) @ Pp
+    B = np.zeros((6, 6))
+    B[np.ix_(stiff, stiff)] = Pp.T @ np.diag(2.0 * zeta * omega) @ Pp
     B = 0.5 * (B + B.T)
     return B[np.ix_(schema.PLANAR_INDEX, schema.PLANAR_INDEX)] if record.planar else B
