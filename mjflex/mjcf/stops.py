@@ -1,25 +1,14 @@
 """End stops as a property of an element in a model: :class:`Stops`, and how both element forms store them.
 
-The math (coordinates, energy, wrench, the derived stiffness) is :mod:`mjflex.core.stops`; the C
-engine evaluates the same in every path (engine plugin, ``mjcb_passive`` dispatcher, Python's
-queries). Stored forms:
-
-* text record: the key ``"stops"``, an object ``{"lower": [...], "upper": [...], "stiffness": ...}``
-  whose lists have one entry per coordinate, ``null`` where a coordinate has no stop (JSON has no
-  infinity); ``"stiffness"`` is ``null``/absent (derived), a number (every coordinate) or a list;
-* plugin instance: the attributes ``stop_lower``, ``stop_upper`` (one number per coordinate,
-  ``-inf`` / ``inf`` where a coordinate has no stop) and ``stop_stiffness`` (absent: derived; one
-  number, or one per coordinate).
-
-Rules (the record's and the plugin's, the same): one limit per coordinate, ``[rx, ry, rz, x, y,
-z]`` for a spatial element and ``[theta, x, y]`` for a planar one (as many as ``K`` has rows); no
-NaN; no lower limit of ``+inf`` or upper limit of ``-inf``; rotation limits within ``[-pi, pi]``
-(the rotation vector's components never leave it, so a stop beyond could never act: a limit in
-degrees is the usual cause); ``lower <= upper``; stiffness finite, ``>= 0``, at most
-``MAX_MATRIX_ENTRY``, and positive on every coordinate with a limit (given, or derived as
-``STIFFNESS_FACTOR * K_ii``, which needs ``K_ii > 0``); a stiffness without any limit is refused.
-A range need not contain the rest pose: the element is then pressed against its stop at rest (a
-preload).
+The math (coordinates, energy, wrench) is :mod:`mjflex.core.stops`; the C engine evaluates the same in every
+path (engine plugin, ``mjcb_passive`` dispatcher, Python's queries). Stored forms and their rules are rows of the
+schema table (:mod:`mjflex.mjcf.schema`): the record's ``"stops"`` object ``{"lower", "upper", "stiffness",
+"damping"}`` (``null`` where a coordinate has no stop), the plugin's ``stop_lower``, ``stop_upper``,
+``stop_stiffness``, ``stop_damping`` (``-inf`` / ``inf`` where a coordinate has no stop). The C library checks
+them: a :class:`Stops` on its own when it is made (the rules that need no element), and with the element's ``K``
+when the element is written or read, where it also derives the stiffness not given (``100 K_ii``; what
+:meth:`Stops.stiffness_for` reads back). A range need not contain the rest pose: the element is then pressed
+against its stop at rest (a preload).
 """
 
 import math
@@ -28,52 +17,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import validation
-from ..core.stops import PLANAR_COORDINATES, SPATIAL_COORDINATES, derived_stop_stiffness
+from ..core.stops import PLANAR_INDEX
 from ..core.validation import MAX_MATRIX_ENTRY, shorten
+from . import schema
 
 #: Largest magnitude of a rotation limit [rad]: pi, with room for the round-off of pi written in any way.
 MAX_ROTATION_LIMIT = math.pi * (1.0 + 1e-12)
-#: Largest stop stiffness: the limit of K's entries.
+#: Largest stop stiffness (and damping): the limit of K's entries.
 MAX_STIFFNESS = MAX_MATRIX_ENTRY
-#: Keys of a record's ``"stops"`` object and the plugin attributes that hold the same.
-KEYS = ("lower", "upper", "stiffness")
-ATTRIBUTES = ("stop_lower", "stop_upper", "stop_stiffness")
+_FIELDS = ("lower", "upper", "stiffness", "damping")
 
 
-def _coordinates(n):
-    return SPATIAL_COORDINATES if n == 6 else PLANAR_COORDINATES
-
-
-def _limits(value, key):
-    """A limits vector as a tuple of floats (None entries: no stop), or None when it has no finite limit."""
+def _argument(value, key):
+    """An argument as the numbers the table takes (limits: None entries for no stop); None when not given."""
     if value is None:
         return None
-    if isinstance(value, str | bytes | dict) or not hasattr(value, "__len__"):
-        raise ValueError(f"{key} must be a list of {len(SPATIAL_COORDINATES)} (or 3, planar) limits; got "
-                         f"{shorten(value)}")  # fmt: skip
-    fill = -math.inf if key == "lower" else math.inf
-    entries = [fill if v is None else v for v in value]
-    a = validation.numeric_array(entries, key)
-    if a.ndim != 1 or len(a) not in (6, 3):
-        raise ValueError(
-            f"{key} must have one limit per coordinate: 6 [rx, ry, rz, x, y, z] for a spatial element, 3 [theta, x, "
-            f"y] for a planar one; got {shorten(value)}"
-        )
-    names = _coordinates(len(a))
-    for i, v in enumerate(a):
-        if math.isnan(v):
-            raise ValueError(f"{key} of {names[i]} is NaN; use None (or {fill}) for a coordinate without a stop")
-        if v == -fill:
-            raise ValueError(f"{key} of {names[i]} is {v}, a stop that would push at every pose; use None (or "
-                             f"{fill}) for a coordinate without a stop")  # fmt: skip
-        rotation = i < 3 if len(a) == 6 else i == 0
-        if rotation and math.isfinite(v) and abs(v) > MAX_ROTATION_LIMIT:
-            raise ValueError(
-                f"{key} of {names[i]} is {v:g} rad, beyond pi: a rotation coordinate (a component of the rotation "
-                "vector) lies in [-pi, pi], so this stop could never act. Give radians (not degrees) in [-pi, pi], "
-                "or None for no stop"
-            )
-    return tuple(float(v) for v in a) if np.isfinite(a).any() else None
+    if isinstance(value, str | bytes | dict) or (key in ("lower", "upper") and not hasattr(value, "__len__")):
+        raise ValueError(f"{key} must be a list of numbers (None where a coordinate has no stop); got {shorten(value)}")
+    if key in ("lower", "upper"):
+        value = [(-math.inf if key == "lower" else math.inf) if v is None else v for v in value]
+    a = validation.numeric_array(value, key)
+    return float(a) if a.ndim == 0 else tuple(float(v) for v in a.ravel())
 
 
 @dataclass(frozen=True)
@@ -99,15 +63,23 @@ class Stops:
         ``STIFFNESS_FACTOR * K_ii`` = 100 times the diagonal entry of ``K`` of each coordinate
         (:func:`mjflex.derived_stop_stiffness`), which cuts an overshoot 101-fold and raises the
         frequency of a mode that the coordinate dominates up to 10-fold while the stop is
-        engaged (take the time step there: :func:`mjflex.normal_modes` at an engaged pose).
+        engaged (take the time step there: :func:`mjflex.step_advice` at an engaged pose).
+    damping : float or sequence of float, optional
+        The stops' damping [N m s/rad, N s/m], active beyond a limit only: one number, or one per
+        coordinate. None (default): conservative stops.
 
     Attributes
     ----------
     lower, upper : tuple of float or None
         The limits as given, ``-inf`` / ``+inf`` where a coordinate has none (None: no finite
         limit at all).
-    stiffness : float, tuple of float or None
-        As given (None: derived).
+    stiffness, damping : float, tuple of float or None
+        As given (None: derived stiffness, no damping).
+
+    Raises
+    ------
+    ValueError
+        The C library's message when a rule of the stops is broken (:mod:`mjflex.mjcf.schema`).
 
     Examples
     --------
@@ -123,38 +95,28 @@ class Stops:
     lower: tuple | None = None
     upper: tuple | None = None
     stiffness: float | tuple | None = None
+    damping: float | tuple | None = None
 
     def __post_init__(self):
-        lower, upper = _limits(self.lower, "lower"), _limits(self.upper, "upper")
-        n = {len(x) for x in (self.lower, self.upper) if x is not None}
-        if len(n) > 1:
-            raise ValueError(f"lower and upper have different lengths ({sorted(n)}); give one limit per coordinate "
-                             "to both")  # fmt: skip
-        if lower is not None and upper is not None:
-            names = _coordinates(len(lower))
-            for i, (lo, hi) in enumerate(zip(lower, upper, strict=True)):
-                if lo > hi:
-                    raise ValueError(f"lower of {names[i]} ({lo:g}) is above upper ({hi:g}); a range needs lower <= "
-                                     "upper")  # fmt: skip
-        object.__setattr__(self, "lower", lower)
-        object.__setattr__(self, "upper", upper)
-        object.__setattr__(self, "stiffness", self._checked_stiffness(n.pop() if n else None))
+        given = {k: _argument(getattr(self, k), k) for k in _FIELDS}
+        config = schema.group_config("stops", given)
+        if config:
+            schema.read_values("", config, "arguments")  # the C library's rules of stops without an element
+        self._set(given)
 
-    def _checked_stiffness(self, n):
-        k = self.stiffness
-        if k is None:
-            return None
-        if self.lower is None and self.upper is None:
-            raise ValueError("stiffness is given but there is no stop: give lower= or upper= limits (or drop the "
-                             "stiffness)")  # fmt: skip
-        scalar = not hasattr(k, "__len__") or (isinstance(k, np.ndarray) and k.ndim == 0)
-        a = validation.numeric_array(k, "stiffness").reshape(-1)
-        if not scalar and len(a) != n:
-            raise ValueError(f"stiffness has {len(a)} entries; give one number, or one per coordinate ({n})")
-        if not (np.isfinite(a).all() and (a >= 0).all() and (a <= MAX_STIFFNESS).all()):
-            raise ValueError(f"stiffness must be finite, >= 0 and at most {MAX_STIFFNESS:g} [N m/rad, N/m]; got "
-                             f"{shorten(k)}")  # fmt: skip
-        return float(a[0]) if scalar else tuple(float(v) for v in a)
+    def _set(self, values):
+        for key in _FIELDS:
+            value = values.get(key)
+            if key in ("lower", "upper") and value is not None and not np.isfinite(value).any():
+                value = None  # no finite limit: no stop
+            object.__setattr__(self, key, value)
+
+    @classmethod
+    def checked(cls, **values) -> "Stops":
+        """Stops from values the C library has checked (:func:`mjflex.mjcf.schema.record_from_values`)."""
+        stops = object.__new__(cls)
+        stops._set({k: (tuple(v) if isinstance(v, np.ndarray) else v) for k, v in values.items()})
+        return stops
 
     @property
     def size(self) -> int | None:
@@ -175,9 +137,9 @@ class Stops:
     def stiffness_for(self, K) -> np.ndarray:
         """The stops' stiffness per coordinate for an element of stiffness ``K`` (6x6, or 3x3 planar).
 
-        Given, or derived (``STIFFNESS_FACTOR * K_ii``); zero on coordinates without a limit.
-        Raises ValueError when the limits do not fit ``K``'s size or a limited coordinate gets
-        no stiffness.
+        Given, or derived (``STIFFNESS_FACTOR * K_ii``), as the C library lays out the element;
+        zero on coordinates without a limit. Raises ValueError (the C library's message) when the
+        limits do not fit ``K``'s size or a limited coordinate gets no stiffness.
 
         Parameters
         ----------
@@ -189,105 +151,32 @@ class Stops:
         k : ndarray, shape (6,) or (3,)
             Stiffness of each coordinate's stops [N m/rad, N/m].
         """
-        K = np.asarray(K, dtype=float)
-        n = K.shape[0]
-        if self.size is not None and self.size != n:
-            kind = "spatial (6x6 K)" if n == 6 else "planar (3x3 K)"
-            raise ValueError(
-                f"the stops give {self.size} limits but the element is {kind}: give {n}, one per coordinate "
-                f"{list(_coordinates(n))}"
-            )
-        lower, upper = self.limits_for(n)
-        limited = np.isfinite(lower) | np.isfinite(upper)
-        derived = self.stiffness is None
-        k = derived_stop_stiffness(K) if derived else np.broadcast_to(np.asarray(self.stiffness, float), (n,)).copy()
-        names = _coordinates(n)
-        for i in np.flatnonzero(limited & ~(k > 0)):
-            if derived:
-                raise ValueError(f"the stop on {names[i]} needs a stiffness: K[{i}, {i}] is 0, so none can be "
-                                 f"derived from it (100 x K_ii); give Stops(stiffness=...)")  # fmt: skip
-            raise ValueError(f"the stiffness of the stop on {names[i]} is 0, so it would do nothing; give it a "
-                             "positive stiffness or drop the limit")  # fmt: skip
-        return np.where(limited, k, 0.0)
+        K = validation.numeric_array(K, "K")
+        row = schema.read_values("", {**self.config(), "K": schema.text_of("K", K)}, "arguments")[-1]
+        return row["stop_k"][list(PLANAR_INDEX)] if len(K) == 3 else row["stop_k"].copy()
 
     # ------------------------------------------------------------------ stored forms
 
+    def _given(self) -> dict:
+        return {k: getattr(self, k) for k in _FIELDS if getattr(self, k) is not None}
+
     def to_dict(self) -> dict:
         """The record's ``"stops"`` object (``null`` where a coordinate has no stop)."""
-        out = {}
-        for key in ("lower", "upper"):
-            values = getattr(self, key)
-            if values is not None:
-                out[key] = [v if math.isfinite(v) else None for v in values]
-        if self.stiffness is not None:
-            out["stiffness"] = list(self.stiffness) if isinstance(self.stiffness, tuple) else self.stiffness
-        return out
+        return schema.group_json("stops", self._given())
 
     @classmethod
     def from_dict(cls, data) -> "Stops":
         """The stops of a record's ``"stops"`` object; ValueError naming the problem."""
-        if not isinstance(data, dict):
-            raise ValueError(f'"stops" must be an object with the keys {list(KEYS)}; got {shorten(data)}')
-        unknown = sorted(set(data) - set(KEYS))
-        if unknown:
-            raise ValueError(f'"stops" has unknown key(s) {shorten(unknown)}; the allowed keys are {list(KEYS)}')
-        for key in ("lower", "upper"):
-            if data.get(key) is not None and not isinstance(data[key], list):
-                raise ValueError(f'"stops" "{key}" must be a list (null where there is no stop); got '
-                                 f"{shorten(data[key])}")  # fmt: skip
-        try:
-            return cls(data.get("lower"), data.get("upper"), data.get("stiffness"))
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f'"stops": {exc}') from None
+        config = schema.config_from_payload({"mjflex": schema.SCHEMA_VERSION, "stops": data})
+        return cls.from_config(config)
 
     def config(self) -> dict[str, str]:
-        """The plugin attributes ``stop_lower``, ``stop_upper``, ``stop_stiffness`` (lossless text)."""
-        out = {}
-        for key, attribute in zip(("lower", "upper"), ATTRIBUTES, strict=False):
-            values = getattr(self, key)
-            if values is not None:
-                out[attribute] = " ".join(repr(float(v)) for v in values)
-        if self.stiffness is not None:
-            k = self.stiffness if isinstance(self.stiffness, tuple) else (self.stiffness,)
-            out["stop_stiffness"] = " ".join(repr(float(v)) for v in k)
-        return out
+        """The plugin attributes ``stop_lower``, ``stop_upper``, ``stop_stiffness``, ... (lossless text)."""
+        return schema.group_config("stops", self._given())
 
     @classmethod
     def from_config(cls, config: dict) -> "Stops | None":
         """The stops of a plugin configuration (attribute name -> text), or None without any stop attribute."""
-        text = {a: str(config.get(a, "")).strip() for a in ATTRIBUTES}
-        if not any(text.values()):
-            return None
-        values = {}
-        for attribute, key in zip(ATTRIBUTES, KEYS, strict=True):
-            if text[attribute]:
-                try:
-                    values[key] = [float(t) for t in text[attribute].split()]
-                except ValueError:
-                    raise ValueError(f"{attribute} must be numbers separated by spaces; got "
-                                     f"{text[attribute][:40]!r}") from None  # fmt: skip
-        k = values.get("stiffness")
-        if k is not None and len(k) == 1:
-            k = k[0]
-        try:
-            return cls(values.get("lower"), values.get("upper"), k)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"stop attributes: {exc}") from None
-
-
-def checked(stops, K, element: str):
-    """``stops`` (a :class:`Stops` or None) checked against the element's ``K``; None when it has no limit.
-
-    Raises TypeError for anything but a Stops, ValueError naming the element otherwise.
-    """
-    if stops is None:
-        return None
-    if not isinstance(stops, Stops):
-        raise TypeError(f"flexure {element!r}: stops must be a mjflex.Stops (or None); got {type(stops).__name__}")
-    if not stops:
-        return None
-    try:
-        stops.stiffness_for(K)
-    except ValueError as exc:
-        raise ValueError(f"flexure {element!r}: {exc}") from None
-    return stops
+        given = {a.key: config[a.key] for a in schema.attributes() if a.field == "stops" and config.get(a.key)}
+        values = schema.group_values("stops", *schema.read_values("", given, "arguments")[:4]) if given else {}
+        return cls.checked(**values) if values else None

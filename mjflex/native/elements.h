@@ -29,6 +29,8 @@ typedef struct mjfxElement_ {
   int terms_lo, terms_hi, terms_top;           // rows of the terms' tables, largest exponent
   int kstruct, bstruct;                        // MJFX_FULL / MJFX_DIAGONAL / MJFX_ZERO of K and B
   int stops;                                   // the element has end stops (stop_lo, stop_hi, stop_k)
+  int stop_damped;                             // and they are damped (stop_b not all zero)
+  int rest;                                    // a rest pose is composed into the rest offset (R0, p0)
   double qa[4];        // site a's orientation in body A (the model's site_quat)
   double qb[4];        // site b's orientation in body B, times the rest offset's inverse (mjfx_element_prepare)
   double p0[3];        // rest offset: position of frame b seen from frame a at qpos0
@@ -43,10 +45,12 @@ typedef struct mjfxElement_ {
   double B[36];        // damping, same layout (zero without damping)
   double R0[9];        // rest offset: orientation of frame b seen from frame a at qpos0 (row-major)
   // read when the element has end stops (mjflex.core.stops): limits of the stop coordinates
-  // [rx, ry, rz, x, y, z] (-inf / +inf: none; planar elements on rz, x, y) and their stiffness
+  // [rx, ry, rz, x, y, z] (-inf / +inf: none; planar elements on rz, x, y), their stiffness and
+  // their damping (active beyond a limit only; 0 where there is no limit)
   double stop_lo[6];
   double stop_hi[6];
   double stop_k[6];
+  double stop_b[6];
 } mjfxElement;
 
 // What an evaluation found for divergence reporting: the first element whose wrench is not
