@@ -101,7 +101,7 @@ CASES = {
         r"strain_per_radian must be a finite number >= 0",
         r"got '-1'",
     ),
-    "source not JSON": ({"source": "{formula: 1}"}, r"source must be a JSON object", r"standard JSON"),
+    "source not JSON": ({"source": "{formula: 1}"}, r"source must be one JSON object", r"standard JSON"),
     "site_a missing": ({"site_a": None}, r"site_a is missing", r'value="SITE"'),
     "site_b unknown": ({"site_b": "e/c"}, r"site_b 'e/c' is not a site of the model", r'Add <site name="e/c"/>'),
 }

@@ -68,7 +68,7 @@ SCHEMA_VERSION = 1
 #: The types of the table's rows (``MJFX_TYPE_*``, in their order).
 TYPES = ("name", "choice", "bool", "int", "real", "matrix", "vector", "limits", "per coordinate", "ints", "numbers",
          "json")  # fmt: skip
-_REQUIRED, _WRITTEN, _PENDING = 1, 2, 8  # flags of a row (MJFX_REQUIRED, MJFX_WRITTEN, MJFX_PENDING)
+_REQUIRED, _WRITTEN, _DISPLAY, _PENDING = 1, 2, 4, 8  # flags of a row (MJFX_REQUIRED, ...)
 
 
 class Attribute(NamedTuple):
@@ -114,6 +114,11 @@ def attributes() -> tuple[Attribute, ...]:
 def record_fields() -> tuple[str, ...]:
     """The attributes of a :class:`FlexureRecord` after ``name``: the record's JSON keys, in the table's order."""
     return tuple(dict.fromkeys(a.field for a in attributes() if a.json))
+
+
+def display_fields() -> set[str]:
+    """The record's fields that only the drawing reads (``MJFX_DISPLAY``): they never change the forces."""
+    return {a.field for a in attributes() if a.flags & _DISPLAY}
 
 
 def keys() -> tuple[str, ...]:
@@ -187,8 +192,15 @@ def _json_of(a: Attribute, value):
     return float(value) if a.type == "real" else value
 
 
+def _leaves(value):
+    """The entries of a nested list, row-major."""
+    for v in value:
+        yield from _leaves(v) if isinstance(v, list) else (v,)
+
+
 def _from_json(a: Attribute, value) -> str:
-    """The configuration text of a JSON value of attribute ``a``; ValueError naming its JSON type problem."""
+    """The configuration text of a JSON value of attribute ``a``, each number as written (an integer in its
+    digits); ValueError naming its JSON type problem."""
     where, key = a.json, f'"{a.json}"'  # numbers: K[0]; the value: "K"
     if a.type in ("name", "choice"):
         if not isinstance(value, str):
@@ -202,22 +214,19 @@ def _from_json(a: Attribute, value) -> str:
         raise ValueError(f"{key} must be a JSON object; got {shorten(value)}")
     if a.type in ("bool", "int", "json"):
         return _text_of(a, value)
-    if a.type in ("real", "per coordinate") and not isinstance(value, list):
-        return _text_of(a, _numbers(value, where))
-    if not isinstance(value, list):
+    if not isinstance(value, list) and a.type not in ("real", "per coordinate"):
         raise ValueError(f"{key} must be a list; got {shorten(value)}")
-    if a.type == "limits":
-        none = float(a.lo)  # the limit of a coordinate without a stop
-        value = [none if v is None else v for v in value]
     if a.type == "matrix" and any(isinstance(v, list) for v in value):
         if not all(isinstance(v, list) and len(v) == len(value) for v in value):
             raise ValueError(f"{key} must be a list of numbers (the diagonal) or a square nested list; got "
                              f"{shorten(value)}")  # fmt: skip
-    x = _numbers(value, where)
-    if a.type == "ints":
-        whole = np.mod(x, 1.0) == 0.0  # 2 or 2.0 (else C refuses the text)
-        return " ".join(str(int(v)) if w else repr(float(v)) for v, w in zip(x.ravel(), whole.ravel(), strict=True))
-    return " ".join(repr(float(v)) for v in x.ravel())
+    entries = list(_leaves(value)) if isinstance(value, list) else [value]
+    if a.type == "limits":
+        entries = [a.lo if v is None else v for v in entries]  # lo: the limit of a coordinate without a stop
+    _numbers(value if a.type != "limits" else entries, where)  # JSON numbers only (no true, "0.3", null)
+    whole = a.type == "ints"  # exponents: 2 or 2.0 (else C refuses the text)
+    return " ".join(str(int(v)) if type(v) is int or (whole and float(v).is_integer()) else repr(float(v))
+                    for v in entries)  # fmt: skip
 
 
 def _value(a: Attribute, text: bytes, count: int, first: int, num) -> object:
@@ -305,8 +314,8 @@ class FlexureRecord:
 
     Its attributes are the element's ``name`` and then one per key of the record, in the order of the schema
     table (:func:`record_fields`; ``docs/reference/mjcf_schema.md``): ``method``, ``K``, ``B``, ``enabled``,
-    ``viscous``, ``strain_per_radian``, ``source``, ``terms``, ``order``, ``site``, ``strain_scale``, ``stops``,
-    ... They may be given by position in that order, or by name; one not given holds its default (None where the
+    ``viscous``, ... They may be given by position in that order, or by name; one not given holds its default
+    (None where the
     table has none). ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar) arrays in the element frame, rows
     ``[rotation; translation]`` (N m/rad, N/rad, N/m; damping per unit rate), ``B`` None without damping;
     ``terms`` a :class:`mjflex.PolynomialTerms` (None: quadratic potential), ``stops`` a :class:`mjflex.Stops`.

@@ -11,10 +11,13 @@
 
 #include <mujoco/mjplugin.h>
 
+#include "api.h"
 #include "config.h"
 #include "elements.h"
 #include "flexure_math.h"
 #include "instances.h"
+#include "matrix.h"
+#include "terms.h"
 
 #define FIELD(name) {#name, offsetof(mjfxElement, name)}
 static const struct {

@@ -9,12 +9,9 @@
 #include "elements.h"
 #include "schema.h"
 
-// Tolerances of the checks (mjflex.core.validation, mjflex.mjcf.schema, mjflex.core.polynomial).
-#define MJFX_SYMMETRY_RTOL 1e-8
-#define MJFX_PSD_RTOL 1e-10
+// Tolerances of the checks (mjflex.mjcf.schema, mjflex.core.polynomial; the matrices' are matrix.h's).
 #define MJFX_COINCIDENCE_RTOL 1e-5
 #define MJFX_COINCIDENCE_ANGLE 1e-5
-#define MJFX_REST_STRESS_RTOL 1e-12
 // largest |norm - 1| of an element's rest_quat: a quaternion written with 7 significant digits passes, one that is
 // not a rotation does not
 #define MJFX_REST_QUAT_TOL 1e-6
@@ -47,17 +44,5 @@ typedef struct mjfxParsed_ {
 int mjfx_parse_config(const char* name, int form, const char* const* values, mjfxParsed* out, char* err,
                       int errsz);
 void mjfx_free_parsed(mjfxParsed* p);
-
-// Check that a 6x6 matrix (or 3x3 when n == 3) is finite, within MJFX_MAX_MATRIX_ENTRY,
-// symmetric and positive semi-definite; returns 0 or -1 with the problem in err.
-int mjfx_check_matrix(const double* M, int n, const char* key, int stiffness, char* err, int errsz);
-
-// Smallest eigenvalue of a symmetric n x n matrix (n <= 6), by Jacobi rotations.
-double mjfx_min_eigenvalue(const double* M, int n);
-
-// The polynomial terms of a configuration (exponents, coefficients, order; terms.c) checked against the method
-// and K (embedded 6x6) into out->exps, coefs, nterms and out->el.terms_top. 0, or -1 with the message.
-int mjfx_parse_terms(const char* head, int form, const mjfxValues* v, int method, const double K6[36],
-                     mjfxParsed* out, char* err, int errsz);
 
 #endif  // MJFLEX_NATIVE_CONFIG_H_

@@ -1,10 +1,13 @@
 // The polynomial terms of an element's configuration, checked against its method and K (see config.h).
 
+#include "terms.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "config.h"
+#include "flexure_math.h"
+#include "matrix.h"
 
 // Hessian at rest of the terms in the layout of K (mjflex.core.polynomial.PolynomialTerms.rest_stiffness)
 static void rest_stiffness(int method, const int* exps, const double* coefs, int n, double H[36]) {
@@ -79,8 +82,8 @@ static int check_repeats(const char* head, int form, const int* exps, int nt, ch
                    mjfx_key(MJFX_A_EXPONENTS, form), first, earliest);
 }
 
-int mjfx_parse_terms(const char* head, int form, const mjfxValues* v, int method, const double K6[36],
-                     mjfxParsed* out, char* err, int errsz) {
+int mjfx_parse_terms(const char* head, int form, const mjfxValues* v, int method, const double K6[36], int** exps_out,
+                     double** coefs_out, int* nterms, int* top_out, char* err, int errsz) {
   int nvar = method == MJFX_TWIST ? 6 : 8;
   int order = v->count[MJFX_A_ORDER] > 0 ? (int)v->num[v->first[MJFX_A_ORDER]] : 2;
   const char* okey = mjfx_key(MJFX_A_ORDER, form);
@@ -178,8 +181,7 @@ int mjfx_parse_terms(const char* head, int form, const mjfxValues* v, int method
     free(exps), free(coefs);
     return rc;
   }
-  out->exps = exps, out->coefs = coefs, out->nterms = nt;
-  out->el.terms_top = top;
+  *exps_out = exps, *coefs_out = coefs, *nterms = nt, *top_out = top;
   return 0;
 }
 
