@@ -3,7 +3,7 @@
 mjflex's engine plugin ``mjflex.flexure`` (``PLUGIN_NAME``, compiled C, registered by
 ``import mujoco``) holds one element per instance: its forces belong to the model, so the file
 runs in any MuJoCo program (viewer, ``Batch``, ``rollout``) without mjflex's Python layer. The
-instance's name is the element's name; its ``<config>`` attributes (``PLUGIN_ATTRIBUTES``) hold
+instance's name is the element's name; its ``<config>`` attributes hold
 the record's content, each value a string: the attributes of the C library's table (:mod:`mjflex.mjcf.schema`,
 ``docs/reference/mjcf_schema.md``), and ``site_a``, ``site_b``, the names of the two sites (unlike a text record,
 the element does not find its sites by its name).

@@ -315,8 +315,7 @@ class FlexureRecord:
     Its attributes are the element's ``name`` and then one per key of the record, in the order of the schema
     table (:func:`record_fields`; ``docs/reference/mjcf_schema.md``): ``method``, ``K``, ``B``, ``enabled``,
     ``viscous``, ... They may be given by position in that order, or by name; one not given holds its default
-    (None where the
-    table has none). ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar) arrays in the element frame, rows
+    (None where the table has none). ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar) arrays in the element frame, rows
     ``[rotation; translation]`` (N m/rad, N/rad, N/m; damping per unit rate), ``B`` None without damping;
     ``terms`` a :class:`mjflex.PolynomialTerms` (None: quadratic potential), ``stops`` a :class:`mjflex.Stops`.
     Nothing is checked here: the C library checks a record when it is written to a spec or read from a model.
@@ -352,14 +351,18 @@ class FlexureRecord:
             group = _group(field)
             setattr(self, field, given.get(field, None if _members(field) else _default(group[0])))
 
-    class _Fields:
-        """Its ``__dataclass_fields__``, made from the table on first use (``dataclasses.fields``, ``replace`` and
-        ``asdict`` take a record)."""
+    class _Dataclass:
+        """Its ``__dataclass_fields__`` and ``__dataclass_params__``, made from the table on first use: the functions
+        of ``dataclasses`` take a record, and a dataclass may derive from it."""
+
+        def __set_name__(self, owner, name):
+            self.name = name
 
         def __get__(self, record, cls=None):
-            return _dataclass().__dataclass_fields__
+            return getattr(_dataclass(), self.name)
 
-    __dataclass_fields__ = _Fields()
+    __dataclass_fields__ = _Dataclass()
+    __dataclass_params__ = _Dataclass()
 
     @property
     def planar(self) -> bool:
