@@ -312,12 +312,14 @@ def _child(prefix=""):
 
 
 def _parent(sites):
+    """A spec with a free body P whose sites ``sites`` sit where the child's site a does (world 0.05 0 1): an
+    element bound to one of them instead compiles, silently joining P."""
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="P", pos=[0, 1, 0])
     body.add_freejoint()
     body.add_geom(size=[0.02, 0, 0], contype=0, conaffinity=0)
     for site in sites:
-        body.add_site(name=site)
+        body.add_site(name=site, pos=[0.05, -1, 1])
     return spec
 
 
