@@ -285,6 +285,16 @@ def test_hexadecimal_numbers_run_in_mujoco_and_in_flexures_alike():
     assert config_from_record(record, "e/a", "e/b")["K"] == "1.0 2.0 3.0 1000.0 2000.0 3000.0"
 
 
+def test_a_source_number_beyond_a_double_is_refused_in_both_forms():
+    """A JSON number of the source that no double holds (1e400) is refused, as NaN is: read back, it would be
+    infinity, which JSON cannot write (1.0.0 took it in a plugin configuration, then could not write the record)."""
+    with pytest.raises(ValueError, match=r"flexure 'e' .*: source must be one JSON object.*numbers within doubles"):
+        mujoco.MjModel.from_xml_string(_model_xml(config={**BASE, "source": "{&quot;a&quot;: 1e400}"}))
+    model = mujoco.MjModel.from_xml_string(_model_xml(record={"mjflex": 1, "K": K6, "source": {"a": float("inf")}}))
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': source must be one JSON object"):
+        mjflex.Flexures(model)
+
+
 def test_the_derived_stop_stiffness_has_the_bound_of_a_given_one():
     """Issue 33 item 15: 100 K_ii beyond 1e280 is refused in C, naming the element (1.0.0: C took it, up to
     1e282, and only mjflex.warp refused it); just within, it is the stiffness C lays out."""
@@ -452,3 +462,31 @@ def test_convert_round_trips_every_model_bit_for_bit(case, tmp_path):
     for one, two in ((paths[0], paths[2]), (paths[1], paths[3])):
         with open(one) as f, open(two) as g:
             assert f.read() == g.read()
+
+
+def test_every_configuration_c_accepts_reads_back_losslessly_and_every_refusal_names_the_element():
+    """Hostile values of the native fuzzer (scripts/fuzz_native.py) in 1 to 3 attributes: what C accepts, Python
+    reads and writes back in both forms to the same text (1.0.0: 0x1p0 and a source holding 1e400 broke the
+    round trip); what C refuses, it refuses naming the element."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("fuzz_native", os.path.join(ROOT, "scripts", "fuzz_native.py"))
+    fuzz = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fuzz)
+    keys, accepted = [a.key for a in schema.attributes() if a.key not in ("site_a", "site_b")], 0
+    for i in range(600):
+        rng = np.random.default_rng([30, i])
+        config = {**BASE, "stop_upper": STOP}
+        method = str(rng.choice(["twist", "dualquat"]))
+        for _ in range(int(rng.integers(1, 4))):
+            key = str(rng.choice(keys))
+            config[key] = fuzz.hostile_value(rng, key, method)
+        try:
+            record = record_from_config("e", config)
+        except ValueError as exc:
+            assert "mjflex: flexure 'e' (plugin instance of mjflex.flexure): " in str(exc), (i, config)
+            continue
+        accepted += 1
+        again = record_from_config("e", config_from_record(record, "e/a", "e/b"))
+        assert record.to_text() == again.to_text() == schema.parse_text("e", again.to_text()).to_text(), (i, config)
+    assert 50 < accepted < 550  # both outcomes are exercised

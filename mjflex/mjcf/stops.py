@@ -151,7 +151,7 @@ class Stops:
         k : ndarray, shape (6,) or (3,)
             Stiffness of each coordinate's stops [N m/rad, N/m].
         """
-        K = validation.numeric_array(K, "K")
+        K = schema.matrix_value(K, "K")
         row = schema.read_values("", {**self.config(), "K": schema.text_of("K", K)}, "arguments")[-1]
         return row["stop_k"][list(PLANAR_INDEX)] if len(K) == 3 else row["stop_k"].copy()
 

@@ -1,4 +1,5 @@
-// Whether a text is one complete JSON object (RFC 8259; no NaN or Infinity): an element's source.
+// Whether a text is one complete JSON object (RFC 8259; no NaN or Infinity, and every number a finite double, so
+// that what reads it back gets the numbers it holds): an element's source.
 
 #ifndef MJFLEX_NATIVE_JSON_H_
 #define MJFLEX_NATIVE_JSON_H_

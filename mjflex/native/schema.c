@@ -47,7 +47,7 @@ const mjfxAttribute MJFX_SCHEMA[MJFX_NATTRIBUTE] = {
    ">= 0"},
   {"source", "source", MJFX_TYPE_JSON, 0, 0, 0, 0, "", NULL, "a JSON object", "",
    "where K came from (geometry, material, formula), kept verbatim",
-   "standard JSON: double quotes, no NaN or Infinity"},
+   "standard JSON: double quotes, no NaN or Infinity, numbers within doubles"},
   {"exponents", "terms.exponents", MJFX_TYPE_INTS, 0, 0, 0, MJFX_MAX_EXPONENT, "", NULL,
    "rows of 6 (twist: tau t) or 8 (dualquat: sigma xi s' x') integers, one row per term", "",
    "the exponents of the polynomial terms added to K's energy (mjflex.core.polynomial), in the coordinates of "
