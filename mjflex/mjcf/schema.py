@@ -321,6 +321,15 @@ class FlexureRecord:
     Nothing is checked here: the C library checks a record when it is written to a spec or read from a model.
     A :class:`mjflex.Flexures` holds one per element, in ``flex.records``.
 
+    Parameters
+    ----------
+    name : str
+        The element's name.
+    *args
+        Its attributes by position, in the order of :func:`record_fields` (``method``, ``K``, ``B``, ...).
+    **kwargs
+        Its attributes by name; ``K`` (6x6 or 3x3 array) is required.
+
     Examples
     --------
     >>> import mujoco
