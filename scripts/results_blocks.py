@@ -66,6 +66,7 @@ from _readme_inline import (
     row_encoder_quality,
     row_operating_pose,
 )
+from _readme_reduce import block_reduce_robots
 from _readme_speed import (
     LONG_RUNS,
     block_long_run,
@@ -621,6 +622,7 @@ TIMED = [
     "bench_polynomial",
     "compare_alternatives",
     "reduce_arcade",
+    "reduce_robots",
     "bench_sweep",
 ]
 
@@ -648,6 +650,7 @@ BLOCKS = {
     "native": (["compare_alternatives"], block_native),
     "native-verdict": (["compare_alternatives"], block_native_verdict),
     "reduce-arcade": (["reduce_arcade"], block_reduce_arcade),
+    "reduce-robots": (["reduce_robots"], block_reduce_robots),
     "long-run": (LONG_RUNS, block_long_run),
     "long-run-verdict": (LONG_RUNS, block_long_run_verdict),
     "sweep-arcade": (["sweep_arcade"], block_sweep_arcade),

@@ -404,6 +404,7 @@ PROSE_CONSTANTS = {
         "20 ms": "scripts/viewer_screenshot.py's run length",
     },
     "docs/howto/reduce_a_model.md": {
+        "2 ms": "MuJoCo's default time step",
         "3 kHz": "the test's band",
         "1 %": "a bound the tests assert",
         "5 %": "a bound the test asserts",

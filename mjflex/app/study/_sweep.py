@@ -84,7 +84,10 @@ def _plan(h_model, freq, rate, *, duration, samples, steps, step_count, max_step
                   for u in range(unit, 4 * unit + 1)]  # fmt: skip
         unit += next((i for i, m in enumerate(misfit) if m < 1e-9), int(np.argmin(misfit)))
     interval = unit * h_model
-    grid = sorted({max(1, round(interval / h)) for h in targets})
+    grid = {max(1, round(interval / h)) for h in targets}
+    if not steps:  # the model file's own step too: every variant side by side where the file runs
+        grid.add(unit)
+    grid = sorted(grid)
     return Plan(interval, max(1, round(duration / interval)), grid, unit)
 
 
