@@ -77,7 +77,8 @@ import numpy as np
 
 from ..analysis.advice import SAFETY, mode_limit, step_advice
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
-from ..analysis.linearize import normal_modes, static_equilibrium
+from ..analysis.linearize import normal_modes
+from ..analysis.statics import static_equilibrium
 from ..core import validation
 from ..mjcf.spec import compile_spec
 from ..runtime.flexures import Flexures
