@@ -84,6 +84,7 @@ from _readme_speed import (
     row_reduce_arcade,
     row_study_arcade,
 )
+from _readme_stops import block_stop_bounces, block_stop_preload, inline_stop_damping_instructions
 from _readme_warp import WARP_BENCH, block_warp_bench, block_warp_float32
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -664,6 +665,9 @@ BLOCKS = {
     "encoder-quality": (["encoder_quality", "demo"], inline_encoder_quality),
     "stop-cost": (["count_step_instructions"], inline_stop_cost),
     "stop-instructions": (["count_step_instructions"], inline_stop_instructions),
+    "stop-bounces": (["stops_and_preload"], block_stop_bounces),
+    "stop-preload": (["stops_and_preload"], block_stop_preload),
+    "stop-damping-instructions": (["count_step_instructions_damping"], inline_stop_damping_instructions),
     "fit-reach": (["fit_flexure"], inline_fit_reach),
     "long-run-divergence": (["long_run_arcade", "long_run_arcade_1e-5"], inline_long_run_divergence),
     "method-difference": (["study_arcade"], inline_method_difference),

@@ -351,6 +351,7 @@ PROSE_CONSTANTS = {
         "0.1 rad": "the example's stop limit",
         "0.3 rad": "the example's free swing, closed form from its parameters (I ω² = k θ²)",
         "2 steps": "MuJoCo's refsafe rule: a solref time constant of at least two time steps",
+        "2 ms": "MuJoCo's default time step (the example's and the demonstrations' step)",
     },
     "docs/background/known_issues.md": {
         "64 bytes": "the alignment MuJoCo pads mjData's buffers to (mj_makeData), not a measurement",

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjflex.core import polynomial, stops, validation
+from mjflex.core import polynomial, rest, stops, validation
 from mjflex.mjcf import config, schema
 from mjflex.mjcf import stops as record_stops
 from mjflex.native import library as _native
@@ -19,6 +19,7 @@ PAIRS = {  # C name -> Python's value
     "SYMMETRY_RTOL": validation.SYMMETRY_RTOL,
     "PSD_RTOL": validation.PSD_RTOL,
     "REST_STRESS_RTOL": polynomial.REST_STRESS_RTOL,
+    "REST_QUAT_TOLERANCE": rest.REST_QUAT_TOLERANCE,
     "MAX_EXPONENT": polynomial.MAX_EXPONENT,
     "TERM_COLUMNS": _native.TERM_COLUMNS,
     "STOP_STIFFNESS_FACTOR": stops.STIFFNESS_FACTOR,

@@ -1,7 +1,7 @@
 """One schema (issue 30): the C library's table of element attributes is the one rulebook of both forms.
 
 * the schema page is the table;
-* one rule, one check in C, one message: for each of 24 malformed elements, its plugin instance (MuJoCo's compile
+* one rule, one check in C, one message: for each of 33 malformed elements, its plugin instance (MuJoCo's compile
   error) and its text record (mjflex.Flexures) fail with the same text, raised by the C library;
 * a check runs once: no Python check of a record's values on the way from add_flexure to Flexures;
 * a display-only attribute lives in the table and the drawing only;
@@ -24,9 +24,12 @@ from mjflex.mjcf import schema
 from mjflex.mjcf.config import attached_name, config_from_record, record_from_config
 from mjflex.native import library
 from mjflex.runtime.files import same_record
+from tests import stop_models
 from tests.models import K_DEMO, hinge_chain_spec, two_body_spec
 from tests.plugin_models import MODELS, planar_spec, polynomial_terms
 from tests.spine import spine_spec
+from tests.test_stop_damping import damped_spec
+from tests.test_stops import _random_state
 from tests.warp_models import features_xml
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -151,10 +154,37 @@ RULES = {
         {"stops": {"upper": [0.1, *N5], "damping": -1}},
         r"^stop_damping of every coordinate is -1; give a finite number >= 0",
     ),
+    "infinite stop damping": (
+        {"stop_upper": STOP, "stop_damping": "0 0 inf 0 0 0"},
+        {"stops": {"upper": [0.1, *N5], "damping": [0, 0, 1e999, 0, 0, 0]}},
+        r"^stop_damping of rz is inf; give a finite number >= 0",
+    ),
+    "stop damping of 2 numbers": (
+        {"stop_upper": STOP, "stop_damping": "1 2"},
+        {"stops": {"upper": [0.1, *N5], "damping": [1, 2]}},
+        r"^stop_damping has 2 numbers; give 1 \(every coordinate\) or 6 \(one per coordinate \[rx ry rz x y z\]\)",
+    ),
+    "stop damping without a stop": (
+        {"stop_damping": "3"},
+        {"stops": {"damping": 3}},
+        r"^stop_damping is given but there is no stop",
+    ),
     "a rest quaternion that is no rotation": (
         {"rest_quat": "1 0 0 0.1"},
         {"rest": {"quat": [1, 0, 0, 0.1]}},
         r"^rest_quat \(1 0 0 0.1\) has norm 1.00498756, so it is not a rotation",
+    ),
+    "a rest quaternion of 3 numbers": ({"rest_quat": "1 0 0"}, {"rest": {"quat": [1, 0, 0]}}, r"^rest_quat has 3 numb"),
+    "an infinite rest quaternion": (
+        {"rest_quat": "inf 0 0 0"},
+        {"rest": {"quat": [1e999, 0, 0, 0]}},
+        r"^rest_quat has inf \(number 0\); give finite numbers",
+    ),
+    "a rest position of 2 numbers": ({"rest_pos": "0 0"}, {"rest": {"pos": [0, 0]}}, r"^rest_pos has 2 numbers"),
+    "an infinite rest position": (
+        {"rest_pos": "0 -inf 0"},
+        {"rest": {"pos": [0, -1e999, 0]}},
+        r"^rest_pos has -inf \(number 1\); give finite numbers",
     ),
 }
 
@@ -372,12 +402,13 @@ def test_nested_prefixes_bind_the_innermost_site():
 
 
 def _tricky():
-    """Every attribute of the table (stop damping and rest pose read, checked and written, not run)."""
+    """Every attribute of the table, each number one that text could lose (the rest quaternion a rotation of norm 1
+    to the last bit or not, but within the tolerance)."""
     record = schema.FlexureRecord(
         "link", "twist", np.diag([0.1 + 0.2, 1 / 3, 2.0, 1e6, 5e-300, 3e6]), np.diag([1e-7] * 6), False, False,
         1 / 7, {"E": 7e10, "note": "Π ≈ 3.14", "n": [1, 2**70]}, polynomial_terms("twist"), 4, "link/a", 0.0123,
         mjflex.Stops([-0.1, None, None, -1e-3, None, None], [0.2] * 6, stiffness=[1.0, 2, 3, 4, 5, 6], damping=0.5),
-        {"pos": (0.001, 0.0, -0.002), "quat": (1.0, 0.0, 0.0, 0.0)},
+        ((0.001, 1 / 3, -0.002), (np.cos(0.1), 0.0, np.sin(0.1) / 3, np.sin(0.1) * np.sqrt(8) / 3)),
     )  # fmt: skip
     return record
 
@@ -389,17 +420,8 @@ def test_every_attribute_converts_losslessly_between_the_forms():
     back = record_from_config("link", config)
     again = schema.parse_text("link", back.to_text())
     assert same_record(record, back) and same_record(record, again) and again.to_text() == record.to_text()
-    assert again.stops.damping == 0.5 and again.rest == {"pos": (0.001, 0.0, -0.002), "quat": (1.0, 0.0, 0.0, 0.0)}
+    assert again.stops.damping == 0.5 and again.rest == record.rest and again.rest[0][1] == 1 / 3
     assert np.array_equal(again.terms.exponents, record.terms.exponents) and again.source["n"][1] == 2**70
-
-
-def test_an_attribute_this_build_does_not_evaluate_is_refused_by_name():
-    """The stops' damping and the rest pose are read and checked, but a model that gives them does not run
-    without their physics (its forces would be missing): refused, naming the attribute."""
-    for changes, key in (({"rest_pos": "0 0 0.001"}, "rest_pos"), ({"stop_upper": STOP, "stop_damping": "1"},
-                                                                   "stop_damping")):  # fmt: skip
-        with pytest.raises(ValueError, match=rf"flexure 'e' .*: {key} is read and checked, but this build"):
-            mujoco.MjModel.from_xml_string(_model_xml(config={**BASE, **changes}))
 
 
 def _suite_models():
@@ -414,7 +436,16 @@ def _suite_models():
         "spine with a disc": _spine_with_a_disc,
         "warp features with stops": lambda: mujoco.MjSpec.from_string(features_xml("record", stops=True)),
         "tricky": lambda: _tricky_spec(),
+        "damped stops and rest poses": _damped_spec,
+        "a link into a damped stop": lambda: stop_models.link_spec("damped"),
+        "a finger preloaded by a rest pose": lambda: stop_models.finger_spec("rest"),
     }
+
+
+def _damped_spec():
+    """tests/test_stop_damping's four elements (damped stops, rest poses) placed around a random state, as records."""
+    qpos = _random_state(damped_spec().compile(), np.random.default_rng(3))
+    return damped_spec(qpos, kind="record", seed=3)
 
 
 def _spine_with_a_disc():
@@ -426,9 +457,7 @@ def _spine_with_a_disc():
 
 def _tricky_spec():
     spec = two_body_spec(timestep=1e-4)
-    record = _tricky()
-    record.rest, record.stops = None, mjflex.Stops(record.stops.lower, record.stops.upper, stiffness=[1.0] * 6)
-    spec.text("mjflex:link").data = record.to_text()
+    spec.text("mjflex:link").data = _tricky().to_text()
     return spec
 
 

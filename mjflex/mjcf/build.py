@@ -14,6 +14,7 @@ from .elements import add_plugin_element, detach_instance, find_element, require
 from .notices import warn_likely_mistake
 from .schema import PLUGIN
 from .spec import (
+    compile_spec,
     exclude_contacts,
     find_body,
     find_site,
@@ -24,7 +25,7 @@ from .spec import (
     site_pose,
     unit_quaternion,
 )
-from .stops import Stops
+from .stops import Stops, coordinate_masses, resolved
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only; round ellipsoids, see add_flexure)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
@@ -77,7 +78,7 @@ class FlexureHandle:
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, frame="world", K, B=None, method="twist",
     terms=None, stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True, kind="plugin", stops=None, **attributes,
+    exclude_contact=True, kind="plugin", stops=None, rest=None, **attributes,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -141,8 +142,16 @@ def add_flexure(
     stops : Stops, optional
         End stops: one-sided limits on the element's coordinates (rotation vector and position of
         frame b in frame a, ``[rx, ry, rz, x, y, z]``, or ``[theta, x, y]`` planar), in the
-        element frame, with a stated or derived stiffness (:class:`mjflex.Stops`). Stored in the
-        record or plugin instance (:mod:`mjflex.mjcf.schema`). Default: none.
+        element frame, with a stated or derived stiffness and an optional damping
+        (:class:`mjflex.Stops`). A damping ratio or time constant is turned here into numbers from
+        the coordinates' effective masses at ``qpos0`` (the element not yet added), and those
+        are stored in the record or plugin instance (:mod:`mjflex.mjcf.schema`). Default: none.
+    rest : tuple (pos, quat), optional
+        The rest pose: the pose of frame b in frame a at which the element's energy is zero,
+        ``pos`` [x, y, z] [m] and ``quat`` [w, x, y, z] (a unit quaternion), in the element frame.
+        Its energy, wrench and stop coordinates count from it; a rest pose away from the compiled
+        one preloads the element (as MuJoCo's ``springref`` does a joint spring). Default: the
+        compiled pose (the frames coincide). Stored as written; the C library checks it.
     kind : {"plugin", "record"}
         How the element is written (:mod:`mjflex.mjcf.schema`). ``"plugin"`` (default): an
         instance of the engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to
@@ -215,10 +224,12 @@ def add_flexure(
             K = stiffness_in_frame(K, R_FE, p_FE, check=False)
     if stops is not None and not isinstance(stops, Stops):
         raise TypeError(f"flexure {name!r}: stops must be a mjflex.Stops (or None); got {type(stops).__name__}")
+    if stops and stops.needs_model:
+        stops = _resolved_stops(spec, name, stops, K, bodies, p_WE, R_WE)
     try:
         record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
                                       *_checked_terms(terms, method, name), site=frame_site, stops=stops or None,
-                                      **attributes)  # fmt: skip
+                                      rest=_rest_pose(rest, name), **attributes)  # fmt: skip
     except TypeError as exc:
         raise TypeError(f"add_flexure: {exc}") from None
     text_data = _record_text(record)
@@ -240,6 +251,16 @@ def add_flexure(
         return FlexureHandle(name, sites[0], sites[1], None, plugin)
     text = spec.add_text(name=schema.PREFIX + name, data=text_data)
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def _resolved_stops(spec, name, stops, K, bodies, p_WE, R_WE):
+    """``stops`` with its damping ratio or time constant turned into numbers (:func:`mjflex.mjcf.stops.resolved`) from
+    the effective masses of the element's coordinates in ``spec`` at ``qpos0``."""
+    model = compile_spec(spec, f"find the effective masses of flexure {name!r}'s stop coordinates")
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ids = [0 if b is spec.worldbody else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in bodies]
+    return resolved(stops, K, coordinate_masses(model, data, *ids, p_WE, R_WE, K.shape[0]), name)
 
 
 def _element_frame(spec, name, bodies, pos, quat, site, poses, frame="world"):
@@ -393,6 +414,18 @@ def _record_text(record):
         raise TypeError(f"flexure {record.name!r}: source must hold JSON values only: {exc}") from None
     schema.read_config(record.name, schema.config_of(record), schema.RECORD)
     return text
+
+
+def _rest_pose(rest, name):
+    """The ``rest`` argument as a record holds it, ``((x, y, z), (w, x, y, z))`` of floats, or None (its rules: the
+    C library's, when the record is written)."""
+    if rest is None:
+        return None
+    if isinstance(rest, str | bytes | dict) or not hasattr(rest, "__len__") or len(rest) != 2:
+        raise ValueError(f"flexure {name!r}: rest must be a pose (pos, quat): ([x, y, z], [w, x, y, z]); got "
+                         f"{validation.shorten(rest)}")  # fmt: skip
+    parts = (validation.numeric_array(part, f"rest of flexure {name!r}").reshape(-1) for part in rest)
+    return tuple(tuple(float(v) for v in part) for part in parts)
 
 
 def _checked_terms(terms, method, name):

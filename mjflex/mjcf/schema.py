@@ -68,7 +68,7 @@ SCHEMA_VERSION = 1
 #: The types of the table's rows (``MJFX_TYPE_*``, in their order).
 TYPES = ("name", "choice", "bool", "int", "real", "matrix", "vector", "limits", "per coordinate", "ints", "numbers",
          "json")  # fmt: skip
-_REQUIRED, _WRITTEN, _DISPLAY, _PENDING = 1, 2, 4, 8  # flags of a row (MJFX_REQUIRED, ...)
+_REQUIRED, _WRITTEN, _DISPLAY = 1, 2, 4  # flags of a row (MJFX_REQUIRED, ...)
 
 
 class Attribute(NamedTuple):
@@ -262,11 +262,13 @@ def _default(a: Attribute):
 
 
 def _group_values(field, value, record) -> dict:
-    """The members of a group field's Python value (``terms``, ``stops``, another: a dict)."""
+    """The members of a group field's Python value (``terms``, ``stops``, ``rest``, another: a dict)."""
     if field == "terms":
         return {"exponents": value.exponents, "coefficients": value.coefficients} if len(value) else {}
     if field == "stops":
         return {k: getattr(value, k) for k in _members(field) if getattr(value, k) is not None} if value else {}
+    if field == "rest":
+        return dict(zip(_members(field), value, strict=True))
     return dict(value)
 
 
@@ -282,6 +284,8 @@ def _group_of(field, members: dict, method: str):
         from .stops import Stops  # late: stops.py reads and writes its attributes through this module
 
         return Stops.checked(**members)
+    if field == "rest":  # (pos, quat), the identity's part where one is not given
+        return members.get("pos", (0.0, 0.0, 0.0)), members.get("quat", (1.0, 0.0, 0.0, 0.0))
     return members
 
 
@@ -317,7 +321,8 @@ class FlexureRecord:
     ``viscous``, ... They may be given by position in that order, or by name; one not given holds its default
     (None where the table has none). ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar) arrays in the element frame, rows
     ``[rotation; translation]`` (N m/rad, N/rad, N/m; damping per unit rate), ``B`` None without damping;
-    ``terms`` a :class:`mjflex.PolynomialTerms` (None: quadratic potential), ``stops`` a :class:`mjflex.Stops`.
+    ``terms`` a :class:`mjflex.PolynomialTerms` (None: quadratic potential), ``stops`` a :class:`mjflex.Stops`,
+    ``rest`` the rest pose ``((x, y, z), (w, x, y, z))`` as written (None: the frames coincide).
     Nothing is checked here: the C library checks a record when it is written to a spec or read from a model.
     A :class:`mjflex.Flexures` holds one per element, in ``flex.records``.
 
@@ -634,7 +639,6 @@ def schema_page() -> str:
     for a in attributes():
         record = f"`{a.json}`" if a.json else "(the sites' names)"
         default = f"`{a.fallback}`" if a.fallback else ("required" if a.flags & _REQUIRED else "none")
-        note = ". Not evaluated by this build: an element that gives it is refused" if a.flags & _PENDING else ""
-        cells = (f"`{a.key}`", record, a.shape, default, a.units, a.meaning + note, a.rules)
+        cells = (f"`{a.key}`", record, a.shape, default, a.units, a.meaning, a.rules)
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     return "\n".join(lines) + "\n"

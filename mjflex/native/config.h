@@ -12,8 +12,8 @@
 // Tolerances of the checks (mjflex.mjcf.schema, mjflex.core.polynomial; the matrices' are matrix.h's).
 #define MJFX_COINCIDENCE_RTOL 1e-5
 #define MJFX_COINCIDENCE_ANGLE 1e-5
-// largest |norm - 1| of an element's rest_quat: a quaternion written with 7 significant digits passes, one that is
-// not a rotation does not
+// largest |norm - 1| of an element's rest_quat (mjflex.core.rest.REST_QUAT_TOLERANCE): a quaternion written with
+// 7 significant digits passes, one that is not a rotation does not
 #define MJFX_REST_QUAT_TOL 1e-6
 // derived stiffness of an end stop: this times K_ii (mjflex.core.stops.STIFFNESS_FACTOR)
 #define MJFX_STOP_STIFFNESS_FACTOR 100.0

@@ -248,14 +248,6 @@ static int read_rest_offset(const mjModel* m, const mjData* d, const char* name,
                           err, errsz);
 }
 
-// The first attribute given whose physics this build lacks (MJFX_PENDING), or -1.
-static int pending(const mjfxValues* v) {
-  for (int row = 0; row < MJFX_NATTRIBUTE; row++) {
-    if ((MJFX_SCHEMA[row].flags & MJFX_PENDING) && v->count[row] >= 0) return row;
-  }
-  return -1;
-}
-
 int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int form, const char* const* values,
                       Part* p, int keep, char* err, int errsz) {
   memset(p, 0, sizeof(Part));
@@ -266,14 +258,8 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
   p->values = parsed.values;
   mjfxElement* e = &p->el;
   const char* record = form == MJFX_FORM_PLUGIN ? record_of(m, name) : NULL;
-  int sites[2], later = pending(&p->values);
-  char head[300];
-  mjfx_element_head(name, form, head, sizeof(head));
-  if (later >= 0) {
-    mjfx_fail(err, errsz, head, "%s is read and checked, but this build of mjflex does not evaluate it (%s): its "
-              "forces would be missing. Drop it, or use a build of mjflex that has it", mjfx_key(later, form),
-              MJFX_SCHEMA[later].meaning);
-  } else if (record) {
+  int sites[2];
+  if (record) {
     snprintf(err, errsz,
              "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
              "added twice. Keep one of them (python -m mjflex convert writes either form)",
@@ -282,6 +268,8 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
     e->site_a = sites[0], e->site_b = sites[1];
     e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
     if (!read_rest_offset(m, d, name, form, values, &p->values, e, err, errsz)) {
+      e->rest = parsed.has_rest;
+      if (e->rest) mjfx_compose_rest(parsed.rest_pos, parsed.rest_quat, e->R0, e->p0);
       mjfx_element_prepare(m, e);
       mjfx_inverse_inertia(m, e->body_a, e->body_b, &e->inv_mass, &e->inv_inertia);
       // generalized-force map: free-joint fast path or the dof chain of each body

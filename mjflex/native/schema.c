@@ -76,16 +76,21 @@ const mjfxAttribute MJFX_SCHEMA[MJFX_NATTRIBUTE] = {
    "rad, m", "upper end stops, inf (record: null) where a coordinate has none", "as stop_lower; not -inf"},
   {"stop_stiffness", "stops.stiffness", MJFX_TYPE_PER_COORD, FIN, 0, 0, BIG, "", NULL,
    "1 number (every coordinate) or one per coordinate", "N m/rad, N/m",
-   "the stops' stiffness; default: derived, 100 K_ii of each coordinate", 
+   "the stops' stiffness; default: derived, 100 K_ii of each coordinate",
    ">= 0; positive (given or derived, at most 1e280) on every coordinate with a limit; only with a limit"},
-  {"stop_damping", "stops.damping", MJFX_TYPE_PER_COORD, FIN | MJFX_PENDING, 0, 0, BIG, "", NULL,
+  {"stop_damping", "stops.damping", MJFX_TYPE_PER_COORD, FIN, 0, 0, BIG, "", NULL,
    "1 number (every coordinate) or one per coordinate", "N m s/rad, N s/m",
-   "the stops' damping, active beyond a limit only (default: none, conservative stops)",
+   "the stops' damping, on the stop coordinates' rates beyond a limit only; a stop's force is clamped at 0, so it "
+   "never pulls the body back in, and its loss counts in the dissipated power (default: none, conservative stops)",
    ">= 0; only with a limit"},
-  {"rest_pos", "rest.pos", MJFX_TYPE_VECTOR, FIN | MJFX_PENDING, 3, -BIG, BIG, "", NULL, "3 numbers", "m",
-   "the rest pose's position: frame b in frame a where the element's energy is zero (default: 0 0 0)", "finite"},
-  {"rest_quat", "rest.quat", MJFX_TYPE_VECTOR, FIN | MJFX_PENDING, 4, -BIG, BIG, "", NULL, "4 numbers, w x y z",
-   "", "the rest pose's orientation, a unit quaternion (default: 1 0 0 0)", "norm 1 within 1e-6"},
+  {"rest_pos", "rest.pos", MJFX_TYPE_VECTOR, FIN, 3, -BIG, BIG, "", NULL, "3 numbers", "m",
+   "the rest pose's position: frame b in frame a where the element's energy is zero (default: 0 0 0). Energies, "
+   "wrenches and stop coordinates count from the rest pose; one the model does not hold preloads the element",
+   "finite"},
+  {"rest_quat", "rest.quat", MJFX_TYPE_VECTOR, FIN, 4, -BIG, BIG, "", NULL, "4 numbers, w x y z", "",
+   "the rest pose's orientation, a unit quaternion (default: 1 0 0 0). The rest pose is composed into the rest "
+   "offset after the sites' rounding residual",
+   "finite; norm 1 within 1e-6 (then normalized)"},
 };
 // clang-format on
 

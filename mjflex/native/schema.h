@@ -38,7 +38,6 @@
 #define MJFX_REQUIRED 1  // must be given
 #define MJFX_WRITTEN 2   // mjflex's writers write it even at its default
 #define MJFX_DISPLAY 4   // for the drawing and reports only: never read by the forces
-#define MJFX_PENDING 8   // read and checked, but not evaluated by this build: a model that gives it is refused
 #define MJFX_OPEN_LO 16  // numbers must be above lo (else at least lo)
 #define MJFX_FINITE 32   // numbers must be finite (and within lo, hi)
 

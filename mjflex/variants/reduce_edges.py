@@ -163,14 +163,15 @@ def _spring_exact(model, rec, d, edge, kept, soft):
 
 
 def restricted_record(rec, d, soft, keep_damping):
-    """``rec`` in the principal directions ``soft`` only: K and B restricted, stops kept with their stiffness."""
+    """``rec`` in the principal directions ``soft`` only: K and B restricted, stops kept with their stiffness, the rest
+    pose kept."""
     K, B = d.restricted(soft)
     stops = rec.stops
     if stops:
         stops = dataclasses.replace(stops, stiffness=tuple(stops.stiffness_for(rec.K).tolist()))
     B = B if keep_damping and rec.B is not None else None
     out = schema.FlexureRecord(rec.name, rec.method, K, B, rec.enabled, True if B is None else rec.viscous,
-                               rec.strain_per_radian, rec.source, None, 2, stops=stops)  # fmt: skip
+                               rec.strain_per_radian, rec.source, None, 2, stops=stops, rest=rec.rest)  # fmt: skip
     return out
 
 

@@ -354,9 +354,15 @@ class PoseFit:
 
 
 def stops_lines(flex, fate: str) -> list[str]:
-    """Report lines for the elements of ``flex`` with end stops, saying what a variant does with them (never dropped
-    silently; :class:`mjflex.Stops`)."""
-    return [f"{name}: its end stops {fate}" for name, rec in zip(flex.names, flex.records, strict=True) if rec.stops]
+    """Report lines for the elements of ``flex`` with end stops or a rest pose, saying what a variant does with them
+    (never dropped silently; :class:`mjflex.Stops`)."""
+    pairs = list(zip(flex.names, flex.records, strict=True))
+    return [f"{name}: its end stops {fate}" for name, rec in pairs if rec.stops] + [
+        f"{name}: its rest pose (a preload) is kept by an element kept whole only; a MuJoCo-native replacement (weld, "
+        "bushing, joints) is at rest where the model compiled it"
+        for name, rec in pairs
+        if rec.rest is not None
+    ]
 
 
 def polynomial_terms_lines(flex, fate: str) -> list[str]:

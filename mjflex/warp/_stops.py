@@ -1,4 +1,5 @@
-"""End stops as per-world parameters of the Warp kernels: their limits and stiffness, checked once at the boundary.
+"""End stops as per-world parameters of the Warp kernels: their limits and stiffness, checked once at the boundary;
+their damping, the model's.
 
 The rules are those of an element's stops in a model (:mod:`mjflex.mjcf.stops`), applied to every
 world: limits on ``[rx, ry, rz, x, y, z]`` (a planar element's on ``rz, x, y``, the rows of
@@ -10,6 +11,7 @@ as editing ``K`` in the model would, until a stiffness is set.
 """
 
 import numpy as np
+import warp as wp
 
 from ..core import validation
 from ..core.stops import SPATIAL_COORDINATES, STIFFNESS_FACTOR
@@ -37,11 +39,14 @@ def vectors(name, value, n) -> np.ndarray:
 
 
 def stiffness(table, K, given) -> np.ndarray:
-    """The stiffness the kernels read before the limits are applied: ``given`` ``(worlds, n, 6)``, or the model's
-    (derived from ``K`` ``(worlds, n, 6, 6)`` for the elements that derive it, as written for the others)."""
+    """The stiffness the kernels read before the limits are applied: ``given`` ``(worlds, n, 6)``, or the model's:
+    as written, or for the elements that derive it, the C library's (``stop_k``) where a world keeps the model's
+    ``K_ii`` and limit, else derived from the world's ``K`` ``(worlds, n, 6, 6)`` as the C library derives it."""
     if given is not None:
         return given
-    derived = STIFFNESS_FACTOR * np.diagonal(K, axis1=-2, axis2=-1)
+    diag = np.diagonal(K, axis1=-2, axis2=-1)
+    model = (diag == np.diagonal(table.K, axis1=-2, axis2=-1)[None]) & (table.stop_stiffness[None] > 0)
+    derived = np.where(model, table.stop_stiffness[None], STIFFNESS_FACTOR * diag)
     return np.where(table.stop_derived[None, :, None], derived, table.stop_stiffness[None])
 
 
@@ -96,3 +101,12 @@ def effective(names, planar, lower, upper, k, precision_max) -> np.ndarray:
 def flags(lower, upper) -> np.ndarray:
     """``(n,)`` int32: 1 for an element with a stop in some world (the kernels' per-element flag)."""
     return (np.isfinite(lower) | np.isfinite(upper)).any(axis=(0, 2)).astype(np.int32)
+
+
+def set_damping(params, table, V6, real, device) -> None:
+    """Put the model's stop damping (``table.stop_damping``, shared by every world) and its per-element flag into the
+    kernels' parameters. The damping acts only where a limit is engaged, so limits set per world find it on the
+    coordinates the model damps."""
+    b = table.stop_damping if len(table.names) else np.zeros((1, 6))
+    params.stop_b = wp.array(np.ascontiguousarray(b[None], real), dtype=V6, device=device)
+    params.stop_damped = wp.array((b > 0).any(axis=1).astype(np.int32), dtype=wp.int32, device=device)
