@@ -199,7 +199,7 @@ def _one(kind="plugin", **kwargs):
     body = spec.worldbody.add_body(name="b0", pos=[0.1, 0, 0], mass=0.2, inertia=[2e-4] * 3)
     body.explicitinertial = True
     body.add_freejoint()
-    handle = mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], K=[1.0] * 6, kind=kind, **kwargs)
+    handle = mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], kind=kind, **{"K": [1.0] * 6, **kwargs})
     return spec, handle
 
 
@@ -254,6 +254,24 @@ def test_a_record_with_a_bad_rest_pose_is_a_model_error_naming_the_element(rest_
     text.data = text.data[:-1] + f', "rest": {rest_json}}}'
     with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*{match}"):  # the C library's, or JSON's
         mjflex.Flexures(spec.compile())
+
+
+@pytest.mark.parametrize("method", ["twist", "dualquat"])
+def test_the_largest_rest_position_and_stiffness_give_finite_forces(method):
+    """At the table's bounds, a rest position of 1e10 m (MuJoCo's largest position, mjMAXVAL) and K of 1e280, the
+    forces, wrenches and energy are finite at the compiled pose and at MuJoCo's largest position, turned half a
+    turn (the native fuzzer, seed 33, config:852, found a rest position of -1e280 accepted and its forces
+    infinite)."""
+    for quat in ([1.0, 0, 0, 0], [0, 0, 0, 1.0]):
+        spec, _ = _one(K=[1e280] * 6, method=method, rest=([1e10, -1e10, 1e10], quat))
+        model = spec.compile()
+        data, flex = mujoco.MjData(model), mjflex.Flexures(model)
+        for q in (0.0, 1e10):
+            data.qpos[:3] = [q, -q, q]
+            data.qpos[3:7] = [0, 1, 0, 0] if q else [1, 0, 0, 0]
+            mujoco.mj_forward(model, data)
+            assert np.abs(data.qfrc_passive).max() > 1e289 and np.isfinite(data.qfrc_passive).all()
+            assert np.isfinite(flex.wrenches(data)).all() and 1e299 < flex.potential_energy(data) < np.inf
 
 
 def test_variants_say_what_becomes_of_a_rest_pose():

@@ -1,7 +1,7 @@
 """One schema (issue 30): the C library's table of element attributes is the one rulebook of both forms.
 
 * the schema page is the table;
-* one rule, one check in C, one message: for each of 33 malformed elements, its plugin instance (MuJoCo's compile
+* one rule, one check in C, one message: for each of 34 malformed elements, its plugin instance (MuJoCo's compile
   error) and its text record (mjflex.Flexures) fail with the same text, raised by the C library;
 * a check runs once: no Python check of a record's values on the way from add_flexure to Flexures;
 * a display-only attribute lives in the table and the drawing only;
@@ -181,6 +181,11 @@ RULES = {
         r"^rest_quat has inf \(number 0\); give finite numbers",
     ),
     "a rest position of 2 numbers": ({"rest_pos": "0 0"}, {"rest": {"pos": [0, 0]}}, r"^rest_pos has 2 numbers"),
+    "a rest position beyond 1e10 m": (
+        {"rest_pos": "0 -1e280 0"},
+        {"rest": {"pos": [0, -1e280, 0]}},
+        r"^rest_pos has -1e\+280 \(number 1\); give finite numbers \(\|x\| <= 1e\+10\)",
+    ),
     "an infinite rest position": (
         {"rest_pos": "0 -inf 0"},
         {"rest": {"pos": [0, -1e999, 0]}},

@@ -83,10 +83,10 @@ const mjfxAttribute MJFX_SCHEMA[MJFX_NATTRIBUTE] = {
    "the stops' damping, on the stop coordinates' rates beyond a limit only; a stop's force is clamped at 0, so it "
    "never pulls the body back in, and its loss counts in the dissipated power (default: none, conservative stops)",
    ">= 0; only with a limit"},
-  {"rest_pos", "rest.pos", MJFX_TYPE_VECTOR, FIN, 3, -BIG, BIG, "", NULL, "3 numbers", "m",
+  {"rest_pos", "rest.pos", MJFX_TYPE_VECTOR, FIN, 3, -mjMAXVAL, mjMAXVAL, "", NULL, "3 numbers", "m",
    "the rest pose's position: frame b in frame a where the element's energy is zero (default: 0 0 0). Energies, "
    "wrenches and stop coordinates count from the rest pose; one the model does not hold preloads the element",
-   "finite"},
+   "finite, |x| <= 1e10 (MuJoCo's largest position, mjMAXVAL: with K's bound, the forces stay finite)"},
   {"rest_quat", "rest.quat", MJFX_TYPE_VECTOR, FIN, 4, -BIG, BIG, "", NULL, "4 numbers, w x y z", "",
    "the rest pose's orientation, a unit quaternion (default: 1 0 0 0). The rest pose is composed into the rest "
    "offset after the sites' rounding residual",
