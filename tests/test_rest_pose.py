@@ -81,7 +81,10 @@ def test_core_refuses_a_rest_pose_that_is_not_one(rest, match):
 # ------------------------------------------------------------------ the C engine of both forms
 
 
-RESTS = {"grounded": ([0.003, -0.002, 0.001], _quat([0.3, -0.1, 0.2])), "joint": ([0.0, 0.0, 0.0], _quat([0, 0, 0.4]))}
+#: the joint's quaternion written with 7 significant digits: norm 1 within the tolerance, not to the last bit (the C
+#: library normalizes it, as the core does)
+RESTS = {"grounded": ([0.003, -0.002, 0.001], _quat([0.3, -0.1, 0.2])),
+         "joint": ([0.0, 0.0, 0.0], [float(f"{v:.7g}") for v in _quat([0, 0, 0.4])])}  # fmt: skip
 
 
 def residual_spec(kind):
@@ -254,6 +257,28 @@ def test_a_record_with_a_bad_rest_pose_is_a_model_error_naming_the_element(rest_
     text.data = text.data[:-1] + f', "rest": {rest_json}}}'
     with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*{match}"):  # the C library's, or JSON's
         mjflex.Flexures(spec.compile())
+
+
+@pytest.mark.parametrize("kind", ["plugin", "record"])
+@pytest.mark.parametrize("part", ["pos", "quat"])
+def test_a_rest_pose_given_in_part_is_the_identity_elsewhere_in_python_as_in_c(kind, part):
+    """Only the rest position (or only the quaternion) given: the record's rest pose holds the identity's other part,
+    the one the C library composes, so the core with the record's rest pose gives C's wrench."""
+    given = {"pos": [0.002, -0.001, 0.003], "quat": [float(v) for v in _quat([0.1, 0.2, -0.1])]}[part]
+    spec, handle = _one(kind)
+    if kind == "plugin":
+        handle.plugin.config = {**dict(handle.plugin.config), f"rest_{part}": " ".join(map(repr, given))}
+    else:
+        text = spec.text("mjflex:disc")
+        text.data = text.data[:-1] + f', "rest": {{"{part}": {given}}}}}'
+    model = spec.compile()
+    flex, data = mjflex.Flexures(model), mujoco.MjData(model)
+    identity = {"pos": (0.0, 0.0, 0.0), "quat": (1.0, 0.0, 0.0, 0.0)}
+    assert flex.records[0].rest == tuple(tuple(given) if p == part else identity[p] for p in ("pos", "quat"))
+    data.qpos[:3] += [0.01, -0.02, 0.005]
+    mujoco.mj_forward(model, data)
+    We, _ = core_element(model, flex, data, 0)
+    assert np.abs(flex.wrenches(data)[0] - We).max() <= 1e-12 * np.abs(We).max()
 
 
 @pytest.mark.parametrize("method", ["twist", "dualquat"])

@@ -195,12 +195,21 @@ def core_element(model, flex, data, e, qvel=True):
     P = mjflex.dissipation_power(R_a, p_a, R_b, p_b, rec.B, method=method, rest=rec.rest, **kw) if rec.B is not None \
         else 0.0  # fmt: skip
     if rec.stops:
-        limits = (*rec.stops.limits_for(6), rec.stops.stiffness_for(rec.K))
-        b = rec.stops.damping_for(6)
+        limits, b = _stop_parameters(rec.stops, rec.K)
         W = W + mjflex.stop_wrench_on_b(R_a, p_a, R_b, p_b, *limits, damping=b, rest=rec.rest, **kw)
         P = P + mjflex.stop_dissipation_power(R_a, p_a, R_b, p_b, *limits, b, rest=rec.rest, **kw)
     W[:3] += np.cross(p_b - data.site_xpos[sb], W[3:])  # about site b
     return W, P
+
+
+def _stop_parameters(stops, K):
+    """``(lower, upper, stiffness), damping`` of a spatial element's stops, laid out here from what the record gives
+    (the core's derived stiffness), not read back from the C library's element."""
+    lower, upper = stops.limits_for(6)
+    limited = np.isfinite(lower) | np.isfinite(upper)
+    k = mjflex.derived_stop_stiffness(K) if stops.stiffness is None else np.broadcast_to(stops.stiffness, (6,))
+    b = np.zeros(6) if stops.damping is None else np.broadcast_to(stops.damping, (6,))
+    return (lower, upper, np.where(limited, k, 0.0)), np.where(limited, b, 0.0)
 
 
 @pytest.fixture
