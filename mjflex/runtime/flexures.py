@@ -1,6 +1,5 @@
 """The passive-force provider: parse a model's flexures once, then add their forces every step."""
 
-import difflib
 import warnings
 
 import mujoco
@@ -8,6 +7,7 @@ import numpy as np
 
 from ..core import validation
 from ..core.stops import stop_coordinates
+from ..mjcf import naming
 from ..mjcf.schema import PLUGIN
 from ..native import library
 from . import registry, tables
@@ -417,7 +417,7 @@ class Flexures:
                 f"mjflex: flexure '{self.names[status]}' of model '{model_name(self.model)}': its wrench is not "
                 f"finite at t = {data.time:.9g} s (step index {step_index(data.time, h)}, counting from 0): the state "
                 "is NaN or infinite, or the forces overflow float64. Check the qpos/qvel you set, or reduce the time "
-                "step (mjflex.normal_modes gives the stiffest mode)."
+                "step (mjflex.step_advice(model) gives the largest stable one)."
             )
 
     def divergences(self, data) -> dict[str, Divergence]:
@@ -438,8 +438,7 @@ class Flexures:
             try:
                 return self._index[name]
             except KeyError:
-                close = difflib.get_close_matches(name, self.names, n=3)
-                raise KeyError(f"no flexure named {name!r}" + (f"; did you mean {close}?" if close else "")) from None
+                raise KeyError(f"no flexure named {name!r}" + naming.suggestion(name, self.names, "flexures")) from None
         if isinstance(name, int | np.integer) and not isinstance(name, bool | np.bool_):
             if not 0 <= name < len(self):
                 raise IndexError(

@@ -19,7 +19,6 @@ construction, and again on a model it is asked to serve (a copy) to check that t
 the same elements in the same places.
 """
 
-import difflib
 import hashlib
 import warnings
 from dataclasses import dataclass
@@ -28,7 +27,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from ..mjcf import schema
+from ..mjcf import naming, schema
 from ..mjcf.config import config_from_record, config_sites, config_text, record_from_config
 from ..mjcf.schema import PLUGIN, RECORD
 from ..native import library
@@ -128,7 +127,7 @@ def parse(element, data):
 def _site_id(model, element, name, role, all_sites, others):
     sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
     if sid < 0:
-        close = difflib.get_close_matches(name, [s for s in all_sites if s not in others], n=3, cutoff=0.6)
+        close = naming.close_names(name, [s for s in all_sites if s not in others])
         hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         raise model_error(
             element, f"site '{name}' not found",

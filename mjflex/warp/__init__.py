@@ -244,10 +244,10 @@ def set_parameters(
     Notes
     -----
     The leading size of each parameter must be 1 or the data's ``nworld`` (0 is refused here;
-    the data's is checked at every step, ValueError otherwise; the stops' limits and stiffness must agree among themselves, and
-    a derived stiffness has K's). Parameters not given keep their values. Takes effect at the
-    next step. Which elements run the stops' code is set here: an element without a finite
-    limit in any world skips it at one flag.
+    the data's is checked at every step, ValueError otherwise; the stops' limits and stiffness
+    must agree among themselves, and a derived stiffness has K's). Parameters not given keep
+    their values. Takes effect at the next step. Which elements run the stops' code is set
+    here: an element without a finite limit in any world skips it at one flag.
 
     Examples
     --------

@@ -10,6 +10,7 @@ import numpy as np
 import warp as wp
 
 from ..core import validation
+from ..mjcf import naming
 from ..runtime.divergence import model_name
 from . import _kernels as kn
 from . import _stops, _watch
@@ -210,7 +211,7 @@ class WarpFlexures:
         try:
             return self._index[name]
         except KeyError:
-            raise KeyError(f"no flexure named {name!r}; the elements are {list(self.names)[:10]}") from None
+            raise KeyError(f"no flexure named {name!r}" + naming.suggestion(name, self.names, "elements")) from None
 
     # ------------------------------------------------------------------ parameters
 
