@@ -77,7 +77,7 @@ def test_a_site_typo_gets_the_close_names_not_the_first_ten_of_many():
             mjflex.add_flexure(spec, "e", "L4", "L3", site=typo, K=K)
     with pytest.raises(ValueError, match=r"did you mean \['muscle012_r-P3'"):
         mjflex.add_flexure(spec, "e", "L4", "L3", site="Muscle012_R_P3", K=K)
-    with pytest.raises(ValueError, match=r"'zzz' is not a site of the spec \(none of its 681 sites has a close name\)$"):
+    with pytest.raises(ValueError, match=r"'zzz' is not a site of the spec \(none of its 681 sites has a close name"):
         mjflex.add_flexure(spec, "e", "L4", "L3", site="zzz", K=K)
 
 

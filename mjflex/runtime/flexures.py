@@ -8,9 +8,10 @@ import numpy as np
 from ..core import validation
 from ..core.stops import stop_coordinates
 from ..mjcf import naming
+from ..mjcf.notices import warn_likely_mistake
 from ..mjcf.schema import PLUGIN
 from ..native import library
-from . import registry, tables
+from . import plausibility, registry, tables
 from .contacts import neighbour_message
 from .divergence import Divergence, divergences_of, model_name, step_index
 from .tables import ModelError
@@ -26,6 +27,14 @@ TABLE_DTYPE = np.dtype(
     [("name", object), ("wrench", np.float64, (6,)), ("displacement", np.float64, (6,)),
      ("energy", np.float64), ("power", np.float64), ("enabled", bool), ("method", "U8")]
 )  # fmt: skip
+
+
+def _snapshot(model) -> np.ndarray:
+    """The bytes of the model fields the element reader uses (``mjflex/native/states.h``)."""
+    native = library.lib()
+    out = np.zeros(native.mjfx_snapshot_size(model._address) + 1, np.uint8)
+    native.mjfx_snapshot_take(model._address, out.ctypes.data)
+    return out
 
 
 def _restore(model, copies, enabled, viscous, methods):
@@ -155,8 +164,11 @@ class Flexures:
         self._elements = t.elements  # the C loop's table (one row per element; switches live here)
         self._fingerprints = {}
         self._warn_contacts(model)
+        for message in plausibility.implausible_stiffness(model, t.records, t.elements[: len(self.names)]):
+            warn_likely_mistake(message, stacklevel=2)  # attributed to the caller of Flexures(model)
         self._sleep_policy(model)
         self._fingerprints[model._address] = tables.fingerprint(model)
+        self._snapshot = _snapshot(model)  # what the queries compare flex.model with (an in-place edit since)
         self._watches = {}  # model address -> the native per-mjData divergence watches of a served model (a buffer)
 
     def __reduce__(self):
@@ -401,6 +413,9 @@ class Flexures:
                 f"data belongs to another model: (nq, nv, nbody, nsite) = {sizes}, but flex.model has {expected}; "
                 "pass mujoco.MjData(flex.model), or build a Flexures for the data's model"
             )
+        if not library.lib().mjfx_snapshot_same(m._address, self._snapshot.ctypes.data, 1):
+            self._check_model(m, "flex.model")  # ModelError where an in-place edit changed the elements
+            self._snapshot = _snapshot(m)
 
     def _evaluate(self, data, mode, out6=None, out1=None, qfrc=None, model=None):
         """Evaluate the elements on ``data``; returns -1 or the index of the first non-finite wrench."""

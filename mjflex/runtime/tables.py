@@ -169,7 +169,10 @@ def derive(model) -> Tables:
             _site_id(m, element, s, role, all_sites, {site_a, site_b})
         found.append((element, data, site_a, site_b, record))
         configs.append((element, config_from_record(record, site_a, site_b)))
-    ref = mujoco.MjData(m)
+    try:
+        ref = mujoco.MjData(m)  # runs the plugin instances' init, which may refuse a model edited in place
+    except mujoco.FatalError as exc:
+        raise ModelError(f"its mjflex.flexure instances cannot be read ({exc}; MuJoCo's warning says why)") from None
     try:
         elements, chain, exps, coefs, instances = library.read_table(m, ref, configs)
     except ValueError as exc:
