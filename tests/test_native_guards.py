@@ -67,8 +67,9 @@ def test_lower_above_upper_is_refused_on_every_coordinate_in_every_form(n, i):
     spec = _bodies(planar=n == 3)
     handle = mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], K=K, kind="record")
     text = spec.text("mjflex:disc")
-    limits = ", ".join("null" if v is None else repr(v) for v in lower), ", ".join(
-        "null" if v is None else repr(v) for v in upper
+    limits = (
+        ", ".join("null" if v is None else repr(v) for v in lower),
+        ", ".join("null" if v is None else repr(v) for v in upper),
     )
     text.data = text.data[:-1] + f', "stops": {{"lower": [{limits[0]}], "upper": [{limits[1]}]}}}}'
     with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*lower of {name} \(0.02\) is above upper"):
@@ -95,11 +96,16 @@ def test_a_freed_state_is_no_longer_live():
     native = library.lib()
     native.mjfx_states_lock_live.restype = ctypes.c_void_p
     native.mjfx_states_lock_live.argtypes = [ctypes.c_size_t]
+
+    def live(word):
+        found = native.mjfx_states_lock_live(word)
+        native.mjfx_states_unlock()  # the lock is taken either way
+        return found
+
     m = _two_body()
     d = mujoco.MjData(m)
     word = int(d.plugin_data[0])
-    assert native.mjfx_states_lock_live(word) == word  # d's state: live
-    native.mjfx_states_unlock()
+    assert live(word) == word  # d's state: live
     import pickle
 
     twin = pickle.loads(pickle.dumps(d))
@@ -108,8 +114,7 @@ def test_a_freed_state_is_no_longer_live():
     del d
     gc.collect()
     assert native.mjfx_states_count() == count - 1
-    assert native.mjfx_states_lock_live(word) is None  # freed: not live, whatever address it had
-    native.mjfx_states_unlock()
+    assert live(word) is None  # freed: not live, whatever address it had
     mujoco.mj_resetData(m, twin)  # the reset callback gets the freed word: it must not touch it
     mujoco.mj_step(m, twin, 3)
     assert np.isfinite(twin.qfrc_passive).all()
