@@ -63,6 +63,7 @@ log handler in front of MuJoCo's, which passes every message on unchanged and ra
 ``mjflex.divergence_warnings(False)`` takes it out).
 """
 
+import importlib
 import sys
 
 from . import analysis, core, geometry, mjcf, runtime, variants
@@ -89,8 +90,6 @@ _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.
 
 
 def __getattr__(name):
-    import importlib
-
     if name in _LAZY:
         module, attribute = _LAZY[name]
         return getattr(importlib.import_module(f".app.{module}", __name__), attribute)

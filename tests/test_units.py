@@ -64,6 +64,7 @@ def test_a_disc_given_in_newton_metres_per_degree_is_said_to_be_in_other_units(k
 def test_the_sag_is_the_weight_over_the_stiffness_of_a_hanging_block():
     """A 0.5 kg block hanging from a leaf spring at its centre of mass: the sag is m g / k_z (no moment), checked
     against the closed form; 10 N/mm written as 10 N/m warns (0.49 m of sag for a 2 cm block), 1e4 N/m does not."""
+
     def model(k):
         spec = mujoco.MjSpec.from_string(
             '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'

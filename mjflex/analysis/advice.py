@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 import scipy.linalg
 
+from ..runtime.flexures import Flexures
 from .linearize import check_constraints, jacobians, loads, mass_matrix, null_space, state
 
 _EULER_LIKE = ("Euler", "implicit", "implicitfast")
@@ -221,8 +222,6 @@ def step_advice(model, flex=None, *, integrator=None, keyframe=None, qpos=None, 
     >>> print(f"{advice.limit * 1e3:.2f} ms, take {advice.recommended * 1e3:.2f} ms")
     5.99 ms, take 3.00 ms
     """
-    from ..runtime.flexures import Flexures
-
     check_constraints(constraints)
     if not 0.0 < safety <= 1.0:
         raise ValueError(f"safety={safety!r}: the recommendation's fraction of the limit, in (0, 1]")

@@ -143,7 +143,7 @@ def lib():
     """
     with _LOCK:
         if "lib" not in _STATE:
-            import mjflex_plugin
+            import mjflex_plugin  # late: finds and loads the library on first use (import mjflex works without it)
 
             _STATE["lib"] = _bind(mjflex_plugin.library())  # raises NativeLibraryError (not kept: may be fixed)
         return _STATE["lib"]

@@ -69,7 +69,7 @@ def _chunks(n, executor, chunk_size):
 def _progress_bar(enabled, total):
     if not enabled:
         return None
-    from tqdm.auto import tqdm
+    from tqdm.auto import tqdm  # late: tqdm, only with a progress bar
 
     fmt = "{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.0f} variants [{elapsed}<{remaining}]"
     return tqdm(total=total, desc="mjflex.sweep", smoothing=0.1, bar_format=fmt)
@@ -237,7 +237,7 @@ def sweep(
         if in_process:
             tick = None if bar is None else (lambda k: bar.update(k / blocks))
             if on_warp:
-                from . import warp
+                from . import warp  # late: imports warp (the warp extra), for its executor only
 
                 outcomes, stats = warp.run_chunk(plan, list(enumerate(g.rows)), tick, chunk_size or warp.PART_SIZE)
             else:
