@@ -78,7 +78,7 @@ __version__ = "1.0.0"
 
 sys.modules[f"{__name__}.units"] = units  # import mjflex.units: the same module as mjflex.core.units
 
-#: The names of the MuJoCo layers, in one sorted list (as ``mjflex.mj.__all__`` gave them before the layers split).
+#: The names of the MuJoCo layers, in one sorted list (as the old flat layer ``mjflex.mj`` listed them).
 _LAYERS = sorted([*mjcf.__all__, *runtime.__all__, *analysis.__all__, *variants.__all__])
 __all__ = ["geometry", *core.__all__, *_LAYERS]  # mjflex.units is a module of constants (reference: modules)
 

@@ -155,7 +155,8 @@ def add_flexure(
         native library (built by ``pip install``; RuntimeError saying how otherwise).
         ``"record"``: a text record, whose forces :class:`mjflex.Flexures` adds through
         MuJoCo's process-wide ``mjcb_passive`` while installed (``with flex:``); it has run-time
-        switches (``set_method`` & co.) and needs no native library. Both carry the same
+        switches (``set_method`` & co.); writing it needs no native library, but its forces
+        do, as every force (:class:`mjflex.Flexures` computes them in C). Both carry the same
         parameters, and ``python -m mjflex convert`` turns one into the other losslessly.
 
     Returns

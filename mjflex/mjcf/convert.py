@@ -109,7 +109,7 @@ def attach(parent, child, *, prefix="", suffix="", **where):
 def records_to_plugins(spec, names=None) -> list[str]:
     """Turn text-record elements of ``spec`` (all, or ``names``) into ``mjflex.flexure`` instances, in place.
 
-    The parameters carry over exactly (:func:`mjflex.mjcf.config_from_record`), the sites
+    The parameters carry over exactly (:func:`mjflex.mjcf.config.config_from_record`), the sites
     stay where they are, and the trees the elements join get ``sleep="never"``
     (:func:`keep_joined_trees_awake`). Returns the converted elements' names.
     """

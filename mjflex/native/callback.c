@@ -1,5 +1,5 @@
 // The mjcb_passive provider for text-record models: one process-global dispatcher and a
-// registry of the models it serves (mjflex/mj/_callback.py fills it).
+// registry of the models it serves (mjflex/runtime/registry.py fills it).
 //
 // Rules (the registry semantics mjflex's tests guard):
 // * A slot is in use when its model pointer is non-NULL. Python fills a slot's fields before it

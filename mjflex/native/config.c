@@ -463,7 +463,7 @@ static int parse_terms(const char* name, const char* const* values, int method, 
 static const char* const STOP_COORDINATES[2][6] = {{"rx", "ry", "rz", "x", "y", "z"}, {"theta", "x", "y"}};
 static const char* const STOP_KEYS[2] = {"stop_lower", "stop_upper"};
 
-// The end stops (stop_lower, stop_upper, stop_stiffness; the rules of mjflex.mj.stops) into e: limits and
+// The end stops (stop_lower, stop_upper, stop_stiffness; the rules of mjflex.mjcf.stops) into e: limits and
 // stiffness on the stop coordinates (planar ones embedded at PLANAR_INDEX), stiffness 0 and limits -inf /
 // +inf where a coordinate has no stop; e->stops when any limit is finite. K6: the element's (embedded) K.
 static int parse_stops(const char* name, const char* const* values, int planar, const double K6[36], mjfxElement* e,

@@ -84,7 +84,7 @@ void mjfx_quat_from_rot(const double R[9], double q[4]);
 void mjfx_quat_mul(const double a[4], const double b[4], double out[4]);
 void mjfx_rot_from_quat(const double q[4], double R[9]);
 
-// Series coefficients used near zero angle (for a test against mjflex.core._series).
+// Series coefficients used near zero angle (for a test against mjflex.core.series).
 int mjfx_series_coefficients(double* c, double* g, int n);
 
 #endif  // MJFLEX_NATIVE_FLEXURE_MATH_H_
