@@ -121,3 +121,48 @@ def test_every_mentioned_file_exists():
                     if "NAME" not in named and not os.path.exists(os.path.join(ROOT, named)):
                         missing.append(f"{path}:{number}: {named}")
     assert not missing, "\n".join(missing)
+
+
+# ----------------------------------------------------------------------------- one meaning per word
+
+
+def test_the_renamed_words_warn_once_and_give_the_same_answers(monkeypatch):
+    """A variant is a mjflex.Variant (what study(variants=...) compares), so sweep's model family is recipe=; a
+    "table" is the element table (Flexures.element_table, mjflex.warp.element_table), so the per-element results
+    are Flexures.results. The old names still work, warn once (DeprecationWarning naming the new) and agree."""
+    import mujoco
+    import numpy as np
+
+    import mjflex
+    from mjflex.app.sweep import api
+    from mjflex.runtime import flexures
+    from tests.sweep_recipes import hinge_state, scale_hinge
+
+    monkeypatch.setattr(api, "_WARNED", set())
+    monkeypatch.setattr(flexures, "_WARNED", set())
+    recipe = mjflex.Recipe("models/two_body.xml", scale_hinge, keyframe="swing")
+    grid = {"k_scale": [0.5, 2.0]}
+    new = mjflex.sweep(recipe=recipe, grid=grid, duration=0.001, observe=hinge_state, progress=False)
+    with pytest.warns(DeprecationWarning, match=r"sweep\(variants=\.\.\.\) is deprecated; use mjflex\.sweep\(recipe="):
+        old = mjflex.sweep(variants=recipe, grid=grid, duration=0.001, observe=hinge_state, progress=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        again = mjflex.sweep(variants=recipe, grid=grid, duration=0.001, observe=hinge_state, progress=False)
+    for ds in (old, again):
+        assert list(ds.data_vars) == list(new.data_vars)
+        for name in new.data_vars:
+            np.testing.assert_array_equal(ds[name].values, new[name].values)
+    with pytest.raises(TypeError, match="both recipe and variants"):
+        mjflex.sweep(recipe, variants=recipe)
+    model = mujoco.MjModel.from_xml_path("models/two_body.xml")
+    flex = mjflex.Flexures(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    with pytest.warns(DeprecationWarning, match=r"Flexures\.table is deprecated; use Flexures\.results"):
+        table = flex.table(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        flex.table(data)
+    results = flex.results(data)
+    assert table.dtype == results.dtype and all(np.array_equal(table[f], results[f]) for f in ("wrench", "energy"))

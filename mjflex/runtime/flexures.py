@@ -22,11 +22,14 @@ _SLEEP = mujoco.mjtSleepPolicy
 _SLEEPY = {int(_SLEEP.mjSLEEP_ALLOWED), int(_SLEEP.mjSLEEP_INIT)}  # the user's explicit choices
 _AUTO = {int(_SLEEP.mjSLEEP_AUTO), int(_SLEEP.mjSLEEP_AUTO_ALLOWED)}  # the compiler's
 
-#: dtype of :meth:`Flexures.table`: one row per element.
-TABLE_DTYPE = np.dtype(
+#: dtype of :meth:`Flexures.results`: one row per element.
+RESULTS_DTYPE = np.dtype(
     [("name", object), ("wrench", np.float64, (6,)), ("displacement", np.float64, (6,)),
      ("energy", np.float64), ("power", np.float64), ("enabled", bool), ("method", "U8")]
 )  # fmt: skip
+
+
+_WARNED = set()  # the deprecated names used (each warns once)
 
 
 def _snapshot(model) -> np.ndarray:
@@ -60,6 +63,17 @@ class Flexures:
         ``mjflex:E``), instances of the engine plugin ``mjflex.flexure``, or both (text records
         come first in the per-element arrays). All elements are parsed and validated here,
         once; a malformed one raises :class:`ModelError`.
+
+    Attributes
+    ----------
+    model : mujoco.MjModel
+        The model read (its elements are served on it; copies through :meth:`serve`).
+    names : tuple of str
+        The elements' names, in row order (text records first, then plugin instances):
+        every per-element array follows it (:meth:`index` finds a row).
+    records : list of mjflex.FlexureRecord
+        Each element's parameters as written in the model, in row order: ``K``, ``B`` (element
+        frame, SI), ``method``, ``stops``, polynomial ``terms``, ``site``, ``source``, ...
 
     Notes
     -----
@@ -106,7 +120,7 @@ class Flexures:
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
     the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
-    discrete) and ``h < 2 sqrt(2) / omega_max`` (RK4, 2.83 / omega_max); see :func:`mjflex.normal_modes`.
+    discrete) and ``h < 2 sqrt(2) / omega_max`` (RK4, 2.83 / omega_max); :func:`mjflex.step_advice` gives it.
     Convergence is first order for the single-step integrators and fourth order for RK4
     (tested). Under ``discrete`` the velocity-stepping solve treats them like any applied force:
     first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
@@ -519,15 +533,16 @@ class Flexures:
         p_b = data.site_xpos[el["site_b"]] - np.einsum("nij,nj->ni", R_b, el["p0"])
         return stop_coordinates(R_a, p_a, R_b, p_b, check=False).reshape(len(self), 6)
 
-    def table(self, data) -> np.ndarray:
-        """Every per-element result in one labelled table: a structured array, one row per element.
+    def results(self, data) -> np.ndarray:
+        """Every per-element result at ``data``'s state in one labelled array, one row per element.
 
-        Fields (dtype ``TABLE_DTYPE``): ``name``; ``wrench`` (6,) as :meth:`wrenches`;
+        (Its name was ``table`` until 1.0: "table" is the element table, :attr:`element_table`.)
+        Fields (dtype ``RESULTS_DTYPE``): ``name``; ``wrench`` (6,) as :meth:`wrenches`;
         ``displacement`` (6,) as :meth:`displacements`; ``energy`` [J]; ``power`` [W];
         ``enabled``; ``method``. Select by name, e.g. ``t[t["name"] == "hinge"]["energy"]``;
         ``pandas.DataFrame({f: list(t[f]) for f in t.dtype.names})`` makes a data frame.
         """
-        out = np.zeros(len(self), dtype=TABLE_DTYPE)
+        out = np.zeros(len(self), dtype=RESULTS_DTYPE)
         out["name"] = self.names
         out["wrench"] = self.wrenches(data)
         out["displacement"] = self.displacements(data)
@@ -535,6 +550,13 @@ class Flexures:
         out["power"] = self.dissipation_powers(data)
         out["enabled"], out["method"] = self.enabled, self.methods
         return out
+
+    def table(self, data) -> np.ndarray:
+        """Deprecated: :meth:`results` (a "table" is the element table, :attr:`element_table`)."""
+        if "table" not in _WARNED:
+            _WARNED.add("table")
+            warnings.warn("Flexures.table is deprecated; use Flexures.results", DeprecationWarning, stacklevel=2)
+        return self.results(data)
 
     # ------------------------------------------------------------------ element data
 

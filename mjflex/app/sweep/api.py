@@ -113,8 +113,29 @@ def _run_executor(executor, plan, grid, chunk_size, bar):
     return outcomes, len(chunks), stats
 
 
+_WARNED = set()  # deprecated argument names used (each warns once)
+
+
+def _renamed_recipe(recipe, renamed):
+    """``recipe``, or what was given as ``variants=`` (its name until 1.0: warns once); TypeError otherwise."""
+    unknown = set(renamed) - {"variants"}
+    if unknown:
+        raise TypeError(f"sweep() got unexpected keyword arguments {sorted(unknown)}")
+    if "variants" in renamed:
+        if recipe is not None:
+            raise TypeError("sweep() got both recipe and variants (its old name); give recipe")
+        if "variants" not in _WARNED:
+            _WARNED.add("variants")
+            warnings.warn("mjflex.sweep(variants=...) is deprecated; use mjflex.sweep(recipe=...)", DeprecationWarning,
+                          stacklevel=3)  # fmt: skip
+        recipe = renamed["variants"]
+    if recipe is None:
+        raise TypeError("sweep() needs the model family: a mjflex.Recipe, a model file or MJCF text (recipe=)")
+    return recipe
+
+
 def sweep(
-    variants,
+    recipe=None,
     grid=None,
     duration: float = 0.0,
     observe: Callable | None = None,
@@ -124,14 +145,17 @@ def sweep(
     *,
     samples: int | None = None,
     chunk_size: int | None = None,
+    **renamed,
 ):
     """Simulate every variant of a model family over a grid of parameters and observe each.
 
     Parameters
     ----------
-    variants : Recipe, str or os.PathLike
+    recipe : Recipe, str or os.PathLike
         The model family: a :class:`mjflex.Recipe` (source model + module-level
         ``edit(spec, **params)``), or a model file / MJCF text alone (then ``grid`` is empty).
+        (Named ``variants`` until 1.0, which still works and warns once: in mjflex a variant is
+        a :class:`mjflex.Variant`, what ``mjflex.study(variants=...)`` compares.)
     grid : dict or list of dict, optional
         A dict of 1-D value arrays varies every combination (the result has one dimension
         per parameter, in this order); a list of dicts gives explicit variants (one dimension
@@ -214,7 +238,8 @@ def sweep(
     True
     """
     start = time.perf_counter()
-    recipe = variants if isinstance(variants, Recipe) else Recipe(variants)
+    recipe = _renamed_recipe(recipe, renamed)
+    recipe = recipe if isinstance(recipe, Recipe) else Recipe(recipe)
     _check_args(duration, samples, threads, chunk_size, observe)
     g = make_grid(grid)
     recipe.check_parameters(g.names)
