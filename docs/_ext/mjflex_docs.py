@@ -38,15 +38,20 @@ logger = logging.getLogger(__name__)
 HERE = os.path.dirname(os.path.abspath(__file__))
 API_PAGE = os.path.join(HERE, "..", "reference", "api.rst")
 
-#: Sections of the API page, by the module that defines an object (first match wins).
+#: The names a model with elements starts from: the API page opens with them.
+START = ("mjflex.add_flexure", "mjflex.make_compliant", "mjflex.Flexures")
+START_TITLE = ("Start here", "Add an element to a spec, or make a body of a robot compliant; then read the compiled "
+               "model's elements and forces.")  # fmt: skip
+#: Sections of the API page after ``START``, by the module that defines an object (first match wins): from what a
+#: user calls to the low-level screw theory.
 SECTIONS = (
-    ("mjflex.core", "Screw-theory core", "Twists, dual quaternions, element wrenches and potentials (no MuJoCo)."),
     ("mjflex.mjcf", "Elements in MJCF and MjSpec", "Adding, editing and converting elements in a spec or a file."),
     ("mjflex.runtime", "The compiled model", "The passive-force provider, divergence reports, file conversion."),
     ("mjflex.analysis", "Linearization", "Statics, modes, damping from ratios and step advice at an operating pose."),
     ("mjflex.variants", "Model variants", "Compliant parts, reduced models and MuJoCo-native alternatives."),
-    ("mjflex.geometry", "Stiffness from geometry", "Notch hinges, leaf springs and rods (no MuJoCo)."),
     ("mjflex.app", "Studies and sweeps", "Speed against accuracy, and sweeps over model variants."),
+    ("mjflex.geometry", "Stiffness from geometry", "Notch hinges, leaf springs and rods (no MuJoCo)."),
+    ("mjflex.core", "Screw-theory core", "Twists, dual quaternions, element wrenches and potentials (no MuJoCo)."),
     (
         "mjflex.warp",
         "MuJoCo Warp",
@@ -129,13 +134,16 @@ def public_members(cls):
 
 
 def sections():
-    """``[(title, intro, [qualified names])]`` of the API page."""
+    """``[(title, intro, [qualified names])]`` of the API page: ``START`` first, then ``SECTIONS``."""
     grouped = {title: [] for _, title, _ in SECTIONS}
     for qualified in public_names():
+        if qualified in START:
+            continue
         module = getattr(_resolve(qualified), "__module__", "") or ""
         title = next(t for prefix, t, _ in SECTIONS if module.startswith(prefix))
         grouped[title].append(qualified)
-    return [(title, intro, grouped[title]) for _, title, intro in SECTIONS if grouped[title]]
+    first = (*START_TITLE, [name for name in START if name in public_names()])
+    return [first, *((title, intro, grouped[title]) for _, title, intro in SECTIONS if grouped[title])]
 
 
 def api_page():
@@ -374,6 +382,9 @@ def check_leaks(app, exception):
 
 
 def setup(app):
+    from pygments.lexers.special import TextLexer
+
+    app.add_lexer("output", TextLexer)  # what a code block prints: a fence of language "output" right after it
     app.connect("config-inited", write_api_page)  # before Sphinx lists the sources and autosummary reads them
     app.connect("missing-reference", resolve_alias)
     app.connect("build-finished", check_leaks)
