@@ -12,6 +12,7 @@ import glob
 import html as html_text
 import importlib.util
 import inspect
+import io
 import os
 import re
 import subprocess
@@ -207,7 +208,7 @@ def test_member_links_resolve(site):
     """A reference to a member (``{meth}`mjflex.Flexures.table```) is a link to its entry, not plain code."""
     with open(os.path.join(site, "reference", "provider.html"), encoding="utf-8") as f:
         html = f.read()
-    for member in ("mjflex.Flexures.table", "mjflex.Flexures.serve", "mjflex.Flexures.divergences"):
+    for member in ("mjflex.Flexures.results", "mjflex.Flexures.serve", "mjflex.Flexures.divergences"):
         assert f'href="api/mjflex.Flexures.html#{member}"' in html, member
 
 
@@ -638,6 +639,28 @@ def test_a_comment_below_a_print_is_checked_against_what_it_printed():
     assert len(codeblocks.claim_problems("b", stale, out)) == 3
 
 
+def test_output_blocks_are_what_the_blocks_print(tmp_path):
+    """A python block that prints shows what it prints in an ``output`` block after it: the parser pairs them, a
+    block that prints without one is a problem, and a page whose output block no longer matches fails (a number
+    within one unit of its last digit passes; ``...`` stands for lines, ``…`` for text within a line)."""
+    page = (
+        "```python\nimport math\nprint(f'pi {math.pi:.4f}')\nprint('done')\n```\n\n```output\npi 3.1416\ndone\n```\n\n"
+        "```python\nprint('t = 0.25 s, took', 0.123456, 's')\n```\n\n```output\nt = 0.25 s, took … s\n```\n\n"
+        "```python\nfor k in range(3):\n    print(k)\nprint('end')\n```\n\n```output\n0\n...\nend\n```\n"
+    )
+    found = codeblocks.blocks("page.md", page)
+    python = [b for b in found if b.language == "python"]
+    assert [b.output for b in python] == ["pi 3.1416\ndone\n", "t = 0.25 s, took … s\n", "0\n...\nend\n"]
+    assert codeblocks.run_page(found, codeblocks.workspace(tmp_path / "a")) == []
+    stale = page.replace("pi 3.1416", "pi 3.1418").replace("\nend\n```", "\nstop\n```")
+    failures = codeblocks.run_page(codeblocks.blocks("page.md", stale), codeblocks.workspace(tmp_path / "b"))
+    assert len(failures) == 2 and "'pi 3.1418'" in failures[0] and "'stop'" in failures[1], failures
+    assert codeblocks.output_mismatches("b", "pi 3.1415\n", "pi 3.14159\n") == []  # within one unit of its last digit
+    assert codeblocks.output_mismatches("b", "one\n", "one\ntwo\n") != []  # a line the block does not show
+    bare = codeblocks.blocks("page.md", "```python\nprint(1)\n```\n")
+    assert "prints, but no ```output block after it" in codeblocks.problems(bare[0])[0]
+
+
 def test_a_block_that_diverges_fails(tmp_path):
     """The "Build with plugin elements" block as it was: MuJoCo's default 2 ms step on a 1.9 kHz element. It exits
     with status 0 and prints an energy of 0 J (MuJoCo reset the diverged state); the check fails it."""
@@ -700,11 +723,19 @@ def _run_in_process(page, tmp_path, monkeypatch):
     folder = codeblocks.workspace(tmp_path)
     monkeypatch.chdir(folder)
     namespace = {"__name__": "__main__"}
+    mismatches = []
     with warnings.catch_warnings(record=True) as uncaught:
         warnings.simplefilter("default")
-        exec(compile("".join(b.code for b in python), page, "exec"), namespace)
+        for block in python:  # one at a time: what each prints is compared with its output block
+            printed = io.StringIO()
+            with contextlib.redirect_stdout(printed):
+                exec(compile(block.code, block.where(), "exec"), namespace)
+            print(printed.getvalue(), end="")
+            if block.output is not None:
+                mismatches += codeblocks.output_mismatches(block.where(), block.output, printed.getvalue())
     assert not [str(w.message) for w in uncaught], f"{page}: warnings the page does not catch"
     assert codeblocks.output_problems(page, "", "", folder) == []  # MuJoCo's log: nothing written
+    assert not mismatches, "\n".join(mismatches)
     return namespace
 
 
