@@ -19,7 +19,8 @@ ROOT = os.path.join(os.path.dirname(__file__), "..")
 #: ``mjflex.a.b`` not inside a longer dotted name or a path.
 NAME = re.compile(r"(?<![\w./-])mjflex(?:\.[A-Za-z_]\w*)+")
 #: Names that are not Python names: the engine plugin's.
-NOT_PYTHON = {"mjflex.flexure": "the engine plugin's name (MJCF's <plugin plugin=...>)"}
+NOT_PYTHON = {"mjflex.flexure": "the engine plugin's name (MJCF's <plugin plugin=...>)",
+              "mjflex.css": "the site's style sheet (docs/_static)"}  # fmt: skip
 #: Placeholders in prose (``mjflex.NAME``, ``import mjflex.mj.MODULE``).
 PLACEHOLDERS = {"NAME", "MODULE", "X"}
 #: Where an old name is written on purpose: the alias itself and the record of the renames.
