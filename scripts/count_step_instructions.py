@@ -18,7 +18,9 @@ count is what any MuJoCo program pays. Rows:
 * **stops, engaged** (``--stops``): every element given stops at zero on every coordinate
   (the two-sided range ``[0, 0]``), so every stop acts at every step, with a stiffness of 1e-9
   (N m/rad, N/m) so that the motion stays the model's (a hundred times ``K`` would need a step
-  ten times smaller). The stop code has no branch on engagement: both rows should cost the same.
+  ten times smaller). The stop code has no branch on engagement: both rows should cost the same;
+* **stops, engaged, damped** (``--stops``): the same stops with a damping of 1e-9 (N m s/rad, N s/m) on
+  every coordinate: the cost of damped stops (the relative velocity and the stops' rates, their clamp).
 
 A run that diverges (MuJoCo's bad-state warnings, or a velocity beyond 1e9) is refused: its count
 would not be a step's cost.
@@ -68,7 +70,7 @@ print("diverged" if bad or not abs(data.qvel).max() < 1e9 else "finite")
 """
 
 
-def _with_stops(path, lower, upper, out, stiffness=None):
+def _with_stops(path, lower, upper, out, stiffness=None, damping=None):
     """The model file at ``path`` with stops ``[lower, upper]`` on every coordinate of every plugin element."""
     spec = mujoco.MjSpec.from_file(path)
     for plugin in spec.plugins:
@@ -80,6 +82,8 @@ def _with_stops(path, lower, upper, out, stiffness=None):
         config["stop_lower"], config["stop_upper"] = " ".join([repr(lower)] * n), " ".join([repr(upper)] * n)
         if stiffness is not None:
             config["stop_stiffness"] = repr(stiffness)
+        if damping is not None:
+            config["stop_damping"] = repr(damping)
         plugin.config = config
     with open(out, "w") as f:
         f.write(spec.to_xml())
@@ -135,14 +139,16 @@ def main(argv=None):
             cases.append(("stops, free", _with_stops(args.model, -1.0, 1.0, os.path.join(tmp, "free.xml")), None))
             on = _with_stops(args.model, 0.0, 0.0, os.path.join(tmp, "on.xml"), stiffness=1e-9)
             cases.append(("stops, engaged", on, None))
+            damped = _with_stops(args.model, 0.0, 0.0, os.path.join(tmp, "damped.xml"), stiffness=1e-9, damping=1e-9)
+            cases.append(("stops, engaged, damped", damped, None))
         for name, path, pythonpath in cases:
             total = count(path, args.steps, pythonpath)
             rows.append({"case": name, "instructions": total, "per_step": total / args.steps})
-            print(f"{name:28s} {total / args.steps:14,.0f} instructions per step", flush=True)
+            print(f"{name:30s} {total / args.steps:14,.0f} instructions per step", flush=True)
     reference = next(r for r in rows if r["case"] == "model")["per_step"]
     for r in rows:
         r["ratio_to_model"] = r["per_step"] / reference
-    print("\n" + "\n".join(f"{r['case']:28s} x {r['ratio_to_model']:.5f}" for r in rows))
+    print("\n" + "\n".join(f"{r['case']:30s} x {r['ratio_to_model']:.5f}" for r in rows))
     model = mujoco.MjModel.from_xml_path(args.model)
     payload = {"model": os.path.relpath(args.model, ROOT), "steps": args.steps, "rows": rows,
                "elements": _elements(args.model), "integrator": mujoco.mjtIntegrator(model.opt.integrator).name,

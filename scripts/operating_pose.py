@@ -4,28 +4,27 @@ Usage::
 
     python scripts/operating_pose.py [--json out/operating_pose.json]
 
-Two models, taken from where they are defined (not copied):
+Three models, taken from where they are defined (not copied), each at its operating pose (its static equilibrium
+under its load and actuator commands), for Euler, RK4 and implicitfast:
 
-* **the servo-held arm** of ``tests/test_operating_pose.py`` (``tests/robots.py``: ``servo_held_arm``, its
-  link3 on an element soft in bending and torsion, held by the position servo of the joint it replaced).
-  For Euler and RK4, :func:`mjflex.step_advice` (``arm_advice``) at the operating pose (the static
-  equilibrium of keyframe ``level``, with gravity, the servos' stiffness and the springs), without the
-  servos' stiffness, and at the unloaded ``qpos0``; and the **measured stable step**: the largest step at
-  which a run of ``STEPS`` steps from the operating pose, knocked on every dof, does not diverge
-  (``tests/robots.py``'s ``diverges``, the test's own check: MuJoCo's bad-acceleration warning or a speed of
-  1e3), bisected to 0.1 % (``scripts/step_limits.py``'s ``bisect``), and whether such a run at the step
-  recommended without the servos diverges.
-* **the spine** of ``docs/tutorials/plot_06_spine.py``, run here as it is: its model (L3 replaced by a disc
-  with stops; MuJoCo's default, soft ``solref`` on its equality constraints), its push on the torso and its
-  pushed equilibrium (a stop engaged). The advice at ``qpos0`` and at the pushed pose, as the tutorial asks
-  for it (the equalities projected as rigid, the default); the measured stable steps from both poses, as for
-  the arm (the push held); and whether a run from the pushed pose diverges at the step recommended at
-  ``qpos0``.
+* **servo**: the servo-held arm of the tests (``tests/robots.py``: ``servo_held_arm``, its link3 on an element soft
+  in bending and torsion, held by the position servo of the joint it replaced), keyframe ``level``; the advice
+  also without the servos' stiffness and at the unloaded ``qpos0`` (``arm_advice``);
+* **muscles**: a forearm on a compliant elbow held by two co-contracting muscles and a damper (``muscle_elbow``,
+  ``ctrl = ELBOW_CTRL``); the advice also without the actuators (their force-velocity damping left out);
+* **spine**: the spine of ``docs/tutorials/plot_06_spine.py``, run as it is: L3 replaced by a disc with stops,
+  MuJoCo's default, soft ``solref`` on its equality constraints, pushed on the torso so that a stop is engaged; the
+  top frequency with the equalities as MuJoCo applies them and projected as rigid (what the advice took before).
 
-Nothing is timed: the JSON is the same on every run (the advice to round-off; a measured step to its
-bisection's 0.1 %). ``tests/test_operating_pose.py`` recomputes the advice (``figures(measure=False)``) and
-compares it with the recorded JSON. Record with ``MJFLEX_RECORD=1`` (scripts/_bench.py), then render the
-pages with ``python scripts/results_blocks.py``.
+:func:`mjflex.step_advice` at the pose, and the **measured stable step**: the largest step at which two runs of
+``STEPS`` steps from the pose, one knocked by 1e-6 on every dof, do not move apart 1000-fold (``tests/robots.py``'s
+``knock_grows``, the test's own check), bisected to 0.1 % (``scripts/step_limits.py``'s ``bisect``); and whether a
+knocked run grows at the advice that leaves something out.
+
+Nothing is timed: the JSON is the same on every run (the advice to its bisection's 0.1 %; a measured step to its
+bisection's 0.1 %). ``tests/test_operating_pose.py`` recomputes the advice (``figures(measure=False)``) and compares it
+with the recorded JSON. Record with ``MJFLEX_RECORD=1`` (scripts/_bench.py), then render the pages with
+``python scripts/results_blocks.py``.
 """
 
 import argparse
@@ -34,25 +33,28 @@ import io
 import os
 import runpy
 import sys
+import warnings
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # _bench, step_limits: also imported by path
-sys.path.append(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tests/robots.py (the test's arm)
+sys.path.append(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tests/robots.py (the test's models)
 import mujoco
 import numpy as np
 from _bench import write_json
 from step_limits import RTOL, bisect
 
 import mjflex
-from tests.robots import arm_advice, diverges, servo_held_arm
+from mjflex.analysis.linearize import NotAtRestWarning
+from tests.robots import ELBOW_CTRL, GROWTH, arm_advice, knock_grows, muscle_elbow, servo_held_arm
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TUTORIAL = os.path.join(ROOT, "docs", "tutorials", "plot_06_spine.py")
-STEPS = 3000  # steps of a run that checks a time step (tests/robots.py diverges' default)
+STEPS = 3000  # steps of a run that checks a time step (tests/robots.py knock_grows' default)
+INTEGRATORS = ("Euler", "RK4", "implicitfast")
 
 
 def advice_record(advice):
-    """The figures of a :class:`mjflex.StepAdvice`: limit and recommendation [s], the limiting mode [Hz] and its
-    damping ratio, the stiffest mode [Hz]."""
+    """The figures of a :class:`mjflex.StepAdvice`: limit and recommendation [s], the limiting eigenvalue's
+    frequency [Hz] and damping ratio, the stiffest mode [Hz]."""
     return {
         "integrator": advice.integrator,
         "limit_s": float(advice.limit),
@@ -64,38 +66,70 @@ def advice_record(advice):
     }
 
 
-def measured_stable_step(runs_away, guess):
-    """``{"largest_stable_s", "smallest_unstable_s"}``: the bisection bracket of the steps at which ``runs_away(h)``
-    is False, from ``guess`` (factors of 1.25, then to ``RTOL``)."""
-    lo, hi = bisect(lambda h: not runs_away(h), guess)
+def measured_stable_step(grows, guess):
+    """``{"largest_stable_s", "smallest_unstable_s"}``: the bisection bracket of the steps at which ``grows(h)`` is
+    False, from ``guess`` (factors of 1.25, then to ``RTOL``)."""
+    lo, hi = bisect(lambda h: not grows(h), guess)
     return {"largest_stable_s": float(lo), "smallest_unstable_s": float(hi)}
 
 
-def arm(measure=True):
-    """The servo-held arm's advice for Euler and RK4 and, with ``measure``, the runs that check it."""
+def _quiet_advice(*args, **kwargs):
+    """step_advice of a state that is not at rest on purpose (a "without" what-if): its warning is not repeated."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotAtRestWarning)
+        return mjflex.step_advice(*args, **kwargs)
+
+
+def _entry(advice, blind, grows, measure):
+    """One integrator's entry: the advice, the advice without something, and the runs that check both."""
+    entry = {"advice": advice_record(advice), "blind": {k: advice_record(a) for k, a in blind.items()}}
+    if measure:
+        entry["measured"] = measured_stable_step(grows, advice.limit)
+        entry["blind_grows"] = {k: bool(grows(a.limit)) for k, a in blind.items()}
+    return entry
+
+
+def servo(measure=True):
+    """The servo-held arm, per integrator."""
     out = {}
-    for integrator in ("Euler", "RK4"):
+    for integrator in INTEGRATORS:
         model, flex, qpos = servo_held_arm(integrator)
-        servo = model.actuator("a3")
-        out[integrator] = entry = {name: advice_record(a) for name, a in arm_advice(model, flex, qpos).items()}
-        entry["servo"] = {"actuator": servo.name, "joint": model.joint(servo.trnid[0]).name,
-                          "kp": float(-servo.biasprm[1])}  # fmt: skip
-        if measure:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NotAtRestWarning)
+            advice = arm_advice(model, flex, qpos)
 
-            def runs_away(h, model=model, qpos=qpos):
-                return diverges(model, qpos, h, steps=STEPS, keyframe="level")
+        def grows(h, model=model, qpos=qpos):
+            return knock_grows(model, qpos, h, STEPS, keyframe="level")
 
-            entry["measured"] = measured_stable_step(runs_away, entry["operating"]["limit_s"])
-            entry["without_servo_recommended_diverges"] = runs_away(entry["without_servo"]["recommended_s"])
+        out[integrator] = _entry(advice.pop("operating"), advice, grows, measure)
+    a3 = model.actuator("a3")
+    out["servo"] = {"actuator": a3.name, "joint": model.joint(a3.trnid[0]).name, "kp": float(-a3.biasprm[1])}
+    return out
+
+
+def muscles(measure=True):
+    """The muscle-held elbow, per integrator."""
+    out = {}
+    for integrator in INTEGRATORS:
+        model, flex, qpos = muscle_elbow(integrator)
+        advice = mjflex.step_advice(model, flex, qpos=qpos, ctrl=ELBOW_CTRL)
+        blind = {"without_actuators": _quiet_advice(model, flex, qpos=qpos, ctrl=ELBOW_CTRL, actuator_stiffness=False)}
+
+        def grows(h, model=model, qpos=qpos):
+            return knock_grows(model, qpos, h, STEPS, ctrl=ELBOW_CTRL)
+
+        out[integrator] = _entry(advice, blind, grows, measure)
+    out["actuators"] = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i): float(c)
+                        for i, c in enumerate(ELBOW_CTRL)}  # fmt: skip
     return out
 
 
 def tutorial_namespace(path=TUTORIAL):
     """The spine tutorial, run as a script (its printed output kept out of this one's): its global names."""
-    import matplotlib
+    import matplotlib  # late: the plotting backend is chosen before pyplot loads, only when the spine is run
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # late: after the backend
 
     with contextlib.redirect_stdout(io.StringIO()):
         namespace = runpy.run_path(path, run_name="__main__")
@@ -119,57 +153,58 @@ def engaged_stops(model, flex, qpos, element=0):
 
 
 def spine(measure=True):
-    """The tutorial spine's advice at qpos0 and at the pushed pose and, with ``measure``, the runs that check it."""
+    """The tutorial spine at its pushed pose, per integrator (its own is RK4), and its top frequencies."""
     ns = tutorial_namespace()
     model, flex, push, loaded = ns["model"], ns["flex"], ns["push"], ns["loaded"]
-    unloaded, pushed = ns["where"].values()  # the tutorial's two states: {} and {qpos, xfrc_applied}
+    pushed = {"qpos": loaded, "xfrc_applied": push}
+    with warnings.catch_warnings():  # rigid equalities leave the joint limits' forces out: not at rest, said
+        warnings.simplefilter("ignore", NotAtRestWarning)
+        modes = {c: float(mjflex.normal_modes(model, flex, constraints=c, joint_springs=True, gravity=True,
+                                              **pushed)[0].max()) for c in ("spring", "project")}  # fmt: skip
     out = {
         "element": flex.names[0],
         "push_n": float(np.linalg.norm(push[ns["torso"], :3])),
         "push_body": model.body(ns["torso"]).name,
         "engaged_at_pushed_pose": engaged_stops(model, flex, loaded),
         "equality_solref": sorted({tuple(map(float, r)) for r in model.eq_solref}),
-        "unloaded": advice_record(mjflex.step_advice(model, flex, **unloaded)),
-        "pushed": advice_record(mjflex.step_advice(model, flex, **pushed)),
+        "file_integrator": mujoco.mjtIntegrator(model.opt.integrator).name[6:],
+        "stiffest_frequency_hz": {"soft": modes["spring"], "rigid": modes["project"]},
     }
-    if measure:
+    own = model.opt.integrator
+    try:
+        for integrator in INTEGRATORS:
+            model.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+            advice = mjflex.step_advice(model, flex, **pushed)
 
-        def runs_away(h, qpos=loaded, load=push):
-            return diverges(model, qpos, h, steps=STEPS, xfrc_applied=load)
+            def grows(h):
+                return knock_grows(model, loaded, h, STEPS, xfrc_applied=push)
 
-        out["measured"] = measured_stable_step(runs_away, out["pushed"]["limit_s"])
-        out["measured_unloaded"] = measured_stable_step(lambda h: runs_away(h, model.qpos0, None),
-                                                        out["unloaded"]["limit_s"])  # fmt: skip
-        out["unloaded_recommended_diverges"] = runs_away(out["unloaded"]["recommended_s"])
+            out[integrator] = _entry(advice, {}, grows, measure)
+    finally:
+        model.opt.integrator = own
     return out
 
 
 def figures(measure=True):
     """Everything the JSON records but its command, date and machine (``measure=False``: the advice alone)."""
-    return {"arm": arm(measure), "spine": spine(measure), "run_steps": STEPS, "rtol": RTOL,
-            "knock": "1e-2 times a standard normal velocity on every dof (seed 0)"}  # fmt: skip
+    return {"servo": servo(measure), "muscles": muscles(measure), "spine": spine(measure), "run_steps": STEPS,
+            "rtol": RTOL, "growth": GROWTH, "knock": "1e-6 times a standard normal velocity on every dof (seed 0)",
+            "integrators": list(INTEGRATORS)}  # fmt: skip
+
+
+def ratios(result):
+    """``{(case, integrator): advised limit / largest stable step measured}``."""
+    return {(case, i): result[case][i]["advice"]["limit_s"] / result[case][i]["measured"]["largest_stable_s"]
+            for case in ("servo", "muscles", "spine") for i in result["integrators"]}  # fmt: skip
 
 
 def summary(result):
     """What the JSON says, in a few lines [ms]."""
-
-    def ms(x):
-        return f"{x * 1e3:.3f} ms"
-
     lines = []
-    for integrator, e in result["arm"].items():
-        m = e["measured"]
-        lines.append(
-            f"arm, {integrator}: advised limit {ms(e['operating']['limit_s'])}; runs do not diverge up to "
-            f"{ms(m['largest_stable_s'])} (diverge at {ms(m['smallest_unstable_s'])}); advised without the "
-            f"servo {ms(e['without_servo']['limit_s'])}, at qpos0 {ms(e['reference']['limit_s'])}"
-        )
-    s = result["spine"]
-    lines.append(f"spine, {s['pushed']['integrator']}: stiffest mode {s['unloaded']['stiffest_frequency_hz']:.0f} Hz "
-                 f"at qpos0, {s['pushed']['stiffest_frequency_hz']:.0f} Hz pushed by {s['push_n']:g} N; advised "
-                 f"limits {ms(s['unloaded']['limit_s'])} and {ms(s['pushed']['limit_s'])}; runs do not diverge up to "
-                 f"{ms(s['measured_unloaded']['largest_stable_s'])} from qpos0, "
-                 f"{ms(s['measured']['largest_stable_s'])} pushed")  # fmt: skip
+    for (case, integrator), r in ratios(result).items():
+        e = result[case][integrator]
+        lines.append(f"{case}, {integrator}: advised {e['advice']['limit_s'] * 1e3:.3f} ms, runs hold up to "
+                     f"{e['measured']['largest_stable_s'] * 1e3:.3f} ms (advised / measured {r:.3f})")  # fmt: skip
     return "\n".join(lines)
 
 
@@ -178,7 +213,7 @@ def main():
     ap.add_argument("--json", default="out/operating_pose.json")
     args = ap.parse_args()
     seen = []
-    mujoco.set_mju_user_warning(seen.append)  # the diverging runs' warnings: counted, not printed
+    mujoco.set_mju_user_warning(seen.append)  # the growing runs' warnings: counted, not printed
     result = figures()
     result["mujoco_warnings"] = len(seen)
     print(summary(result))

@@ -50,13 +50,14 @@ from _readme_format import (
     times,
 )
 from _readme_inline import (
+    block_operating_pose,
     fit_reach,
     inline_encoder_quality,
     inline_fit_reach,
     inline_long_run_divergence,
     inline_method_difference,
-    inline_operating_pose_arm,
     inline_operating_pose_blind,
+    inline_operating_pose_muscles,
     inline_operating_pose_servo,
     inline_operating_pose_solref,
     inline_operating_pose_spine,
@@ -66,6 +67,7 @@ from _readme_inline import (
     row_encoder_quality,
     row_operating_pose,
 )
+from _readme_reduce import block_reduce_robots
 from _readme_speed import (
     LONG_RUNS,
     block_long_run,
@@ -82,6 +84,7 @@ from _readme_speed import (
     row_reduce_arcade,
     row_study_arcade,
 )
+from _readme_stops import block_stop_bounces, block_stop_preload, inline_stop_damping_instructions
 from _readme_warp import WARP_BENCH, block_warp_bench, block_warp_float32
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -621,6 +624,7 @@ TIMED = [
     "bench_polynomial",
     "compare_alternatives",
     "reduce_arcade",
+    "reduce_robots",
     "bench_sweep",
 ]
 
@@ -648,6 +652,7 @@ BLOCKS = {
     "native": (["compare_alternatives"], block_native),
     "native-verdict": (["compare_alternatives"], block_native_verdict),
     "reduce-arcade": (["reduce_arcade"], block_reduce_arcade),
+    "reduce-robots": (["reduce_robots"], block_reduce_robots),
     "long-run": (LONG_RUNS, block_long_run),
     "long-run-verdict": (LONG_RUNS, block_long_run_verdict),
     "sweep-arcade": (["sweep_arcade"], block_sweep_arcade),
@@ -660,11 +665,15 @@ BLOCKS = {
     "encoder-quality": (["encoder_quality", "demo"], inline_encoder_quality),
     "stop-cost": (["count_step_instructions"], inline_stop_cost),
     "stop-instructions": (["count_step_instructions"], inline_stop_instructions),
+    "stop-bounces": (["stops_and_preload"], block_stop_bounces),
+    "stop-preload": (["stops_and_preload"], block_stop_preload),
+    "stop-damping-instructions": (["count_step_instructions_damping"], inline_stop_damping_instructions),
     "fit-reach": (["fit_flexure"], inline_fit_reach),
     "long-run-divergence": (["long_run_arcade", "long_run_arcade_1e-5"], inline_long_run_divergence),
     "method-difference": (["study_arcade"], inline_method_difference),
     "operating-pose-servo": (["operating_pose"], inline_operating_pose_servo),
-    "operating-pose-arm": (["operating_pose"], inline_operating_pose_arm),
+    "operating-pose": (["operating_pose"], block_operating_pose),
+    "operating-pose-muscles": (["operating_pose"], inline_operating_pose_muscles),
     "operating-pose-blind": (["operating_pose"], inline_operating_pose_blind),
     "operating-pose-spine": (["operating_pose"], inline_operating_pose_spine),
     "operating-pose-solref": (["operating_pose"], inline_operating_pose_solref),

@@ -10,10 +10,11 @@
   :func:`subtree_wrench` (the load on a subtree about a frame, from masses and positions alone),
   :func:`decay_ratio` (a free vibration's logarithmic decrement).
 * :func:`servo_held_arm` (the arm with its servo-held last joint replaced by an element, at its
-  operating pose), :func:`arm_advice` (its step advice there, without the servo, unloaded) and
-  :func:`diverges` (a knocked run from a state: does it leave any bound?), the model and the
-  check of the advised time step: used by tests/test_operating_pose.py and by
-  scripts/operating_pose.py, which records the figures of the how-to from them.
+  operating pose), :func:`arm_advice` (its step advice there, without the servo, unloaded),
+  :func:`muscle_elbow` (a forearm on a compliant elbow held by two co-contracting muscles and a damper,
+  at its operating pose) and :func:`knock_grows` (does a small knock on a run from a state grow?),
+  the models and the check of the advised time step: used by tests/test_operating_pose.py,
+  tests/test_step_advice.py and scripts/operating_pose.py, which records the figures of the how-to.
 """
 
 import importlib.util
@@ -24,6 +25,7 @@ import mujoco
 import numpy as np
 
 import mjflex
+from mjflex.analysis.linearize import state
 
 ARM = """<mujoco model="arm">
   <compiler angle="radian"/>
@@ -214,29 +216,74 @@ def arm_advice(model, flex, qpos):
     }
 
 
-#: A run that reaches this speed on any dof [rad/s or m/s] has left its bound: diverged.
-RUNAWAY_SPEED = 1e3
+#: A forearm on an elbow hinge (replaced by an element in :func:`muscle_elbow`), two co-contracting muscles on the
+#: elbow (MuJoCo's ``<muscle>``: force-length and force-velocity, activation dynamics; their length range given, the
+#: joint's range times the gear, so that the compiler does not simulate to find it) and a ``<damper>``.
+MUSCLE_ELBOW = """<mujoco model="elbow">
+  <option timestep="1e-3"/>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.04" mass="2"/>
+      <body name="forearm">
+        <joint name="elbow" axis="0 1 0" range="-1.5 1.5" limited="true"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>
+      </body>
+    </body>
+  </worldbody>
+  <contact><exclude body1="upper" body2="forearm"/></contact>
+  <actuator>
+    <muscle name="flexor" joint="elbow" gear="0.05" force="1000" lengthrange="-0.075 0.075"/>
+    <muscle name="extensor" joint="elbow" gear="-0.05" force="1000" lengthrange="-0.075 0.075"/>
+    <damper name="damper" joint="elbow" kv="1" ctrlrange="0 1"/>
+  </actuator>
+</mujoco>"""
+#: The elbow element: soft about the hinge axis (element y), stiffer in the other directions.
+K_ELBOW = [200.0, 50.0, 200.0, 2e5, 2e5, 2e5]
+#: The muscles' and the damper's commands at the operating pose: half activation each, the damper at 1 N m s/rad.
+ELBOW_CTRL = (0.5, 0.5, 1.0)
 
 
-def diverges(model, qpos, timestep, steps=3000, keyframe=None, xfrc_applied=None, knock=1e-2):
-    """A run of ``steps`` steps of ``timestep`` [s] from ``qpos``, knocked on every dof (``knock`` times a standard
-    normal velocity, seed 0), with the controls of ``keyframe`` and the load ``xfrc_applied`` (nbody, 6): does it
-    leave any bound (MuJoCo's bad-acceleration check, or ``RUNAWAY_SPEED``)? ``model.opt.timestep`` is restored;
-    mjflex's DivergenceWarning, expected here, is silenced."""
+def muscle_elbow(integrator, ctrl=ELBOW_CTRL):
+    """``(model, flex, qpos)``: :data:`MUSCLE_ELBOW` (``integrator``: MuJoCo's name) with its elbow replaced by an
+    element (``K_ELBOW``, ``replace_joints=True``: the hinge stays, the muscles act on it), and its operating pose:
+    the static equilibrium under gravity and ``ctrl`` (activations at their steady state, ``act = ctrl``)."""
+    spec = mujoco.MjSpec.from_string(MUSCLE_ELBOW)
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+    mjflex.make_compliant(spec, "forearm", K_ELBOW, replace_joints=True)
+    model = spec.compile()
+    flex = mjflex.Flexures(model)
+    return model, flex, mjflex.static_equilibrium(model, flex, ctrl=ctrl)
+
+
+#: A knock grows when the knocked run departs from the unknocked one by this factor of the knock.
+GROWTH = 1e3
+
+
+def knock_grows(model, qpos, timestep, steps=3000, *, keyframe=None, ctrl=None, xfrc_applied=None, knock=1e-6):
+    """Two runs of ``steps`` steps of ``timestep`` [s] from ``qpos`` at rest, one knocked on every dof (``knock``
+    times a standard normal velocity, seed 0 [m/s, rad/s]), with the controls of ``keyframe`` or ``ctrl``
+    (activations at their steady state) and the load ``xfrc_applied`` (nbody, 6): does their difference in velocity
+    grow beyond ``GROWTH`` times the knock (or either run leave its bounds)? A bounded chatter (an element leaving
+    and hitting its stop) grows too. ``model.opt.timestep`` is restored; mjflex's DivergenceWarning is silenced."""
     saved = model.opt.timestep
     model.opt.timestep = timestep
     try:
-        data = mujoco.MjData(model)
-        if keyframe is not None:
-            mujoco.mj_resetDataKeyframe(model, data, model.key(keyframe).id)
-        data.qpos[:], data.qvel[:] = qpos, knock * np.random.default_rng(0).normal(size=model.nv)
-        if xfrc_applied is not None:
-            data.xfrc_applied[:] = xfrc_applied
+        runs = []
+        for size in (0.0, knock):
+            data = state(model, keyframe, qpos, ctrl)
+            data.qvel[:] = size * np.random.default_rng(0).normal(size=model.nv)
+            if xfrc_applied is not None:
+                data.xfrc_applied[:] = xfrc_applied
+            runs.append(data)
+        start = np.linalg.norm(runs[1].qvel)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", mjflex.DivergenceWarning)
             for _ in range(steps):
-                mujoco.mj_step(model, data)
-                if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.abs(data.qvel).max() < RUNAWAY_SPEED:
+                for data in runs:
+                    mujoco.mj_step(model, data)
+                apart = np.linalg.norm(runs[1].qvel - runs[0].qvel)
+                bad = any(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number for d in runs)
+                if bad or not apart <= GROWTH * start:
                     return True
         return False
     finally:

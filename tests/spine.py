@@ -14,6 +14,8 @@ import math
 import mujoco
 import numpy as np
 
+import mjflex
+
 LEVELS = ("L5", "L4", "L3", "L2")
 #: (name suffix, axis, range [deg]).
 HINGES = (("flex", "0 1 0", (-10.7, 4.8)), ("bend", "1 0 0", (-6.0, 6.0)), ("rot", "0 0 1", (-3.0, 3.0)))
@@ -108,3 +110,22 @@ def spine_spec(**kwargs) -> mujoco.MjSpec:
 
 def radians(lo_hi):
     return tuple(math.radians(v) for v in lo_hi)
+
+
+#: The disc of :func:`spine_on_its_stop` (N m/rad, N/m) and the push [N] forward on the torso that extends it past
+#: its 4.8 deg flexion stop.
+K_SPINE_DISC, STOP_PUSH = (30.0, 30.0, 20.0, 2e5, 2e5, 5e5), 40.0
+
+
+def spine_on_its_stop(integrator, stops=None):
+    """``(model, flex, qpos, xfrc_applied)``: the spine (MuJoCo's default, soft ``solref`` on its equalities) with L3
+    replaced by a disc (``K_SPINE_DISC``, 5 % damping, the hinges' ranges as its stops), ``integrator`` (MuJoCo's
+    name), pushed by ``STOP_PUSH`` on the torso: its static equilibrium there, the flexion stop engaged."""
+    spec = spine_spec()
+    spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+    mjflex.make_compliant(spec, "L3", list(K_SPINE_DISC), replace_joints=True, damping_ratio=0.05, stops=stops)
+    model = spec.compile()
+    flex = mjflex.Flexures(model)
+    xfrc = np.zeros((model.nbody, 6))
+    xfrc[model.body("torso").id, 0] = STOP_PUSH
+    return model, flex, mjflex.static_equilibrium(model, flex, xfrc_applied=xfrc), xfrc

@@ -35,6 +35,21 @@ def test_diverged_run_says_so_and_exits_non_zero(tmp_path, capsys):
     assert "energy" not in out and not summary.exists()
 
 
+def test_a_timestep_above_the_advised_limit_is_warned_with_the_advice(capsys):
+    """--timestep above the stable step of the model's integrator at the initial state: a warning before the run gives
+    mjflex.step_advice's limit and recommendation there; a stable --timestep runs without one."""
+    with pytest.raises(SystemExit):
+        cli.main(["simulate", TWO_BODY, "--timestep", "1e-3", "--duration", "0.01", "--quiet"])
+    err = capsys.readouterr().err
+    model = mujoco.MjModel.from_xml_path(TWO_BODY)
+    advice = mjflex.step_advice(model, keyframe=0)  # the run starts from the file's keyframe (its pose: qpos0)
+    assert (f"--timestep 0.001 s is above the largest stable step of RK4 at the initial state, {advice.limit:.3g} s "
+            f"(mjflex.step_advice; set by the {advice.frequency:.4g} Hz mode)") in err  # fmt: skip
+    assert f"Take --timestep {advice.recommended:.2g}" in err and err.index("above the largest") < err.index("diverged")
+    cli.main(["simulate", TWO_BODY, "--timestep", f"{advice.recommended:.2g}", "--duration", "0.01", "--quiet"])
+    assert "above the largest stable step" not in capsys.readouterr().err
+
+
 def test_divergence_found_by_mujoco_names_the_quantity_and_restores_auto_reset():
     """With the element switched off the flexure cannot report; MuJoCo's own bad-qvel warning stops the run."""
     model = mujoco.MjModel.from_xml_path(TWO_BODY)

@@ -352,6 +352,7 @@ PROSE_CONSTANTS = {
         "0.1 rad": "the example's stop limit",
         "0.3 rad": "the example's free swing, closed form from its parameters (I ω² = k θ²)",
         "2 steps": "MuJoCo's refsafe rule: a solref time constant of at least two time steps",
+        "2 ms": "MuJoCo's default time step (the example's and the demonstrations' step)",
     },
     "docs/background/known_issues.md": {
         "64 bytes": "the alignment MuJoCo pads mjData's buffers to (mj_makeData), not a measurement",
@@ -401,6 +402,7 @@ PROSE_CONSTANTS = {
         "20 ms": "scripts/viewer_screenshot.py's run length",
     },
     "docs/howto/reduce_a_model.md": {
+        "2 ms": "MuJoCo's default time step",
         "3 kHz": "the test's band",
         "1 %": "a bound the tests assert",
         "5 %": "a bound the test asserts",

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjflex.core import polynomial, stops, validation
+from mjflex.core import polynomial, rest, stops, validation
 from mjflex.mjcf import config, schema
 from mjflex.mjcf import stops as record_stops
 from mjflex.native import library as _native
@@ -21,6 +21,7 @@ PAIRS = {  # C name -> Python's value
     "COINCIDENCE_RTOL": schema.COINCIDENCE_RTOL,
     "COINCIDENCE_ANGLE": schema.COINCIDENCE_ANGLE,
     "REST_STRESS_RTOL": polynomial.REST_STRESS_RTOL,
+    "REST_QUAT_TOLERANCE": rest.REST_QUAT_TOLERANCE,
     "MAX_EXPONENT": polynomial.MAX_EXPONENT,
     "TERM_COLUMNS": _native.TERM_COLUMNS,
     "STOP_STIFFNESS_FACTOR": stops.STIFFNESS_FACTOR,

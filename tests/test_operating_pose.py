@@ -20,7 +20,7 @@ import scipy.optimize
 import mjflex
 from mjflex.analysis.damping import displacement_jacobian
 from mjflex.analysis.linearize import state
-from tests.robots import arm_advice, decay_ratio, diverges, servo_held_arm
+from tests.robots import arm_advice, decay_ratio, knock_grows, servo_held_arm
 from tests.spine import spine_spec
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -112,19 +112,18 @@ def test_damping_ratios_of_a_disc_in_a_coupled_spine_are_measured():
 
 
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])
-def test_the_advised_limit_is_the_measured_stable_step(integrator):
-    """Runs at 0.95 and 1.05 times the advised limit bracket the measured one; the recommendation runs; the advice
-    without the servo's stiffness (or at the unloaded reference) is more than twice too long (the recorded figures:
-    docs/results/operating_pose.json, checked below)."""
+def test_the_advice_without_the_servo_is_too_long(integrator):
+    """The advice without the servo's stiffness (or at the unloaded reference) is more than twice the advice at the
+    operating pose, and a knocked run grows even at its "safe" half (the advice at the operating pose against runs:
+    tests/test_step_advice.py; the recorded figures: docs/results/operating_pose.json, checked below)."""
     model, flex, qpos = servo_held_arm(integrator)
-    advice = arm_advice(model, flex, qpos)
+    with pytest.warns(mjflex.analysis.linearize.NotAtRestWarning):  # without the servos the pose is not held
+        advice = arm_advice(model, flex, qpos)
     at = advice["operating"]
     assert at.integrator == integrator
-    assert not diverges(model, qpos, 0.95 * at.limit, keyframe="level")
-    assert diverges(model, qpos, 1.05 * at.limit, keyframe="level")
-    assert not diverges(model, qpos, at.recommended, steps=int(0.5 / at.recommended), keyframe="level")
     assert advice["without_servo"].limit > 2 * at.limit and advice["reference"].limit > 2 * at.limit
-    assert diverges(model, qpos, advice["without_servo"].recommended, keyframe="level")  # even its "safe" half
+    assert knock_grows(model, qpos, advice["without_servo"].recommended, keyframe="level")
+    assert not knock_grows(model, qpos, at.recommended, steps=int(0.5 / at.recommended), keyframe="level")
 
 
 def test_a_state_that_is_not_a_stable_equilibrium_is_said():
@@ -147,28 +146,36 @@ def _operating_pose_script():
 
 def test_the_recorded_figures_are_what_the_code_advises_today():
     """docs/results/operating_pose.json holds the figures of the how-to's "Advice at the operating pose"
-    (``python scripts/operating_pose.py``, on the arm above and on the spine tutorial, run as it is): its advice,
-    recomputed with today's code, is the recorded one, and its measured steps are what the test above brackets.
+    (``python scripts/operating_pose.py``, on the servo-held arm, the muscle-held elbow and the spine tutorial, run as
+    it is): its advice, recomputed with today's code, is the recorded one, and the advised limits are within
+    [0.98, 1.0] of the recorded measured steps (the issue asks [0.8, 1.0]; tests/test_step_advice.py runs them).
 
-    Tolerance 1e-6 relative, as for the recorded modes (tests/test_readme.py): the stiffness comes from central
-    differences (~1e-9 relative) and the limits from eigenvalues, which machines and library versions move at
-    round-off; a change of the models or of the advice that matters moves them by 1e-4 or more. The bisections are
-    not rerun here (the test above runs the bracket); the damping ratios are not compared (some are round-off)."""
+    Tolerance: the limits 3e-3 relative (the advice bisects to 1e-3: a trial step at the edge of stability can decide
+    otherwise on another machine's round-off, moving the limit by that bracket), the frequencies 1e-6 (central
+    differences ~1e-9 relative, eigenvalues moved by machines and library versions at round-off; a change of the
+    models or of the advice that matters moves them by 1e-4 or more). The damping ratios are not compared (some are
+    round-off)."""
     now = _operating_pose_script().figures(measure=False)
     with open(os.path.join(ROOT, "docs", "results", "operating_pose.json")) as f:
         recorded = json.load(f)
-    pairs = [(now["arm"][i][k], recorded["arm"][i][k]) for i in ("Euler", "RK4")
-             for k in ("operating", "without_servo", "reference")]  # fmt: skip
-    pairs += [(now["spine"][k], recorded["spine"][k]) for k in ("unloaded", "pushed")]
-    for a, b in pairs:
-        assert a["integrator"] == b["integrator"] and a["safety"] == b["safety"]
-        for key in ("limit_s", "recommended_s", "limiting_frequency_hz", "stiffest_frequency_hz"):
-            assert a[key] == pytest.approx(b[key], rel=1e-6), (a["integrator"], key)
-    for key in ("element", "push_n", "push_body", "engaged_at_pushed_pose", "equality_solref"):
+    assert now["integrators"] == recorded["integrators"]
+    for case in ("servo", "muscles", "spine"):
+        for integrator in recorded["integrators"]:
+            a, b = now[case][integrator], recorded[case][integrator]
+            for x, y in [(a["advice"], b["advice"])] + [(a["blind"][k], b["blind"][k]) for k in b["blind"]]:
+                assert x["integrator"] == y["integrator"] == integrator and x["safety"] == y["safety"]
+                assert x["limit_s"] == pytest.approx(y["limit_s"], rel=3e-3), (case, integrator)
+                assert x["stiffest_frequency_hz"] == pytest.approx(y["stiffest_frequency_hz"], rel=1e-6), case
+            ratio = b["advice"]["limit_s"] / b["measured"]["largest_stable_s"]
+            assert 0.98 <= ratio <= 1.0, (case, integrator, ratio)
+            assert b["measured"]["smallest_unstable_s"] / b["advice"]["limit_s"] < 1.02, (case, integrator)
+            if case == "servo" or integrator == "Euler":  # under RK4 and implicitfast damping does not shorten it
+                assert all(b["blind_grows"].values()), (case, integrator)
+    for key in ("element", "push_n", "push_body", "engaged_at_pushed_pose", "equality_solref", "file_integrator"):
         assert json.loads(json.dumps(now["spine"][key])) == recorded["spine"][key], key
-    for integrator in ("Euler", "RK4"):
-        assert now["arm"][integrator]["servo"] == recorded["arm"][integrator]["servo"]
-        e = recorded["arm"][integrator]
-        assert 0.95 < e["measured"]["largest_stable_s"] / e["operating"]["limit_s"] < 1.05, integrator
-        assert e["measured"]["smallest_unstable_s"] / e["operating"]["limit_s"] < 1.05, integrator
-        assert e["without_servo_recommended_diverges"], integrator
+    for key in ("soft", "rigid"):
+        assert now["spine"]["stiffest_frequency_hz"][key] == pytest.approx(
+            recorded["spine"]["stiffest_frequency_hz"][key], rel=1e-6
+        )
+    assert now["servo"]["servo"] == recorded["servo"]["servo"] and now["muscles"]["actuators"] == recorded["muscles"][
+        "actuators"]  # fmt: skip

@@ -357,8 +357,8 @@ def test_a_ball_joint_keeps_its_ball_and_its_cone_becomes_the_circumscribed_box(
 def test_a_loaded_disc_stays_within_the_range_of_the_hinges_it_replaced():
     """40 N forward on the torso extends L3's disc past the hinges' 4.8 deg: without stops it rests at 12.6 deg; with
     the carried stops it rests 0.09 deg past the limit (the stop's own compliance, 100 times the disc's stiffness), and
-    a run from rest at the step advised for that loaded, engaged state peaks 0.2 deg past it, without diverging. The
-    engaged stop raises the stiffest frequency 3.6-fold, which the advice at qpos0 would miss."""
+    a run from rest at the step advised for that loaded, engaged state peaks 0.2 deg past it, without diverging (the
+    advice against measured stable steps at such states: tests/test_operating_pose.py)."""
     static, runs = {}, {}
     for stops in (None, False):
         spec = spine_spec()
@@ -375,7 +375,6 @@ def test_a_loaded_disc_stays_within_the_range_of_the_hinges_it_replaced():
         if stops is False:
             continue
         advice = mjflex.step_advice(model, flex, qpos=qpos, xfrc_applied=xfrc)
-        assert advice.frequency > 3 * mjflex.step_advice(model, flex).frequency
         model.opt.timestep = advice.recommended
         data = mujoco.MjData(model)
         data.xfrc_applied[:] = xfrc

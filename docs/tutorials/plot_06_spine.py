@@ -102,18 +102,19 @@ print(f"static_deflection of its wrench: {np.degrees(alone.twist[1]):.3f} deg, "
 # %%
 # Modes and the time step where the spine runs
 # --------------------------------------------
-# A 40 N push extends the disc past its 4.8 deg stop. At that pose the engaged stop (100 times the disc's
-# stiffness) and the load raise the stiffest frequency fivefold: :func:`mjflex.normal_modes` and
-# :func:`mjflex.step_advice` taken there, with the load and the projected equalities, see it; taken at the unloaded
-# reference they do not. That mode is one of rigid equalities, which the projection assumes; this model keeps
-# MuJoCo's default ``solref``, soft at that frequency, and its runs do not diverge at steps far longer than the
-# advice at the pushed pose (measured by ``scripts/operating_pose.py``: :doc:`/howto/add_flexures_to_a_robot`,
-# "Advice at the operating pose"). The advice errs on the safe side here.
+# A 40 N push extends the disc past its 4.8 deg stop. :func:`mjflex.step_advice` takes MuJoCo's own step at that
+# pose and at the rest under gravity alone (not at ``qpos0``, where gravity is not balanced: the advice would say
+# so): the engaged stop (100 times the disc's stiffness), the load, the springs and dampers, and the equalities as
+# MuJoCo's solver applies them, soft by their default ``solref``; so does :func:`mjflex.normal_modes` with
+# ``constraints="spring"``. Runs from the pushed pose confirm the advised limit, and equalities projected as rigid
+# loop closures would add a stiff mode this model does not have (``scripts/operating_pose.py``:
+# :doc:`/howto/add_flexures_to_a_robot`, "Advice at the operating pose").
 push[torso, 0] = 40.0
 loaded = mjflex.static_equilibrium(model, flex, xfrc_applied=push)
-where = {"unloaded qpos0": {}, "pushed by 40 N": {"qpos": loaded, "xfrc_applied": push}}
+settled = mjflex.static_equilibrium(model, flex)
+where = {"at rest": {"qpos": settled}, "pushed by 40 N": {"qpos": loaded, "xfrc_applied": push}}
 for label, state in where.items():
-    freq, _ = mjflex.normal_modes(model, flex, constraints="project", joint_springs=True, gravity=True, **state)
+    freq, _ = mjflex.normal_modes(model, flex, constraints="spring", joint_springs=True, gravity=True, **state)
     print(f"{label}: top frequencies {np.round(freq[-3:], 0)} Hz; {mjflex.step_advice(model, flex, **state)}")
 advice = mjflex.step_advice(model, flex, qpos=loaded, xfrc_applied=push)
 

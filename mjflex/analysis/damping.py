@@ -14,7 +14,17 @@ import scipy.linalg
 from ..mjcf import schema
 from ..mjcf.notices import warn_likely_mistake
 from ..runtime.flexures import Flexures
-from .linearize import check_constraints, jacobians, loads, mass_matrix, null_space, state
+from .linearize import (
+    STEP,
+    Options,
+    central_differences,
+    check_constraints,
+    data_at,
+    linearize,
+    loads,
+    null_space,
+    state,
+)
 
 #: Names of the six directions of an element, in the order of K's rows (element frame).
 DIRECTIONS = ("rx", "ry", "rz", "x", "y", "z")
@@ -70,29 +80,21 @@ def element_dofs(model, flex, element) -> np.ndarray:
     return np.array(sorted(_moving_dofs(model, a) ^ _moving_dofs(model, b)), dtype=int)
 
 
-def displacement_jacobian(model, flex, element, base, step=1e-6) -> np.ndarray:
+def displacement_jacobian(model, flex, element, base, step=STEP) -> np.ndarray:
     """``(6, nv)``: derivative of the element's finite twist ``[tau; t]`` (element frame) along each
-    tangent direction of the configuration in ``base`` (central differences, ``mj_integratePos``)."""
+    tangent direction of the configuration in ``base`` (:func:`.linearize.central_differences`)."""
     e = flex.index(element)
-    data = mujoco.MjData(model)
-    data.mocap_pos[:], data.mocap_quat[:] = base.mocap_pos, base.mocap_quat
-    J = np.zeros((6, model.nv))
-    for i in range(model.nv):
-        out = []
-        for sign in (1.0, -1.0):
-            dq = np.zeros(model.nv)
-            dq[i] = sign * step
-            data.qpos[:] = base.qpos
-            mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
-            mujoco.mj_fwdPosition(model, data)
-            out.append(flex.displacements(data)[e])
-        J[:, i] = (out[0] - out[1]) / (2.0 * step)
-    return J
+
+    def twist(data):
+        mujoco.mj_kinematics(model, data)
+        return flex.displacements(data)[e]
+
+    return central_differences(model, data_at(model, base), twist, step=step)
 
 
 def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpos=None, others="locked",
                         actuator_stiffness=False, gravity=False, constraints="ignore", xfrc_applied=None,
-                        qfrc_applied=None, strict=False, step=1e-6) -> np.ndarray:  # fmt: skip
+                        qfrc_applied=None, ctrl=None, strict=False, step=STEP) -> np.ndarray:  # fmt: skip
     """Damping matrix ``B`` of an element that gives its modes the requested damping ratios.
 
     The element's modes come from an undamped modal analysis of the model at a configuration
@@ -149,6 +151,8 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
         Configuration (and the controls the actuators see) to linearize at; ``qpos`` overrides it.
     qpos : array_like, shape (nq,), optional
         Configuration to linearize at (overrides the keyframe's).
+    ctrl : array_like, shape (nu,), optional
+        The actuator commands (override the keyframe's; :func:`mjflex.normal_modes`).
     others : {"locked", "free"}
         What the dofs not between the element's bodies do (see above).
     actuator_stiffness, gravity : bool
@@ -206,14 +210,13 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     if record.planar:  # the other directions do not move a planar element: their weights are zero
         r = np.full(6, given.mean())
         r[list(schema.PLANAR_INDEX)] = given
-    base = state(model, keyframe, qpos)
+    load = loads(model, xfrc_applied, qfrc_applied)
+    base = state(model, keyframe, qpos, ctrl, load)
     s = element_dofs(model, flex, element) if others == "locked" else np.arange(model.nv)
     J = displacement_jacobian(model, flex, element, base, step)[:, s]
-    options = (True, constraints, actuator_stiffness, gravity, loads(model, xfrc_applied, qfrc_applied))
-    K, G = jacobians(model, flex, base, step, options)
-    K = K[np.ix_(s, s)]
-    M = mass_matrix(model, base.qpos)[np.ix_(s, s)]
-    N = null_space(G[:, s], len(s)) if constraints == "project" else np.eye(len(s))
+    lin = linearize(model, flex, base, Options(True, constraints, actuator_stiffness, gravity, load), step=step)
+    K, M = lin.K[np.ix_(s, s)], lin.M[np.ix_(s, s)]
+    N = null_space(lin.G[:, s], len(s)) if constraints == "project" else np.eye(len(s))
     Kr, Mr = N.T @ K @ N, N.T @ M @ N
     lam, phi = scipy.linalg.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
     phi = N @ phi

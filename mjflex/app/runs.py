@@ -23,7 +23,7 @@ from ..mjcf.elements import edit_elements
 from ..runtime.flexures import Flexures
 from ..runtime.tables import ModelError
 from . import render
-from .simulate import DivergenceError, configure, simulate, step_count, summarize
+from .simulate import DivergenceError, configure, simulate, step_count, summarize, timestep_warning
 from .timing import Stopwatch
 
 #: Exit status of a run that diverged (1: bad input, 2: bad command line).
@@ -130,6 +130,9 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
         )
     _switch(flex, name, method, damping)
     data, key = initial_state(model, keyframe)
+    warning = timestep_warning(model, flex, data, name) if timestep is not None else None
+    if warning:
+        print(warning, file=sys.stderr)
     clock.add("model", time.perf_counter() - started, time.process_time() - cpu)
     with clock.phase("provider"):
         flex.install()  # the callback for text records (nothing for plugin elements)

@@ -9,6 +9,8 @@ from dataclasses import asdict, dataclass, field
 import mujoco
 import numpy as np
 
+from ..analysis.advice import advise, integrator_name
+from ..analysis.linearize import Options
 from ..runtime.divergence import step_phrase
 from ..runtime.flexures import Flexures
 
@@ -122,6 +124,26 @@ def configure(model, *, integrator=None, timestep=None):
             raise ValueError(f"timestep must be a positive number of seconds; got {timestep!r}")
         model.opt.timestep = timestep
     model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+
+
+def timestep_warning(model, flex, data, name) -> str | None:
+    """A warning when ``model``'s time step is above the largest stable step of its integrator at the configuration
+    of ``data`` (the run's start; :func:`mjflex.step_advice`'s, with everything on), with the advised values; None
+    when the step is stable there (one trial step: the bisection runs only for the warning)."""
+    h, integrator = model.opt.timestep, integrator_name(None, model)
+    everything = Options(True, "spring", True, True)
+    _, _, first = advise(model, flex, data, integrator, everything, guess=h, expand=0, warn=False)
+    if first == "stable":
+        return None
+    advice, last, _ = advise(model, flex, data, integrator, everything, guess=h, warn=False)
+    if advice is None:
+        return (f"warning: {name}: {integrator} is unstable at the initial state at every step down to {last:.3g} s "
+                "(mjflex.step_advice): the state itself runs away; check it")  # fmt: skip
+    return (
+        f"warning: {name}: --timestep {h:g} s is above the largest stable step of {integrator} at the initial state, "
+        f"{advice.limit:.3g} s (mjflex.step_advice; set by the {advice.frequency:.4g} Hz mode): the run will likely "
+        f"diverge. Take --timestep {advice.recommended:.2g} (the advice's, half the limit) or less"
+    )
 
 
 def step_count(duration, timestep) -> int:

@@ -22,6 +22,7 @@ from .stops import (
     planar_stop_potential,
     planar_stop_wrench_on_b,
     stop_coordinates,
+    stop_dissipation_power,
     stop_potential,
     stop_wrench_on_b,
 )
@@ -54,6 +55,7 @@ __all__ = [
     "static_deflection",
     "stiffness_in_frame",
     "stop_coordinates",
+    "stop_dissipation_power",
     "stop_potential",
     "stop_wrench_on_b",
     "transform_from_dual_quaternion",

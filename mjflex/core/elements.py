@@ -15,6 +15,12 @@ Both agree to second order at rest, where ``K`` is the stiffness of the element 
 (``K = [[K_o, K_c], [K_c^T, K_t]]``, eq. 40). The damping ``B`` acts on the rate of the same
 coordinates (eqs 58-67, 96-104).
 
+Rest pose
+---------
+``rest=(p_r, q_r)`` moves the relaxed state to ``X_ab = X_r`` (:mod:`mjflex.core.rest`): the
+element is evaluated on frames a and b* (``X_Wb* = X_Wb X_r^-1``), its wrench moved back to
+``p_WB``.
+
 Higher-order potentials
 -----------------------
 ``potential`` and ``wrench_on_b`` take ``terms=``, polynomial terms added to the quadratic energy
@@ -68,6 +74,7 @@ from . import _planar_kernels as _pk
 from . import _poly_kernels as _polyk
 from ._batch import flatten
 from .polynomial import PolynomialTerms
+from .rest import frame_at_rest
 from .validation import as_array, check_psd_matrix, check_rotation, method_code
 
 _SPATIAL = {  # argument -> (core shape, what)
@@ -160,8 +167,35 @@ def _terms_args(terms, method, K, check):
     return (terms.exponents, terms.coefficients, *_polyk.work_arrays(terms.exponents))
 
 
-def _wrench_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL):
-    """Run a wrench kernel; returns (wrench (..., n), dissipated power (...))."""
+def _with_rest(values, rest, check):
+    """``(values, shift)``: frame b replaced by frame b* of the rest pose (:mod:`mjflex.core.rest`), the velocity of
+    frame b's origin moved to b*'s, and ``p_Wb* - p_WB`` (None without a rest pose)."""
+    if rest is None:
+        return values, None
+    values = dict(values)
+    R, p = values["R_WB"], values["p_WB"]
+    if check:
+        R, p = check_rotation(R, "R_WB"), as_array(p, "p_WB", (3,))
+    values["R_WB"], p_b = frame_at_rest(R, p, rest)
+    shift = p_b - np.asarray(p, dtype=float)
+    values["p_WB"] = p_b
+    if values.get("w_WB") is not None:
+        w = as_array(values["w_WB"], "w_WB", (3,)) if check else np.asarray(values["w_WB"], dtype=float)
+        v = 0.0 if values.get("v_WB") is None else np.asarray(values["v_WB"], dtype=float)
+        values["v_WB"] = v + np.cross(w, shift)
+    return values, shift
+
+
+def _wrench_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL, rest=None):
+    """Run a wrench kernel; returns (wrench (..., n), dissipated power (...)), the moment about p_WB."""
+    values, shift = _with_rest(values, rest, check)
+    W, power = _wrench_kernel_call(spec, kernel, values, method, check, terms, optional)
+    if shift is not None:
+        W = W + np.concatenate(np.broadcast_arrays(np.cross(shift, W[..., 3:]), np.zeros(3)), axis=-1)
+    return W, power
+
+
+def _wrench_kernel_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL):
     code = method_code(method)
     shape, f, viscous = _prepare(spec, values, check, optional)
     extra = _terms_args(terms, method, f[4], check)
@@ -174,8 +208,9 @@ def _wrench_call(spec, kernel, values, method, check, terms=None, optional=_OPTI
     return out.reshape((*shape, spec["K"][0][0])), power.reshape(shape)
 
 
-def _energy_call(spec, kernel, values, method, check, terms=None):
+def _energy_call(spec, kernel, values, method, check, terms=None, rest=None):
     """Run a potential kernel; returns the energy (...)."""
+    values, _ = _with_rest(values, rest, check)
     code = method_code(method)
     shape, f, _ = _prepare(spec, values, check)
     extra = _terms_args(terms, method, f[4], check)
@@ -187,7 +222,7 @@ def _energy_call(spec, kernel, values, method, check, terms=None):
     return out.reshape(shape)[()]
 
 
-def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, check=True):
+def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, rest=None, check=True):
     """Elastic energy stored in the element [J].
 
     Parameters
@@ -205,6 +240,10 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, check=Tr
         Higher-order terms added to the quadratic potential (:mod:`mjflex.core.polynomial`),
         in the coordinates of ``method``; e.g. ``fit.terms`` of a fitted potential. Without
         them (or with none) the result is the quadratic potential, bit for bit.
+    rest : tuple (pos, quat), optional
+        The element's rest pose, the pose of frame b in frame a at which its energy is zero:
+        position [m] and unit quaternion w-first (:mod:`mjflex.core.rest`). Default: the frames
+        coincide.
     check : bool
         Validate the arguments (skip only for arguments validated before).
 
@@ -224,12 +263,12 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, check=Tr
     0.010000 J
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K}
-    return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check, terms)
+    return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check, terms, rest)
 
 
 def wrench_on_b(
     R_WA, p_WA, R_WB, p_WB, K, *, method="twist", B=None,
-    w_WA=None, v_WA=None, w_WB=None, v_WB=None, terms=None, check=True,
+    w_WA=None, v_WA=None, w_WB=None, v_WB=None, terms=None, rest=None, check=True,
 ):  # fmt: skip
     """Wrench that the element exerts on body B (elastic plus viscous).
 
@@ -257,6 +296,10 @@ def wrench_on_b(
         Higher-order elastic terms (see :func:`potential`); the elastic wrench becomes
         ``-Gamma_ab grad U`` (eq. 76) or ``-1/2 Lambda~_ab grad U`` (eq. 115). The viscous part
         stays quadratic.
+    rest : tuple (pos, quat), optional
+        The element's rest pose, the pose of frame b in frame a at which its energy is zero:
+        position [m] and unit quaternion w-first (:mod:`mjflex.core.rest`). Default: the frames
+        coincide.
     check : bool
         Validate the arguments (skip only for arguments validated before).
 
@@ -281,11 +324,11 @@ def wrench_on_b(
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, terms)[0]
+    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, terms, rest=rest)[0]
 
 
 def dissipation_power(
-    R_WA, p_WA, R_WB, p_WB, B, *, method="twist", w_WA=None, v_WA=None, w_WB=None, v_WB=None, check=True
+    R_WA, p_WA, R_WB, p_WB, B, *, method="twist", w_WA=None, v_WA=None, w_WB=None, v_WB=None, rest=None, check=True
 ):
     """Power dissipated by the viscous part of the element [W] (non-negative for valid B).
 
@@ -308,6 +351,10 @@ def dissipation_power(
         Angular velocities of frames a and b, world axes [rad/s]. Zero when omitted.
     v_WA, v_WB : array_like, shape (..., 3), optional
         Linear velocities of the origins of frames a and b, world axes [m/s]. Zero when omitted.
+    rest : tuple (pos, quat), optional
+        The element's rest pose, the pose of frame b in frame a at which its energy is zero:
+        position [m] and unit quaternion w-first (:mod:`mjflex.core.rest`). Default: the frames
+        coincide.
     check : bool
         Validate the arguments (skip only for arguments validated before).
 
@@ -329,7 +376,8 @@ def dissipation_power(
         raise ValueError("B is required: dissipation_power needs the damping matrix.")
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"})[1][()]
+    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"},
+                        rest=rest)[1][()]  # fmt: skip
 
 
 # --------------------------------------------------------------------------- planar

@@ -53,6 +53,29 @@ the time step from :func:`mjflex.normal_modes` at a pose where the stop is engag
 stop's stiffness), or about ``10x`` smaller than the free element's bound for that mode. A
 coordinate with ``K_ii = 0`` has no stiffness to derive one from: give the stop's.
 
+Damping
+-------
+A stop may be damped: ``b_i >= 0`` [N m s/rad, N s/m] acts on the rate ``zdot_i`` of its
+coordinate, and only beyond the limit. The rates come from the relative velocity through the
+same Jacobians: ``rdot = P(r)^T w`` (``w = R_WB^T (w_WB - w_WA)``, the angular velocity of b
+relative to a in b's axes; ``P(r)^T = J_r^-1(r)``, eq. 44 of the paper) and
+``pdot_ab = R_WA^T (v_WB - v_WA - w_WA x (p_WB - p_WA))``. The total stop force on a coordinate
+is clamped so that it never attracts (as a contact's, Hunt and Crossley's argument): beyond an
+upper limit it is ``G'_i = max(k_i over_i + b_i zdot_i, 0)``, beyond a lower one
+``G'_i = -max(k_i under_i - b_i zdot_i, 0)``, inside the range 0, and it replaces ``G`` in the
+wrench above. The clamp is continuous (a ``max``, not a switch on the sign of ``zdot``), so the
+force is a continuous function of the velocity; like MuJoCo's joint limits with their ``solref``
+damping, the damping force starts at the limit with the entry velocity. The stops dissipate
+``sum_i (G'_i - G_i) zdot_i >= 0`` (:func:`stop_dissipation_power`): ``b_i zdot_i^2`` where the
+clamp is open, ``k_i over_i |zdot_i|`` where it holds. Without damping (``b = 0``) the force is
+exactly ``-dU_s`` as before.
+
+Rest pose
+---------
+With ``rest=(p_r, q_r)`` (:mod:`mjflex.core.rest`) the coordinates are those of frame b* (frame b
+less the rest pose): ``z = 0`` at ``X_ab = X_r``, so limits count from the rest pose; the wrench
+keeps its reference point ``p_WB``.
+
 Near a half turn the rotation vector changes branch (``|r| = pi``; see
 :mod:`mjflex.core.elements`): rotation limits lie in ``[-pi, pi]``, where the coordinates are
 continuous except at the half turn itself.
@@ -61,6 +84,7 @@ continuous except at the half turn itself.
 import numpy as np
 
 from . import _kernels as _k
+from .rest import frame_at_rest
 from .transforms import twist_from_transform
 from .validation import as_array, check_rotation, numeric_array
 
@@ -130,18 +154,69 @@ def _gradient(z, lo, hi, k):
     return 0.5 * np.sum(k * (over * over + under * under), axis=-1), k * (over - under)
 
 
-def _spatial(R_WA, p_WA, R_WB, p_WB, check):
+def _damped(z, zdot, lo, hi, k, b):
+    """``(G', P)``: the damped stops' total force ``(..., n)`` (module docstring) and dissipated power ``(...)``."""
+    with np.errstate(invalid="ignore"):
+        over, under = np.maximum(z - hi, 0.0), np.maximum(lo - z, 0.0)
+    eo, eu = k * over, k * under
+    go = np.maximum(eo + np.where(over > 0, b, 0.0) * zdot, 0.0)
+    gu = np.maximum(eu - np.where(under > 0, b, 0.0) * zdot, 0.0)
+    return go - gu, np.sum(((go - eo) - (gu - eu)) * zdot, axis=-1)
+
+
+def _damping(damping, n):
+    b = _vector(damping, "damping", n)
+    if not np.isfinite(b).all() or np.any(b < 0):
+        raise ValueError("damping must be finite and >= 0 [N m s/rad, N s/m]")
+    return b
+
+
+def _spatial(R_WA, p_WA, R_WB, p_WB, check, rest=None):
     if check:
         R_WA, R_WB = check_rotation(R_WA, "R_WA"), check_rotation(R_WB, "R_WB")
         p_WA, p_WB = as_array(p_WA, "p_WA", (3,)), as_array(p_WB, "p_WB", (3,))
     R_WA, R_WB, p_WA, p_WB = (np.asarray(a, dtype=float) for a in (R_WA, R_WB, p_WA, p_WB))
+    if rest is not None:
+        R_WB, p_WB = frame_at_rest(R_WB, p_WB, rest)
     R_ab = np.swapaxes(R_WA, -1, -2) @ R_WB
     p_ab = np.einsum("...ji,...j->...i", R_WA, p_WB - p_WA)
     r = twist_from_transform(R_ab, np.zeros(R_ab.shape[:-1]), check=False)[..., :3]
     return R_WA, R_WB, np.concatenate(np.broadcast_arrays(r, p_ab), axis=-1)
 
 
-def stop_coordinates(R_WA, p_WA, R_WB, p_WB, *, check=True) -> np.ndarray:
+def _p_map(r, x, sign):
+    """``P(r) x`` (sign -1) or ``P(r)^T x`` (sign +1): ``x + sign r x x / 2 + c(|r|) r x (r x x)`` (eq. 44)."""
+    a = np.linalg.norm(r, axis=-1)
+    c = np.vectorize(_k.jl_inv_coef, otypes=[float])(a)[..., None]
+    return x + sign * 0.5 * np.cross(r, x) + c * np.cross(r, np.cross(r, x))
+
+
+def _rates(R_WA, p_WA, R_Wb, p_Wb, z, velocities):
+    """The rates ``zdot`` of the stop coordinates ``z`` of frames a and b* (module docstring) from the world
+    velocities ``(w_WA, v_WA, w_WB, v_WB)`` (None: zero; ``v_WB`` of frame b*'s origin)."""
+    names = ("w_WA", "v_WA", "w_WB", "v_WB")
+    w_WA, v_WA, w_WB, v_WB = (np.zeros(3) if v is None else as_array(v, name, (3,))
+                              for v, name in zip(velocities, names, strict=True))  # fmt: skip
+    w_b = np.einsum("...ji,...j->...i", R_Wb, w_WB - w_WA)
+    dp = v_WB - v_WA - np.cross(w_WA, p_Wb - p_WA)
+    return np.concatenate(np.broadcast_arrays(_p_map(z[..., :3], w_b, 1.0), np.einsum("...ji,...j->...i", R_WA, dp)),
+                          axis=-1)  # fmt: skip
+
+
+def _at_b_star(p_WB, R_WB, rest, w_WB, v_WB):
+    """``(p_WB, p_Wb*, v_Wb*)``: frame b's origin, frame b*'s, and the velocity of the point of B at frame b*'s."""
+    p_WB = np.asarray(p_WB, dtype=float)
+    if rest is None:
+        return p_WB, p_WB, v_WB
+    _, p_b = frame_at_rest(R_WB, p_WB, rest)
+    if v_WB is not None and w_WB is not None:
+        v_WB = np.asarray(v_WB, dtype=float) + np.cross(np.asarray(w_WB, dtype=float), p_b - p_WB)
+    elif w_WB is not None:
+        v_WB = np.cross(np.asarray(w_WB, dtype=float), p_b - p_WB)
+    return p_WB, p_b, v_WB
+
+
+def stop_coordinates(R_WA, p_WA, R_WB, p_WB, *, rest=None, check=True) -> np.ndarray:
     """The stop coordinates ``[rx, ry, rz, x, y, z]`` of frame b relative to frame a (module docstring).
 
     Parameters
@@ -150,6 +225,8 @@ def stop_coordinates(R_WA, p_WA, R_WB, p_WB, *, check=True) -> np.ndarray:
         Orientations of frames a and b in world coordinates.
     p_WA, p_WB : array_like, shape (..., 3)
         Origins of frames a and b in world coordinates [m].
+    rest : tuple (pos, quat), optional
+        The element's rest pose (:mod:`mjflex.core.rest`): the coordinates count from it.
     check : bool
         Validate the arguments.
 
@@ -166,10 +243,10 @@ def stop_coordinates(R_WA, p_WA, R_WB, p_WB, *, check=True) -> np.ndarray:
     >>> print(mjflex.stop_coordinates(np.eye(3), np.zeros(3), R_WB, [0.01, 0.0, 0.0]))
     [0.   0.   0.2  0.01 0.   0.  ]
     """
-    return _spatial(R_WA, p_WA, R_WB, p_WB, check)[2]
+    return _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)[2]
 
 
-def stop_potential(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=True) -> np.ndarray:
+def stop_potential(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, rest=None, check=True) -> np.ndarray:
     """Energy stored in an element's end stops [J] (module docstring).
 
     Parameters
@@ -184,6 +261,8 @@ def stop_potential(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=Tru
     stiffness : array_like, shape (..., 6)
         The stops' stiffness of each coordinate [N m/rad, N/m], ``>= 0``
         (:func:`derived_stop_stiffness` derives one from the element's ``K``).
+    rest : tuple (pos, quat), optional
+        The element's rest pose (:mod:`mjflex.core.rest`): the coordinates count from it.
     check : bool
         Validate the arguments.
 
@@ -201,12 +280,16 @@ def stop_potential(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=Tru
     >>> print(f"{mjflex.stop_potential(np.eye(3), np.zeros(3), R_WB, np.zeros(3), None, upper, [100.0] * 6):.4f} J")
     0.1250 J
     """
-    _, _, z = _spatial(R_WA, p_WA, R_WB, p_WB, check)
+    _, _, z = _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)
     return _gradient(z, *_limits(lower, upper, stiffness, 6))[0][()]
 
 
-def stop_wrench_on_b(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=True) -> np.ndarray:
-    """Wrench that an element's end stops exert on body B: minus the gradient of :func:`stop_potential`.
+def stop_wrench_on_b(
+    R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, damping=None,
+    w_WA=None, v_WA=None, w_WB=None, v_WB=None, rest=None, check=True,
+) -> np.ndarray:  # fmt: skip
+    """Wrench that an element's end stops exert on body B: minus the gradient of :func:`stop_potential`, plus
+    their damping.
 
     Parameters
     ----------
@@ -218,6 +301,15 @@ def stop_wrench_on_b(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=T
         Limits of the stop coordinates [rad, m] (see :func:`stop_potential`).
     stiffness : array_like, shape (..., 6)
         The stops' stiffness of each coordinate [N m/rad, N/m].
+    damping : array_like, shape (..., 6), optional
+        The stops' damping of each coordinate [N m s/rad, N s/m], ``>= 0``, acting beyond a limit
+        only, clamped so that the stop never attracts (module docstring). None: conservative.
+    w_WA, w_WB : array_like, shape (..., 3), optional
+        Angular velocities of frames a and b, world axes [rad/s]. Zero when omitted.
+    v_WA, v_WB : array_like, shape (..., 3), optional
+        Linear velocities of the origins of frames a and b, world axes [m/s]. Zero when omitted.
+    rest : tuple (pos, quat), optional
+        The element's rest pose (:mod:`mjflex.core.rest`): the coordinates count from it.
     check : bool
         Validate the arguments.
 
@@ -225,7 +317,7 @@ def stop_wrench_on_b(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=T
     -------
     wrench : ndarray, shape (..., 6)
         ``[moment about p_WB; force]`` on body B in world axes [N m; N]: ``-R_WB P(r) G_r`` and
-        ``-R_WA G_p``. The stops exert the opposite wrench on body A.
+        ``-R_WA G_p`` (``G'`` with damping). The stops exert the opposite wrench on body A.
 
     Examples
     --------
@@ -236,15 +328,77 @@ def stop_wrench_on_b(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, check=T
     >>> print(np.round(W, 9) + 0.0)  # 2 mm past the stop at 1e4 N/m: 20 N back along -x
     [  0.   0.   0. -20.   0.   0.]
     """
-    R_WA, R_WB, z = _spatial(R_WA, p_WA, R_WB, p_WB, check)
-    _, G = _gradient(z, *_limits(lower, upper, stiffness, 6))
-    r, Gr, Gp = z[..., :3], G[..., :3], G[..., 3:]
-    a = np.linalg.norm(r, axis=-1)
-    c = np.vectorize(_k.jl_inv_coef, otypes=[float])(a)[..., None]
-    P_G = Gr - 0.5 * np.cross(r, Gr) + c * np.cross(r, np.cross(r, Gr))  # P(r) G_r, P = I - r^/2 + c (r^)^2
-    m = -np.einsum("...ij,...j->...i", R_WB, P_G)
-    f = -np.einsum("...ij,...j->...i", R_WA, Gp)
-    return np.concatenate(np.broadcast_arrays(m, f), axis=-1)
+    return _stop_wrench_and_power(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, damping,
+                                  (w_WA, v_WA, w_WB, v_WB), rest, check)[0]  # fmt: skip
+
+
+def stop_dissipation_power(
+    R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, damping, *,
+    w_WA=None, v_WA=None, w_WB=None, v_WB=None, rest=None, check=True,
+) -> np.ndarray:  # fmt: skip
+    """Power dissipated by an element's damped end stops [W]: ``sum_i (G'_i - G_i) zdot_i >= 0`` (module docstring).
+
+    Equals minus the power of the damped stops' wrenches on A and B together, less the rate of
+    their energy. Arguments as in :func:`stop_wrench_on_b`.
+
+    Parameters
+    ----------
+    R_WA, R_WB : array_like, shape (..., 3, 3)
+        Orientations of frames a and b in world coordinates.
+    p_WA, p_WB : array_like, shape (..., 3)
+        Origins of frames a and b in world coordinates [m].
+    lower, upper : array_like, shape (..., 6), or None
+        Limits of the stop coordinates [rad, m] (see :func:`stop_potential`).
+    stiffness : array_like, shape (..., 6)
+        The stops' stiffness of each coordinate [N m/rad, N/m].
+    damping : array_like, shape (..., 6)
+        The stops' damping of each coordinate [N m s/rad, N s/m].
+    w_WA, w_WB : array_like, shape (..., 3), optional
+        Angular velocities of frames a and b, world axes [rad/s]. Zero when omitted.
+    v_WA, v_WB : array_like, shape (..., 3), optional
+        Linear velocities of the origins of frames a and b, world axes [m/s]. Zero when omitted.
+    rest : tuple (pos, quat), optional
+        The element's rest pose (:mod:`mjflex.core.rest`).
+    check : bool
+        Validate the arguments.
+
+    Returns
+    -------
+    power : ndarray, shape (...)
+        Dissipated power [W].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import mjflex
+    >>> upper = [np.inf] * 3 + [0.001, np.inf, np.inf]  # x at most 1 mm
+    >>> P = mjflex.stop_dissipation_power(np.eye(3), np.zeros(3), np.eye(3), [0.003, 0.0, 0.0], None, upper,
+    ...                                   [1e4] * 6, [50.0] * 6, v_WB=[0.1, 0.0, 0.0])
+    >>> print(f"{P:.3f} W")  # moving on into the stop at 0.1 m/s: b v^2
+    0.500 W
+    """
+    return _stop_wrench_and_power(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, damping,
+                                  (w_WA, v_WA, w_WB, v_WB), rest, check)[1][()]  # fmt: skip
+
+
+def _stop_wrench_and_power(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, damping, velocities, rest, check):
+    """(wrench on B about p_WB (..., 6), dissipated power (...)) of the stops (module docstring)."""
+    w_WA, v_WA, w_WB, v_WB = velocities
+    R_WA, R_Wb, z = _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)
+    p_B, p_b, v_b = _at_b_star(p_WB, R_WB, rest, w_WB, v_WB)
+    limits = _limits(lower, upper, stiffness, 6)
+    if damping is None:
+        if any(v is not None for v in velocities):
+            raise ValueError("velocities were given but damping is None: pass the stops' damping, or drop them")
+        _, G = _gradient(z, *limits)
+        power = np.zeros(G.shape[:-1])
+    else:
+        zdot = _rates(R_WA, np.asarray(p_WA, dtype=float), R_Wb, p_b, z, (w_WA, v_WA, w_WB, v_b))
+        G, power = _damped(z, zdot, *limits, _damping(damping, 6))
+    m = -np.einsum("...ij,...j->...i", R_Wb, _p_map(z[..., :3], G[..., :3], -1.0))
+    f = -np.einsum("...ij,...j->...i", R_WA, G[..., 3:])
+    m = m + np.cross(p_b - p_B, f)  # about p_WB
+    return np.concatenate(np.broadcast_arrays(m, f), axis=-1), power
 
 
 # --------------------------------------------------------------------------- planar

@@ -34,7 +34,7 @@ MOVED = {
     "mjflex.mj.divergence": ("mjflex.runtime.divergence",),
     "mjflex.mj.provider": ("mjflex.runtime.flexures", "mjflex.runtime.tables", "mjflex.runtime.divergence"),
     "mjflex.mj.file_convert": ("mjflex.runtime.files",),
-    "mjflex.mj.linearize": ("mjflex.analysis.linearize",),
+    "mjflex.mj.linearize": ("mjflex.analysis.linearize", "mjflex.analysis.statics"),
     "mjflex.mj.damping": ("mjflex.analysis.damping",),
     "mjflex.mj.advice": ("mjflex.analysis.advice",),
     "mjflex.mj._directions": ("mjflex.analysis.directions",),

@@ -15,6 +15,7 @@ from .elements import add_plugin_element, detach_instance, find_element, require
 from .notices import warn_likely_mistake
 from .schema import PLUGIN
 from .spec import (
+    compile_spec,
     exclude_contacts,
     find_body,
     find_site,
@@ -77,7 +78,7 @@ class FlexureHandle:
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, frame="world", K, B=None, method="twist",
     terms=None, stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True, kind="plugin", strain_scale=None, stops=None,
+    exclude_contact=True, kind="plugin", strain_scale=None, stops=None, rest=None,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -144,8 +145,16 @@ def add_flexure(
     stops : Stops, optional
         End stops: one-sided limits on the element's coordinates (rotation vector and position of
         frame b in frame a, ``[rx, ry, rz, x, y, z]``, or ``[theta, x, y]`` planar), in the
-        element frame, with a stated or derived stiffness (:class:`mjflex.Stops`). Stored in the
-        record or plugin instance (:mod:`mjflex.mjcf.schema`). Default: none.
+        element frame, with a stated or derived stiffness and an optional damping
+        (:class:`mjflex.Stops`). A damping ratio or time constant is turned here into numbers from
+        the coordinates' effective masses at ``qpos0`` (the element not yet added), and those
+        are stored in the record or plugin instance (:mod:`mjflex.mjcf.schema`). Default: none.
+    rest : tuple (pos, quat), optional
+        The rest pose: the pose of frame b in frame a at which the element's energy is zero,
+        ``pos`` [x, y, z] [m] and ``quat`` [w, x, y, z] (a unit quaternion), in the element frame.
+        Its energy, wrench and stop coordinates count from it; a rest pose away from the compiled
+        one preloads the element (as MuJoCo's ``springref`` does a joint spring). Default: the
+        compiled pose (the frames coincide).
     kind : {"plugin", "record"}
         How the element is written (:mod:`mjflex.mjcf.schema`). ``"plugin"`` (default): an
         instance of the engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to
@@ -219,9 +228,13 @@ def add_flexure(
             K, terms = potential_in_frame(K, terms, R_FE, p_FE)
         else:
             K = stiffness_in_frame(K, R_FE, p_FE)
+    rest = schema.checked_rest(rest, f"rest of flexure {name!r}")
+    stops = _stops.checked(stops, K, name)
+    if stops is not None and stops.needs_model:
+        stops = _resolved_stops(spec, name, stops, K, bodies, p_WE, R_WE)
     record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
                                   *_checked_terms(terms, method, K, name), site=frame_site,
-                                  strain_scale=strain_scale, stops=_stops.checked(stops, K, name))  # fmt: skip
+                                  strain_scale=strain_scale, stops=stops, rest=rest)  # fmt: skip
     text_data = _record_text(record)
     sites = []
     for b, site_name in zip(bodies, site_names, strict=True):
@@ -241,6 +254,17 @@ def add_flexure(
         return FlexureHandle(name, sites[0], sites[1], None, plugin)
     text = spec.add_text(name=schema.PREFIX + name, data=text_data)
     return FlexureHandle(name, sites[0], sites[1], text)
+
+
+def _resolved_stops(spec, name, stops, K, bodies, p_WE, R_WE):
+    """``stops`` with its damping ratio or time constant turned into numbers (:func:`mjflex.mjcf.stops.resolved`) from
+    the effective masses of the element's coordinates in ``spec`` at ``qpos0``."""
+    model = compile_spec(spec, f"find the effective masses of flexure {name!r}'s stop coordinates")
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ids = [0 if b is spec.worldbody else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in bodies]
+    masses = _stops.coordinate_masses(model, data, *ids, p_WE, R_WE, K.shape[0])
+    return _stops.resolved(stops, K, masses, name)
 
 
 def _element_frame(spec, name, bodies, pos, quat, site, poses, frame="world"):

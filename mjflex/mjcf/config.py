@@ -20,7 +20,10 @@ the record's content, each value a string:
 - ``source``: the record's ``"source"`` object as JSON text, verbatim (optional);
 - ``stop_lower``, ``stop_upper``: the record's ``"stops"`` limits, one number per coordinate,
   ``-inf`` / ``inf`` where a coordinate has no stop; ``stop_stiffness``: absent (derived), one
-  number, or one per coordinate (optional; the record's rules).
+  number, or one per coordinate; ``stop_damping``: absent (none), one number, or one per
+  coordinate (optional; the record's rules);
+- ``rest_pos``, ``rest_quat``: the record's ``"rest"``, 3 numbers [m] and 4 (a unit quaternion
+  ``w x y z``) (optional; either alone leaves the other at the identity).
 
 Numbers are separated by white space and written as the shortest text that reads back to the same double by
 :func:`config_from_record`, so the conversion is lossless. Every value is validated when MuJoCo
@@ -54,7 +57,7 @@ from .stops import Stops
 #: ``MJFX_ATTRIBUTES``; tests/test_native_constants.py holds them equal).
 PLUGIN_ATTRIBUTES = ("site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients", "enabled",
                      "viscous", "strain_per_radian", "strain_scale", "source", "stop_lower", "stop_upper",
-                     "stop_stiffness", "site")  # fmt: skip
+                     "stop_stiffness", "stop_damping", "rest_pos", "rest_quat", "site")  # fmt: skip
 
 
 def _numbers(text: str) -> list[float]:
@@ -93,8 +96,17 @@ def record_from_config(element: str, config: dict) -> FlexureRecord:
         element, method, _matrix(get["K"]), _matrix(get["B"]) if get["B"] else None, **flags,
         strain_per_radian=strain["strain_per_radian"], source=json.loads(get["source"]) if get["source"] else None,
         terms=terms, order=order, site=get["site"] or None, strain_scale=strain["strain_scale"],
-        stops=Stops.from_config(get) or None,
+        stops=Stops.from_config(get) or None, rest=_rest(get),
     )  # fmt: skip
+
+
+def _rest(get) -> tuple | None:
+    """The rest pose of checked configuration strings, as the record holds it (None: none given)."""
+    if not get["rest_pos"] and not get["rest_quat"]:
+        return None
+    pos = _numbers(get["rest_pos"]) if get["rest_pos"] else [0.0, 0.0, 0.0]
+    quat = _numbers(get["rest_quat"]) if get["rest_quat"] else [1.0, 0.0, 0.0, 0.0]
+    return tuple(pos), tuple(quat)
 
 
 def _number_text(values) -> str:
@@ -149,6 +161,8 @@ def config_from_record(record: FlexureRecord, site_a: str, site_b: str) -> dict[
         config["site"] = record.site
     if record.stops:
         config.update(record.stops.config())
+    if record.rest is not None:
+        config["rest_pos"], config["rest_quat"] = _number_text(record.rest[0]), _number_text(record.rest[1])
     return config
 
 

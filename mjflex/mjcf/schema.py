@@ -42,7 +42,13 @@ An element named ``E`` (any text) is
     coordinate, ``[rx, ry, rz, x, y, z]`` (rotation vector of frame b in frame a [rad], position
     of frame b in frame a [m]) or ``[theta, x, y]`` for a planar element, ``null`` where a
     coordinate has no stop; ``"stiffness"`` [N m/rad, N/m] is absent or ``null`` (derived:
-    100 times ``K``'s diagonal entry of each coordinate), a number, or one per coordinate.
+    100 times ``K``'s diagonal entry of each coordinate), a number, or one per coordinate;
+    ``"damping"`` [N m s/rad, N s/m] is absent or ``null`` (conservative stops), a number, or
+    one per coordinate;
+  - ``"rest"``: the rest pose, ``{"pos": [x, y, z], "quat": [w, x, y, z]}``: the pose of frame b
+    in frame a at which the element's energy is zero [m; unit quaternion] (optional; default:
+    the frames coincide, as compiled). Energies, wrenches and stop coordinates count from it
+    (:mod:`mjflex.core.rest`); a rest pose the model does not hold preloads the element.
 
 Validation rules (:func:`parse_text`; one place, mirrored by any other reader of records):
 
@@ -73,7 +79,10 @@ Validation rules (:func:`parse_text`; one place, mirrored by any other reader of
     ``"stiffness"``: as many limits as ``K`` has rows, numbers or ``null``, none NaN; rotation
     limits within ``[-pi, pi]`` (radians, not degrees); ``lower <= upper``; the stiffness finite,
     ``>= 0``, and positive on every coordinate with a limit (a derived one needs ``K_ii > 0``);
-    no stiffness without a limit (:mod:`mjflex.mjcf.stops` has the rules).
+    no stiffness without a limit; the damping finite and ``>= 0``, none without a limit
+    (:mod:`mjflex.mjcf.stops` has the rules);
+11. ``"rest"`` is ``null`` or an object with only the keys ``"pos"`` (3 finite numbers) and
+    ``"quat"`` (4 finite numbers of norm 1 within :data:`mjflex.core.rest.REST_QUAT_TOLERANCE`), either optional.
 
 Every violation raises ValueError naming the key (and entry), quoting the bad value cut to
 :data:`mjflex.core.validation.SHORT_REPR` characters, and saying what is allowed; the model
@@ -112,6 +121,7 @@ import numpy as np
 
 from ..core import validation
 from ..core.polynomial import MAX_EXPONENT, PolynomialTerms
+from ..core.rest import rest_pose
 from ..core.stops import PLANAR_INDEX
 from ..core.validation import MAX_MATRIX_ENTRY, shorten
 from .stops import Stops
@@ -128,7 +138,8 @@ SITE_B_SUFFIX = "/b"
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
 KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "strain_scale",
-        "source", "site", "stops")  # fmt: skip
+        "source", "site", "stops", "rest")  # fmt: skip
+REST_KEYS = ("pos", "quat")
 #: Full scale of an element's strain colour in the viewer when ``"strain_scale"`` is not given: 1 %
 #: bending strain (where the elastic range of flexure metals ends: spring steel, titanium and
 #: aluminium alloys yield at 0.5-1 %), or 0.1 rad of rotation for an element without ``"strain_per_radian"``.
@@ -182,6 +193,9 @@ class FlexureRecord:
         in rad without ``strain_per_radian``); None: the default (``DEFAULT_STRAIN_SCALE``).
     stops : Stops or None
         End stops on the element's coordinates (:class:`mjflex.Stops`); None: none.
+    rest : tuple or None
+        The rest pose ``((x, y, z), (w, x, y, z))``: the pose of frame b in frame a at which the
+        element's energy is zero [m; unit quaternion], as written; None: the frames coincide.
 
     Examples
     --------
@@ -209,6 +223,7 @@ class FlexureRecord:
     site: str | None = None
     strain_scale: float | None = None
     stops: Stops | None = None
+    rest: tuple | None = None
 
     @property
     def planar(self) -> bool:
@@ -237,6 +252,8 @@ class FlexureRecord:
             payload["site"] = self.site
         if self.stops:
             payload["stops"] = self.stops.to_dict()
+        if self.rest is not None:
+            payload["rest"] = {"pos": list(self.rest[0]), "quat": list(self.rest[1])}
         return json.dumps(payload)
 
 
@@ -438,7 +455,32 @@ def parse_payload(element: str, payload: dict) -> FlexureRecord:
         raise ValueError(f'"site" must be the name of a site of the model; got {shorten(site)}')
     order, terms = order_and_terms(payload, method, K)
     return FlexureRecord(element, method, K, B, enabled, viscous, strain, source, terms, order, site,
-                         _strain(payload, "strain_scale"), _stops(payload, K))  # fmt: skip
+                         _strain(payload, "strain_scale"), _stops(payload, K), _rest(payload))  # fmt: skip
+
+
+def checked_rest(rest, what="rest") -> tuple | None:
+    """A rest pose ``(pos, quat)`` (or None) checked (:func:`mjflex.core.rest.rest_pose`) and kept as written:
+    ``((x, y, z), (w, x, y, z))`` of floats; ValueError saying what is wrong."""
+    if rest is None:
+        return None
+    rest_pose(rest, what)
+    return tuple(float(v) for v in rest[0]), tuple(float(v) for v in rest[1])
+
+
+def _rest(payload):
+    """The record's rest pose (rule 11), or None."""
+    data = payload.get("rest")
+    if data is None:
+        return None
+    if not isinstance(data, dict) or set(data) - set(REST_KEYS):
+        raise ValueError(f'"rest" must be an object with the keys "pos" ([x, y, z], m) and "quat" ([w, x, y, z], a '
+                         f"unit quaternion): the pose of frame b in frame a at rest; got {shorten(data)}")  # fmt: skip
+    for key, n in (("pos", 3), ("quat", 4)):
+        if data.get(key) is not None and not (isinstance(data[key], list) and len(data[key]) == n):
+            raise ValueError(f'"rest" "{key}" must be a list of {n} numbers; got {shorten(data[key])}')
+    pos = data.get("pos") if data.get("pos") is not None else [0.0, 0.0, 0.0]
+    quat = data.get("quat") if data.get("quat") is not None else [1.0, 0.0, 0.0, 0.0]
+    return checked_rest((pos, quat), '"rest"')
 
 
 def _stops(payload, K):

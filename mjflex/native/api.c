@@ -26,7 +26,8 @@ static const struct {
     FIELD(chain_b0), FIELD(chain_b1), FIELD(terms_lo), FIELD(terms_hi),  FIELD(terms_top), FIELD(kstruct),
     FIELD(bstruct),  FIELD(qa),       FIELD(qb),       FIELD(p0),        FIELD(lever_a),  FIELD(lever_b),
     FIELD(inv_mass), FIELD(inv_inertia), FIELD(kdiag), FIELD(bdiag),     FIELD(K),        FIELD(B),
-    FIELD(R0),       FIELD(stops),    FIELD(stop_lo),  FIELD(stop_hi),  FIELD(stop_k),
+    FIELD(R0),       FIELD(stops),    FIELD(stop_lo),  FIELD(stop_hi),  FIELD(stop_k),   FIELD(stop_damped),
+    FIELD(rest),     FIELD(stop_b),
 };
 
 // byte offset of a field of mjfxElement (-1: no such field); sizeof with name NULL
@@ -167,6 +168,7 @@ double mjfx_constant(const char* name) {
       {"COINCIDENCE_ANGLE", MJFX_COINCIDENCE_ANGLE},
       {"REST_STRESS_RTOL", MJFX_REST_STRESS_RTOL},
       {"MAX_TERMS", MJFX_MAX_TERMS},
+      {"REST_QUAT_TOLERANCE", MJFX_REST_QUAT_TOL},
       {"MAX_EXPONENT", MJFX_MAX_EXPONENT},
       {"TERM_COLUMNS", MJFX_TERM_COLUMNS},
       {"STOP_STIFFNESS_FACTOR", MJFX_STOP_STIFFNESS_FACTOR},

@@ -13,11 +13,12 @@
 const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE] = {
     "site_a", "site_b", "method", "K", "B", "order", "exponents", "coefficients",
     "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "stop_lower", "stop_upper", "stop_stiffness",
-    "site",
+    "stop_damping", "rest_pos", "rest_quat", "site",
 };
 
 enum { A_SITE_A, A_SITE_B, A_METHOD, A_K, A_B, A_ORDER, A_EXPONENTS, A_COEFFICIENTS, A_ENABLED, A_VISCOUS, A_STRAIN,
-       A_STRAIN_SCALE, A_SOURCE, A_STOP_LOWER, A_STOP_UPPER, A_STOP_STIFFNESS, A_SITE };
+       A_STRAIN_SCALE, A_SOURCE, A_STOP_LOWER, A_STOP_UPPER, A_STOP_STIFFNESS, A_STOP_DAMPING, A_REST_POS, A_REST_QUAT,
+       A_SITE };
 
 // planar coordinates [theta_z; x; y] within [rx, ry, rz, x, y, z] (mjflex.core.stops.PLANAR_INDEX)
 static const int PLANAR_INDEX[3] = {2, 3, 4};
@@ -463,6 +464,80 @@ static int parse_terms(const char* name, const char* const* values, int method, 
 static const char* const STOP_COORDINATES[2][6] = {{"rx", "ry", "rz", "x", "y", "z"}, {"theta", "x", "y"}};
 static const char* const STOP_KEYS[2] = {"stop_lower", "stop_upper"};
 
+// The stops' damping (stop_damping: empty, 1 number or one per coordinate; finite, >= 0) into e->stop_b (embedded
+// like stop_k; 0 where a coordinate has no limit) and e->stop_damped (some coordinate with a limit is damped). lim:
+// the limits parse_stops read (n of each).
+static int parse_stop_damping(const char* name, const char* text, int planar, double lim[2][6], mjfxElement* e,
+                              char* err, int errsz) {
+  int n = planar ? 3 : 6;
+  const char* const* coord = STOP_COORDINATES[planar ? 1 : 0];
+  double b[6];
+  char bad[48];
+  for (int i = 0; i < 6; i++) e->stop_b[i] = 0.0;
+  e->stop_damped = 0;
+  if (is_blank(text)) return 0;
+  int count = parse_numbers(text, b, 6, bad, sizeof(bad));
+  if (count < 0) return fail(err, errsz, name, "stop_damping has '%s', which is not a number", bad);
+  if (count != 1 && count != n) {
+    return fail(err, errsz, name, "stop_damping has %d numbers; give 1 (every coordinate) or %d (one per coordinate "
+                "%s) [N m s/rad, N s/m], or drop it for conservative stops", count, n,
+                planar ? "[theta x y]" : "[rx ry rz x y z]");
+  }
+  for (int i = 1; i < n && count == 1; i++) b[i] = b[0];
+  for (int i = 0; i < n; i++) {
+    if (!isfinite(b[i]) || b[i] < 0 || b[i] > MJFX_MAX_MATRIX_ENTRY) {
+      return fail(err, errsz, name, "stop_damping of %s is %g; give a finite number >= 0 (at most %g) [N m s/rad, "
+                  "N s/m]", coord[i], b[i], MJFX_MAX_MATRIX_ENTRY);
+    }
+    int j = planar ? PLANAR_INDEX[i] : i, limited = isfinite(lim[0][i]) || isfinite(lim[1][i]);
+    e->stop_b[j] = limited ? b[i] : 0.0;
+    e->stop_damped |= limited && b[i] > 0;
+  }
+  return 0;
+}
+
+// The rest pose (rest_pos: 3 numbers [m]; rest_quat: 4, a unit quaternion w-first, norm 1 within
+// MJFX_REST_QUAT_TOL, normalized here) into out; out->has_rest when either is given (the other: identity).
+static int parse_rest(const char* name, const char* const* values, mjfxParsed* out, char* err, int errsz) {
+  static const double identity[7] = {0, 0, 0, 1, 0, 0, 0};
+  memcpy(out->rest_pos, identity, 3 * sizeof(double));
+  memcpy(out->rest_quat, identity + 3, 4 * sizeof(double));
+  out->has_rest = 0;
+  static const char* const KEYS[2] = {"rest_pos", "rest_quat"};
+  static const char* const WHAT[2] = {"the position of frame b in frame a at rest [m]",
+                                      "the orientation of frame b in frame a at rest, a unit quaternion w x y z"};
+  double* dest[2] = {out->rest_pos, out->rest_quat};
+  for (int s = 0; s < 2; s++) {
+    const char* text = values[A_REST_POS + s];
+    if (is_blank(text)) continue;
+    int want = s ? 4 : 3;
+    double v[4];
+    char bad[48];
+    int count = parse_numbers(text, v, 4, bad, sizeof(bad));
+    if (count < 0) return fail(err, errsz, name, "%s has '%s', which is not a number; give %s", KEYS[s], bad, WHAT[s]);
+    if (count != want) {
+      return fail(err, errsz, name, "%s has %d numbers; give %d: %s", KEYS[s], count, want, WHAT[s]);
+    }
+    for (int i = 0; i < want; i++) {
+      if (!isfinite(v[i]) || fabs(v[i]) > MJFX_MAX_MATRIX_ENTRY) {
+        return fail(err, errsz, name, "%s has %g; give finite numbers: %s", KEYS[s], v[i], WHAT[s]);
+      }
+    }
+    if (s) {
+      double norm = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
+      if (!(fabs(norm - 1.0) <= MJFX_REST_QUAT_TOL)) {
+        return fail(err, errsz, name, "rest_quat (%g %g %g %g) has norm %.9g, so it is not a rotation; give a unit "
+                    "quaternion w x y z (norm 1 within %g: write enough digits, or normalize it)", v[0], v[1], v[2],
+                    v[3], norm, MJFX_REST_QUAT_TOL);
+      }
+      for (int i = 0; i < 4; i++) v[i] /= norm;
+    }
+    memcpy(dest[s], v, want * sizeof(double));
+    out->has_rest = 1;
+  }
+  return 0;
+}
+
 // The end stops (stop_lower, stop_upper, stop_stiffness; the rules of mjflex.mjcf.stops) into e: limits and
 // stiffness on the stop coordinates (planar ones embedded at PLANAR_INDEX), stiffness 0 and limits -inf /
 // +inf where a coordinate has no stop; e->stops when any limit is finite. K6: the element's (embedded) K.
@@ -474,8 +549,8 @@ static int parse_stops(const char* name, const char* const* values, int planar, 
   double lim[2][6], k[6];
   char bad[48];
   int any = 0;
-  for (int i = 0; i < 6; i++) e->stop_lo[i] = -INFINITY, e->stop_hi[i] = INFINITY, e->stop_k[i] = 0.0;
-  e->stops = 0;
+  for (int i = 0; i < 6; i++) e->stop_lo[i] = -INFINITY, e->stop_hi[i] = INFINITY, e->stop_k[i] = e->stop_b[i] = 0.0;
+  e->stops = e->stop_damped = 0;
   for (int s = 0; s < 2; s++) {
     const char* key = STOP_KEYS[s];
     for (int i = 0; i < 6; i++) lim[s][i] = s ? INFINITY : -INFINITY;
@@ -518,9 +593,10 @@ static int parse_stops(const char* name, const char* const* values, int planar, 
   }
   const char* ks = values[A_STOP_STIFFNESS];
   if (!any) {
-    if (!is_blank(ks)) {
-      return fail(err, errsz, name, "stop_stiffness is given but there is no stop; add stop_lower or stop_upper, or "
-                  "drop stop_stiffness");
+    if (!is_blank(ks) || !is_blank(values[A_STOP_DAMPING])) {
+      const char* key = !is_blank(ks) ? "stop_stiffness" : "stop_damping";
+      return fail(err, errsz, name, "%s is given but there is no stop; add stop_lower or stop_upper, or drop %s", key,
+                  key);
     }
     return 0;
   }
@@ -560,7 +636,7 @@ static int parse_stops(const char* name, const char* const* values, int planar, 
     e->stop_lo[j] = lim[0][i], e->stop_hi[j] = lim[1][i], e->stop_k[j] = limited ? k[i] : 0.0;
   }
   e->stops = 1;
-  return 0;
+  return parse_stop_damping(name, values[A_STOP_DAMPING], planar, lim, e, err, errsz);
 }
 
 //------------------------------------------------------------------------------ JSON
@@ -732,6 +808,7 @@ int mjfx_parse_config(const char* element, int form, const char* const* values, 
                 "double quotes, no NaN); got '%.60s'", skip_space(values[A_SOURCE]));
   }
   if (parse_stops(name, values, planar, e->K, e, err, errsz)) return -1;
+  if (parse_rest(name, values, out, err, errsz)) return -1;
   e->terms_lo = e->terms_hi = e->terms_top = 0;
   if (parse_terms(name, values, e->method, e->K, out, err, errsz)) return -1;
   e->terms_hi = out->nterms;

@@ -13,7 +13,7 @@
 #include "elements.h"
 
 #define MJFX_PLUGIN_NAME "mjflex.flexure"
-#define MJFX_NATTRIBUTE 17
+#define MJFX_NATTRIBUTE 20
 extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 
 // Validation constants (mjflex.mjcf.schema, mjflex.core.validation, mjflex.core.polynomial).
@@ -24,6 +24,9 @@ extern const char* const MJFX_ATTRIBUTES[MJFX_NATTRIBUTE];
 #define MJFX_COINCIDENCE_ANGLE 1e-5
 #define MJFX_REST_STRESS_RTOL 1e-12
 #define MJFX_MAX_TERMS 100000
+// largest |norm - 1| of an element's rest_quat (mjflex.core.rest.REST_QUAT_TOLERANCE): a quaternion written with
+// 7 significant digits passes, one that is not a rotation does not
+#define MJFX_REST_QUAT_TOL 1e-6
 // derived stiffness of an end stop: this times K_ii (mjflex.core.stops.STIFFNESS_FACTOR)
 #define MJFX_STOP_STIFFNESS_FACTOR 100.0
 // largest |rotation limit| of a stop [rad] (mjflex.mjcf.stops.MAX_ROTATION_LIMIT): pi, and the round-off of pi
@@ -40,6 +43,9 @@ typedef struct mjfxParsed_ {
   int planar;
   double strain_per_radian;
   double strain_scale;
+  int has_rest;           // a rest pose is given (rest_pos, rest_quat; the other part: identity)
+  double rest_pos[3];     // the rest pose: position [m] and unit quaternion (normalized) of frame b in frame a
+  double rest_quat[4];
 } mjfxParsed;
 
 // Full scale of the strain colours when an element gives none (mjflex.mjcf.schema.DEFAULT_STRAIN_SCALE):
@@ -58,7 +64,8 @@ typedef struct mjfxParsed_ {
 void mjfx_element_head(const char* name, int form, char* out, int size);
 
 // Parse the configuration strings values[MJFX_NATTRIBUTE] (in MJFX_ATTRIBUTES order) of
-// element `name` into out (site, body and offset fields are not touched). Returns 0, or -1
+// element `name` into out (site, body and offset fields are not touched; the rest pose is left in
+// out->rest_pos/rest_quat for the reader to compose into the offset, mjfx_compose_rest). Returns 0, or -1
 // with a message in err that names the element (in the words of its form), the problem and the
 // fix; out->exps and out->coefs are allocated (malloc) only on success.
 int mjfx_parse_config(const char* name, int form, const char* const* values, mjfxParsed* out, char* err,

@@ -118,6 +118,17 @@ void mjfx_element_prepare(const mjModel* m, mjfxElement* e) {
   }
 }
 
+void mjfx_compose_rest(const double pos[3], const double quat[4], double R0[9], double p0[3]) {
+  double Rr[9], R[9], p[3];
+  mjfx_rot_from_quat(quat, Rr);
+  for (int i = 0; i < 3; i++) {
+    for (int j = 0; j < 3; j++) R[3 * i + j] = Rr[3 * i] * R0[j] + Rr[3 * i + 1] * R0[3 + j] + Rr[3 * i + 2] * R0[6 + j];
+    p[i] = Rr[3 * i] * p0[0] + Rr[3 * i + 1] * p0[1] + Rr[3 * i + 2] * p0[2] + pos[i];
+  }
+  memcpy(R0, R, sizeof(R));
+  memcpy(p0, p, sizeof(p));
+}
+
 int mjfx_offset_is_identity(const double R0[9], const double p0[3]) {
   static const double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   for (int i = 0; i < 9; i++) {

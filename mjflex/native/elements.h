@@ -10,9 +10,10 @@
 
 // what mjfx_evaluate does (bits)
 #define MJFX_APPLY 1    // add the generalized forces to qfrc
-#define MJFX_WRENCH 2   // out6[e] = wrench on body B [moment about frame b; force], world axes
+#define MJFX_WRENCH 2   // out6[e] = wrench on body B [moment; force], world axes, the moment about site b with a
+                        // rest pose, else about frame b*'s origin (site b within the sites' rounding)
 #define MJFX_ENERGY 4   // out1[e] = elastic energy (the end stops' included)
-#define MJFX_POWER 8    // out1[e] = dissipated power
+#define MJFX_POWER 8    // out1[e] = dissipated power (damping B and the stops' damping)
 #define MJFX_COORDS 16  // out6[e] = finite twist of frame b relative to frame a
 
 // One element, laid out once, for both forms, by instances.c (mjfx_read_element): in the plugin's
@@ -29,9 +30,11 @@ typedef struct mjfxElement_ {
   int terms_lo, terms_hi, terms_top;           // rows of the terms' tables, largest exponent
   int kstruct, bstruct;                        // MJFX_FULL / MJFX_DIAGONAL / MJFX_ZERO of K and B
   int stops;                                   // the element has end stops (stop_lo, stop_hi, stop_k)
+  int stop_damped;                             // and they are damped (stop_b not all zero)
+  int rest;                                    // a rest pose is composed into the rest offset (R0, p0)
   double qa[4];        // site a's orientation in body A (the model's site_quat)
   double qb[4];        // site b's orientation in body B, times the rest offset's inverse (mjfx_element_prepare)
-  double p0[3];        // rest offset: position of frame b seen from frame a at qpos0
+  double p0[3];        // rest offset: position of frame b* in frame a at qpos0 (residual, then rest pose)
   double lever_a[3];   // origin of frame a in body A (site a's position; mjfx_element_prepare)
   double lever_b[3];   // origin of frame b* in body B: site b's position - R(qb) p0 (mjfx_element_prepare)
   double inv_mass;     // largest 1/mass of the element's (non-world) bodies [1/kg]
@@ -41,12 +44,14 @@ typedef struct mjfxElement_ {
   // read when K or B are not diagonal
   double K[36];        // stiffness in the element frame, row-major (planar: embedded)
   double B[36];        // damping, same layout (zero without damping)
-  double R0[9];        // rest offset: orientation of frame b seen from frame a at qpos0 (row-major)
+  double R0[9];        // rest offset: orientation of frame b* in frame a at qpos0 (row-major)
   // read when the element has end stops (mjflex.core.stops): limits of the stop coordinates
-  // [rx, ry, rz, x, y, z] (-inf / +inf: none; planar elements on rz, x, y) and their stiffness
+  // [rx, ry, rz, x, y, z] (-inf / +inf: none; planar elements on rz, x, y), their stiffness and
+  // their damping (active beyond a limit only; 0 where there is no limit)
   double stop_lo[6];
   double stop_hi[6];
   double stop_k[6];
+  double stop_b[6];
 } mjfxElement;
 
 // What an evaluation found for divergence reporting: the first element whose wrench is not
@@ -96,6 +101,12 @@ void mjfx_rest_offset(const mjData* d, int sa, int sb, double R0[9], double p0[3
 
 // Whether (R0, p0) is exactly the identity.
 int mjfx_offset_is_identity(const double R0[9], const double p0[3]);
+
+// Compose an element's rest pose (pos, unit quaternion quat: the pose of frame b in frame a at which its
+// energy is zero) into its measured rest offset (R0, p0: the rounding residual of the sites at qpos0):
+// (R0, p0) <- X_rest X_res, i.e. frame b* = frame b X_res^-1 X_rest^-1: the residual is removed from
+// frame b first (it belongs to the site's placement), then the rest pose, which is thus exact in frame a.
+void mjfx_compose_rest(const double pos[3], const double quat[4], double R0[9], double p0[3]);
 
 // Fill an element's derived fields from its sites, rest offset, K and B: offset, qa, qb, lever_a,
 // lever_b, kstruct, bstruct, kdiag, bdiag.

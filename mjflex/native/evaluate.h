@@ -28,20 +28,25 @@
 #define KIND_FREE_A 256
 #define KIND_FREE_B 512
 #define KIND_STOPS 1024
+#define KIND_STOP_DAMPING 2048
 
 // the kind of an element (its method, or the twist's for the twist coordinates query)
 EV_INLINE int kind_of(const mjfxElement* e, int spring_on, int damper_on, int coords) {
   return (coords ? MJFX_TWIST : e->method) | (spring_on ? e->kstruct : MJFX_ZERO) << 1 | e->bstruct << 3 |
          (damper_on & e->viscous) << 5 |
          e->offset << 6 | (spring_on & (e->terms_hi > e->terms_lo)) << 7 | (e->free_a >= 0) << 8 |
-         (e->free_b >= 0) << 9 | (spring_on & !coords & e->stops) << 10;
+         (e->free_b >= 0) << 9 | (spring_on & !coords & e->stops) << 10 |
+         (spring_on & damper_on & !coords & e->stop_damped) << 11;  // stop_damped: the element has stops
 }
 
-// the end stops' limits and stiffness of each lane (when the kind has stops)
+// the end stops' limits, stiffness and damping of each lane (when the kind has stops)
 EV_INLINE void lanes_stops(const mjfxElement* const e[MJFX_LANES], int kind, mjfxLanes* x) {
   x->has_stops = (kind & KIND_STOPS) != 0;
+  x->stop_damped = (kind & KIND_STOP_DAMPING) != 0;
   if (!x->has_stops) return;
-  for (int l = 0; l < MJFX_LANES; l++) x->lo[l] = e[l]->stop_lo, x->hi[l] = e[l]->stop_hi, x->ks[l] = e[l]->stop_k;
+  for (int l = 0; l < MJFX_LANES; l++) {
+    x->lo[l] = e[l]->stop_lo, x->hi[l] = e[l]->stop_hi, x->ks[l] = e[l]->stop_k, x->bs[l] = e[l]->stop_b;
+  }
 }
 
 // A group's results, one column per lane: the wrench on body B (moment about pb, world axes), pb,
@@ -141,7 +146,7 @@ EV_INLINE void group_wrench(const mjModel* m, const mjData* d, const mjfxElement
       x.terms[l] = terms + l;
     }
   }
-  if (x.viscous) {
+  if (x.viscous || x.stop_damped) {
     group_velocity(m, d, e, Rb, pb, &x);
   } else {
     x.w = x.v = v3(mjfx_all(0.0), mjfx_all(0.0), mjfx_all(0.0));
@@ -279,6 +284,11 @@ int MJFX_EVALUATE(const mjModel* m, const mjData* d, const mjfxElement* el, int 
       if (mode & MJFX_WRENCH) {
         double* o = out6 + 6 * i;
         o[0] = mo[0], o[1] = mo[1], o[2] = mo[2], o[3] = f[0], o[4] = f[1], o[5] = f[2];
+        if (t->rest) {  // about site b: + (pb - site b) x f
+          const double* s = d->site_xpos + 3 * t->site_b;
+          double a[3] = {r.row[R_PB][l] - s[0], r.row[R_PB + 1][l] - s[1], r.row[R_PB + 2][l] - s[2]};
+          o[0] += a[1] * f[2] - a[2] * f[1], o[1] += a[2] * f[0] - a[0] * f[2], o[2] += a[0] * f[1] - a[1] * f[0];
+        }
       }
       if (mode & MJFX_POWER) out1[i] = r.row[R_POWER][l];
       if (!(mode & MJFX_APPLY)) continue;

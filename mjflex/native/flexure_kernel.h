@@ -153,12 +153,20 @@ MJFX_HOT mjfxVec mjfx_max(mjfxVec a, mjfxVec b) {
   mjfxMask take = a > b;
   return (mjfxVec)((take & (mjfxMask)a) | (~take & (mjfxMask)b));
 }
+// lane-wise a where x > 0, else 0
+MJFX_HOT mjfxVec mjfx_where_positive(mjfxVec x, mjfxVec a) {
+  mjfxMask take = x > mjfx_all(0.0);
+  return (mjfxVec)(take & (mjfxMask)a);
+}
 #else
 MJFX_HOT mjfxVec mjfx_abs(mjfxVec a) {
   return fabs(a);
 }
 MJFX_HOT mjfxVec mjfx_max(mjfxVec a, mjfxVec b) {
   return a > b ? a : b;
+}
+MJFX_HOT mjfxVec mjfx_where_positive(mjfxVec x, mjfxVec a) {
+  return x > 0.0 ? a : 0.0;
 }
 #endif
 // largest |component|
@@ -228,7 +236,8 @@ typedef struct {
   const double* lo[MJFX_LANES];  // end stops, 6 each (read when has_stops): lower and upper limits, stiffness
   const double* hi[MJFX_LANES];
   const double* ks[MJFX_LANES];
-  int method, kstruct, bstruct, viscous, has_terms, has_stops;
+  const double* bs[MJFX_LANES];  // the stops' damping, 6 each (read when stop_damped; w and v given then)
+  int method, kstruct, bstruct, viscous, has_terms, has_stops, stop_damped;
 } mjfxLanes;
 
 // The coordinates and what the maps need.
@@ -347,6 +356,11 @@ MJFX_HOT void mjfx_coords_lane(int method, const mjfxCoords* k, int l, double z[
 // G_i = k_i (max(z_i - hi_i, 0) - max(lo_i - z_i, 0)), and wrench on B (about b's origin, b axes)
 // m = -P(tau) G_tau (P = J_r^-T, eq. 44), f = -R_ab^T G_p. An element without stops never gets here
 // (its group's kind has no stops), so it pays nothing for them.
+// Damped stops (stop_damped) replace G by the total stop force G'_i: with the coordinates' rates
+// zdot = [P^T w; R_ab v] (w, v: the velocity of b relative to a in b's axes), beyond an upper limit
+// G'_i = max(k_i over_i + b_i zdot_i, 0), beyond a lower one G'_i = -max(k_i under_i - b_i zdot_i, 0),
+// inside the range 0: the damping acts only beyond the limit, and the clamp at 0 (continuous) keeps the
+// stop from ever pulling the body back in. The dissipated power sum_i (G'_i - G_i) zdot_i is >= 0.
 
 // k_i (over^2 + under^2) of coordinate i of each lane at z, and its derivative G_i into grad
 MJFX_HOT mjfxVec mjfx_stop_axis(const mjfxLanes* in, int i, mjfxVec z, mjfxVec* grad) {
@@ -376,12 +390,36 @@ MJFX_HOT mjfxV3 mjfx_stop_rotation(const mjfxLanes* in, const mjfxCoords* k, mjf
   return tau;
 }
 
-// add the stops' wrench on B to (m, f) (b axes); returns their energy
-MJFX_HOT mjfxVec mjfx_stop_wrench(const mjfxLanes* in, const mjfxCoords* k, mjfxV3* m, mjfxV3* f) {
+// The damped stops' force G' (g1: rotation, g2: position) at [tau; p] with rates [zr; zp]; returns the power
+// their damping dissipates
+MJFX_HOT mjfxVec mjfx_stop_damped(const mjfxLanes* in, mjfxV3 tau, mjfxV3 p, mjfxV3 zr, mjfxV3 zp, mjfxV3* g1,
+                                  mjfxV3* g2) {
+  mjfxVec z[6] = {tau.x, tau.y, tau.z, p.x, p.y, p.z}, r[6] = {zr.x, zr.y, zr.z, zp.x, zp.y, zp.z}, g[6];
+  mjfxVec zero = mjfx_all(0.0), pwr = zero;
+  for (int i = 0; i < 6; i++) {
+    mjfxVec k = MJFX_GATHER(in->ks, i), b = MJFX_GATHER(in->bs, i);
+    mjfxVec over = mjfx_max(z[i] - MJFX_GATHER(in->hi, i), zero), under = mjfx_max(MJFX_GATHER(in->lo, i) - z[i], zero);
+    mjfxVec eo = k * over, eu = k * under;
+    mjfxVec go = mjfx_max(eo + mjfx_where_positive(over, b) * r[i], zero);
+    mjfxVec gu = mjfx_max(eu - mjfx_where_positive(under, b) * r[i], zero);
+    g[i] = go - gu;
+    pwr = pwr + ((go - eo) - (gu - eu)) * r[i];
+  }
+  *g1 = v3(g[0], g[1], g[2]), *g2 = v3(g[3], g[4], g[5]);
+  return pwr;
+}
+
+// add the stops' wrench on B to (m, f) (b axes) and their dissipated power to *power; returns their energy
+MJFX_HOT mjfxVec mjfx_stop_wrench(const mjfxLanes* in, const mjfxCoords* k, mjfxV3* m, mjfxV3* f, mjfxVec* power) {
   mjfxVec k0;
   mjfxV3 u0, g1, g2;
   mjfxV3 tau = mjfx_stop_rotation(in, k, &k0, &u0);
   mjfxVec u = mjfx_stop_energy(in, tau, in->p, &g1, &g2);
+  if (in->stop_damped) {  // rates: zr = P^T w = k0 w + tau x w / 2 + (tau . w) u0, zp = R_ab v
+    mjfxV3 zr = v3_add(v3_add(v3_scale(k0, in->w), v3_scale(mjfx_all(0.5), v3_cross(tau, in->w))),
+                       v3_scale(v3_dot(tau, in->w), u0));
+    *power = *power + mjfx_stop_damped(in, tau, in->p, zr, q4_apply(in->q, in->v, 0), &g1, &g2);
+  }
   mjfxV3 pg = v3_add(v3_sub(v3_scale(k0, g1), v3_scale(mjfx_all(0.5), v3_cross(tau, g1))), v3_scale(v3_dot(tau, g1), u0));
   *m = v3_sub(*m, pg);
   *f = v3_sub(*f, q4_apply(in->q, g2, 1));
@@ -441,7 +479,7 @@ MJFX_HOT void mjfx_kernel(const mjfxLanes* in, mjfxV3* m, mjfxV3* f, mjfxVec* po
   mjfxVec sc = mjfx_all(scale);
   *m = v3_scale(sc, mb);
   *f = v3_scale(sc, fb);
-  if (in->has_stops) mjfx_stop_wrench(in, &k, m, f);
+  if (in->has_stops) mjfx_stop_wrench(in, &k, m, f, &pwr);
   *power = pwr;
 }
 

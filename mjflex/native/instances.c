@@ -243,6 +243,8 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
     e->site_a = sites[0], e->site_b = sites[1];
     e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
     if (!read_rest_offset(m, d, name, form, values, e, err, errsz)) {
+      e->rest = parsed.has_rest;
+      if (e->rest) mjfx_compose_rest(parsed.rest_pos, parsed.rest_quat, e->R0, e->p0);
       mjfx_element_prepare(m, e);
       mjfx_inverse_inertia(m, e->body_a, e->body_b, &e->inv_mass, &e->inv_inertia);
       // generalized-force map: free-joint fast path or the dof chain of each body

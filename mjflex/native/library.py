@@ -38,7 +38,7 @@ TERM_COLUMNS = 8
 _INT_FIELDS = (
     "site_a", "site_b", "body_a", "body_b", "method", "enabled", "viscous", "offset", "free_a", "free_b",
     "chain_a0", "chain_a1", "chain_b0", "chain_b1", "terms_lo", "terms_hi", "terms_top", "kstruct", "bstruct",
-    "stops",
+    "stops", "stop_damped", "rest",
 )  # fmt: skip
 #: One element of a model, as the C loop reads it (``mjfxElement``; the fields the per-step loop reads first).
 ELEMENT_DTYPE = np.dtype(
@@ -46,7 +46,8 @@ ELEMENT_DTYPE = np.dtype(
      ("p0", np.float64, (3,)), ("lever_a", np.float64, (3,)), ("lever_b", np.float64, (3,)),
      ("inv_mass", np.float64), ("inv_inertia", np.float64), ("kdiag", np.float64, (6,)),
      ("bdiag", np.float64, (6,)), ("K", np.float64, (36,)), ("B", np.float64, (36,)), ("R0", np.float64, (9,)),
-     ("stop_lo", np.float64, (6,)), ("stop_hi", np.float64, (6,)), ("stop_k", np.float64, (6,))],
+     ("stop_lo", np.float64, (6,)), ("stop_hi", np.float64, (6,)), ("stop_k", np.float64, (6,)),
+     ("stop_b", np.float64, (6,))],
     align=True,
 )  # fmt: skip
 

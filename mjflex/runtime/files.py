@@ -364,7 +364,8 @@ def same_record(a, b) -> bool:
     """Whether two records hold the same parameters, every number bit for bit (NaN never occurs in a record)."""
     if a is None or b is None:
         return False
-    scalars = ("name", "method", "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "order", "site")
+    scalars = ("name", "method", "enabled", "viscous", "strain_per_radian", "strain_scale", "source", "order", "site",
+               "rest")  # fmt: skip
     if any(getattr(a, k) != getattr(b, k) for k in scalars):
         return False
     if not _same(a.K, b.K) or (a.B is None) != (b.B is None) or (a.B is not None and not _same(a.B, b.B)):
@@ -382,7 +383,7 @@ def _same_stops(a, b):
     """Whether two elements' end stops are the same, every number bit for bit (None: none)."""
     if a is None or b is None:
         return a is b
-    fields = ("lower", "upper", "stiffness")
+    fields = ("lower", "upper", "stiffness", "damping")
     return all((getattr(a, f) is None) == (getattr(b, f) is None) for f in fields) and all(
         _same(getattr(a, f), getattr(b, f)) for f in fields if getattr(a, f) is not None
     )

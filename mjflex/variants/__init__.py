@@ -11,11 +11,12 @@ tendons), with what they share (:mod:`.variant`: :class:`Variant`, sources, pose
 
 from .alternatives import bushing_variant, pseudo_rigid_body_variant, weld_variant
 from .compliance import Compliance, make_compliant, make_rigid
-from .reduce import reduce
+from .reduce import ReductionWarning, reduce
 from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
     "Compliance",
+    "ReductionWarning",
     "Variant",
     "VariantNotApplicableError",
     "bushing_variant",

@@ -38,17 +38,54 @@ def rigid_closure(tree, link):
              solimp=_fmt(HARD_SOLIMP))  # fmt: skip
 
 
+def _by_name(source_model, model, kind, count):
+    """Index in ``model`` of each object of ``kind`` of ``source_model`` with the same name (or the same index when
+    both have the same unnamed layout); -1 where it is gone."""
+    src = [mujoco.mj_id2name(source_model, kind, i) for i in range(count(source_model))]
+    dst = {mujoco.mj_id2name(model, kind, i): i for i in range(count(model))}
+    if count(source_model) == count(model) and not any(src):
+        return list(range(count(model)))
+    return [dst.get(n, -1) if n else -1 for n in src]
+
+
 def keyframes_converted(source_model, spec, model, state_from):
-    """Add the source's keyframes to ``spec`` through ``state_from``; returns the recompiled model."""
+    """Add the source's keyframes to ``spec``: the state through ``state_from``; controls, activations and mocap poses
+    by name (the actuators and mocap bodies a variant keeps); returns the recompiled model."""
     if source_model.nkey == 0:
         return model
+    acts = _by_name(source_model, model, mujoco.mjtObj.mjOBJ_ACTUATOR, lambda m: m.nu)
+    mocap = {}
+    for b in range(source_model.nbody):
+        if source_model.body_mocapid[b] >= 0:
+            name = mujoco.mj_id2name(source_model, mujoco.mjtObj.mjOBJ_BODY, b)
+            vb = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) if name else -1
+            if vb >= 0 and model.body_mocapid[vb] >= 0:
+                mocap[int(source_model.body_mocapid[b])] = int(model.body_mocapid[vb])
     data = mujoco.MjData(source_model)
     for k in range(source_model.nkey):
         mujoco.mj_resetDataKeyframe(source_model, data, k)
         mujoco.mj_forward(source_model, data)
         qpos, qvel = state_from(source_model, data)
         name = mujoco.mj_id2name(source_model, mujoco.mjtObj.mjOBJ_KEY, k) or f"key{k}"
-        spec.add_key(name=name, qpos=qpos, qvel=qvel, time=float(source_model.key_time[k]))
+        ctrl, act = np.zeros(model.nu), np.zeros(model.na)
+        for a, va in enumerate(acts):
+            if va >= 0:
+                ctrl[va] = source_model.key_ctrl[k, a]
+                if source_model.actuator_actnum[a] and model.actuator_actnum[va] == source_model.actuator_actnum[a]:
+                    n, src, dst = model.actuator_actnum[va], source_model.actuator_actadr[a], model.actuator_actadr[va]
+                    act[dst : dst + n] = source_model.key_act[k, src : src + n]
+        mpos, mquat = np.zeros((model.nmocap, 3)), np.tile([1.0, 0.0, 0.0, 0.0], (model.nmocap, 1))
+        for src, dst in mocap.items():
+            mpos[dst], mquat[dst] = (
+                source_model.key_mpos[k, 3 * src : 3 * src + 3],
+                source_model.key_mquat[k, 4 * src : 4 * src + 4],
+            )
+        extra = {"ctrl": ctrl} if model.nu else {}
+        if model.na:
+            extra["act"] = act
+        if model.nmocap:
+            extra.update(mpos=mpos.ravel(), mquat=mquat.ravel())
+        spec.add_key(name=name, qpos=qpos, qvel=qvel, time=float(source_model.key_time[k]), **extra)
     return compile_spec(spec, why=None)
 
 
@@ -65,6 +102,8 @@ def assemble(
     post=None,
     plane=None,
     fewest_joints=False,
+    attached=(),
+    inplace=None,
 ):
     """Build the variant.
 
@@ -90,13 +129,22 @@ def assemble(
     fewest_joints : bool
         Trees of the fewest joints (see :func:`~mjflex.variants.tree.spanning_forest`); default: of
         the most, leaving the rigid and one-joint links to close loops.
+    attached : set of str
+        Bodies of the source's own kinematic trees (they hang from the world already).
+    inplace : callable, optional
+        ``inplace(tree) -> list of str``: edits of elements on the bodies' own joints
+        (:mod:`mjflex.variants.reduce_edges`), before the loops are closed; returns report lines.
     """
     tree = TreeXml(source_spec, source_model)
     masses = {n: float(source_model.body_mass[i]) for i, n in enumerate(body_names(source_model)) if n}
-    edges, closers, roots = spanning_forest(links, masses, fewest_joints=fewest_joints)
+    edges, closers, roots = spanning_forest(links, masses, fewest_joints=fewest_joints, attached=attached)
+    inplace_lines = inplace(tree) if inplace is not None else []
     for parent, child, link in edges:
         tree.nest(parent, child, link.joints, link.element)
-        tree.drop_element(link.element, link.sites)
+        if link.info.get("record") is None:
+            tree.drop_element(link.element, link.sites)
+        else:  # the element stays, in fewer directions (its text record as given)
+            tree.rewrite_element(link.element, link.info["record"])
     if plane is not None:
         children = {child for _, child, _ in edges}
         for body in sorted(free_world_bodies(source_model) - children):
@@ -113,8 +161,14 @@ def assemble(
     model = keyframes_converted(source_model, spec, model, state_from)
     state_from = PoseFit(model, body_map)
     lines = list(report)
-    lines.append(f"kinematic trees rooted at {', '.join(r for r in roots)}; {len(edges)} elements became tree "
-                 f"joints or rigid links, {len(closers)} close loops; nv {source_model.nv} -> {model.nv}")  # fmt: skip
+    if links:
+        lines.append(
+            f"kinematic trees rooted at {', '.join(r for r in roots)}; {len(edges)} elements became tree "
+            f"joints or rigid links, {len(closers)} close loops; nv {source_model.nv} -> {model.nv}"
+        )
+    else:
+        lines.append(f"nv {source_model.nv} -> {model.nv}")
+    lines += inplace_lines
     lines += [line for line in loop_lines if line]
     details = dict(details)
     details.update({

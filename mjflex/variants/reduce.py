@@ -28,6 +28,19 @@ and returns a :class:`~mjflex.variants.variant.Variant` in which
   constraints are as stiff as the time step allows (MuJoCo's ``refsafe`` keeps their time
   constant at ``2 h``), so they cost a constraint solve but add no stiff mode.
 
+**Any model.** Elements on a body's own joints (the body's parent is the element's other body, as
+:func:`mjflex.make_compliant` makes them, ``replace_joints`` or not) are reduced in place
+(:mod:`mjflex.variants.reduce_edges`): the joints the compliant directions need stay, with their names
+and armature, and the element becomes MuJoCo's springs where they are exact, else the element in
+fewer directions; a direction that an actuator, a tendon or an equality moves is never held rigid.
+Free bodies nest under the model's own trees; elements between two bodies of the trees close loops.
+
+**A time step** (``timestep=``, by default the file's own when no band is given): the directions
+carrying the modes that the step and integrator do not resolve with the step advice's margin are held
+rigid, the fewest that bring every mode below that band (:mod:`mjflex.variants.reduce_choice`); the
+modes below the band are checked as in the band mode, and the reduced model's own step advice and its
+statics against the full model's are reported.
+
 How "stiff" is decided: the normal modes of the full model below ``keep_below_hz`` are
 computed, and each direction's modal strain-energy share is measured. Holding a direction
 rigid raises the square of a mode's frequency by about the share it stored there when it acts
@@ -57,30 +70,32 @@ elements together), while every mode loses less than ``viscous_tol`` of damping 
 ``viscous_tol``).
 """
 
-from dataclasses import dataclass
+import warnings
 
 import mujoco
 import numpy as np
-import scipy.linalg
 
+from ..analysis.advice import SAFETY, mode_limit, step_advice
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
 from ..analysis.linearize import normal_modes
+from ..analysis.statics import static_equilibrium
 from ..core import validation
-from ..mjcf import schema
 from ..mjcf.spec import compile_spec
 from ..runtime.flexures import Flexures
-from .assemble import assemble, hinge_closure, rigid_closure
-from .planar import in_plane_modes, out_of_plane, planar_record, plane_frame, plane_of
-from .tree import WORLD, Joint, Link, free_world_bodies
-from .variant import (
-    Variant,
-    body_names,
-    equality_rows,
-    keeps_element_kinds,
-    polynomial_terms_lines,
-    source_spec,
-    stops_lines,
+from .planar import in_plane_modes, out_of_plane, plane_of
+from .reduce_build import Plan, build, closure_singularity, element_line, step_line, variant_modes
+from .reduce_choice import (
+    choose_for_step,
+    choose_rigid,
+    drop_damping,
+    rigid_floor,
+    scene_shares,
+    scene_state,
+    step_omega,
 )
+from .reduce_edges import edge_of, joint_users
+from .tree import WORLD, free_world_bodies
+from .variant import Variant, body_names, keeps_element_kinds, polynomial_terms_lines, source_spec, stops_lines
 
 COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directions that become joint springs
 #: Largest :func:`closure_singularity` (at 1e-3 amplitude) for which loops="auto" closes loops by
@@ -88,250 +103,36 @@ COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directi
 #: that at 1e-2 rad or m the loop constraints, not the flexures, would decide the motion.
 SINGULARITY_LIMIT = 0.1
 LOOP_MODES = ("auto", "constraint", "element")
+_INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_RK4): "RK4", int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
+                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
 
 
-def _rigid_floor(freq):
-    return max(1e-3, 1e-7 * float(np.max(freq, initial=0.0)))
+class ReductionWarning(UserWarning):
+    """:func:`reduce` made a model, but not all that was asked: elements left whole, or a direction the band needs
+    held rigid to reach a time step. The report says which, by name."""
 
 
-def _candidates(model, flex, directions, planar_scene):
-    """Per element: None if it can be reduced, else the reason it stays an element."""
+def _classify(model, flex, dirs, planar_scene):
+    """Per element: ``(kind, reason, edge)``; kind ``"edge"`` (on the body's own joints, reduced in place),
+    ``"link"`` (re-rooted through the element graph, or closing a loop), or None with the reason it stays whole."""
     free = free_world_bodies(model)
     names = body_names(model)
+    users = joint_users(model)
     out = []
-    for rec, d in zip(flex.records, directions, strict=True):
+    for rec, d in zip(flex.records, dirs, strict=True):
         bodies = [names[d.body_a] if d.body_a else WORLD, names[d.body_b] if d.body_b else WORLD]
         bad = [b for b in bodies if b != WORLD and b not in free]
         if rec.planar and not planar_scene:
-            out.append("planar element in a non-planar scene (its out-of-plane directions are free)")
-        elif bad:
-            out.append(f"body {bad[0]!r} is not a free body of the world")
+            out.append((None, "planar element in a non-planar scene (its out-of-plane directions are free)", None))
+        elif bad and planar_scene:
+            out.append((None, f"body {bad[0]!r} is not a free body of the world (a planar scene reduces free bodies)",
+                        None))  # fmt: skip
+        elif "" in bodies:
+            out.append((None, "one of its bodies has no name (name it to reduce the element)", None))
         else:
-            out.append(None)
+            edge = edge_of(model, d, users, names) if bad else None
+            out.append(("edge", None, edge) if edge is not None else ("link", None, None))
     return out
-
-
-def _constrained_error(lam, rows, target, n_rigid, floor):
-    """Largest relative change of the ``target`` frequencies [Hz] when ``rows @ eta = 0`` is imposed.
-
-    In mass-normalized modal coordinates ``eta`` (``M -> I``, ``K -> diag(lam)``), so the
-    constrained problem is a standard symmetric one on the null space of ``rows``.
-    """
-    if len(rows):
-        Q, R, _ = scipy.linalg.qr(rows.T, pivoting=True)
-        d = np.abs(np.diag(R))
-        rank = int(np.sum(d > 1e-10 * d.max(initial=0.0))) if d.size else 0
-        N = Q[:, rank:]
-    else:
-        N = np.eye(len(lam))
-    count = min(n_rigid + len(target), N.shape[1])
-    w2 = scipy.linalg.eigh((N.T * lam) @ N, eigvals_only=True, subset_by_index=[0, count - 1]) if count else []
-    f = np.sqrt(np.maximum(w2, 0.0)) / (2.0 * np.pi)
-    f = f[f > floor][: len(target)]  # constraints may remove rigid-body modes (planar joints), never add any
-    if len(f) < len(target):
-        return np.inf
-    return float(np.max(np.abs(f - target) / target, initial=0.0))
-
-
-def _held(n, cand, reducible, forced, max_joints, allowed=None):
-    """Rigid directions (n_el, 6), reducible elements and the indices into ``cand`` held rigid, for the prefix ``n``.
-
-    The first ``n`` candidates are held rigid (those ``allowed``, if given); elements then left
-    with more than ``max_joints`` compliant directions stay elements, their directions released.
-    """
-    rigid = forced.copy()
-    for e, i in cand[:n]:
-        rigid[e, i] = allowed is None or allowed[e, i]
-    active = reducible & ((~rigid).sum(axis=1) <= max_joints)
-    return rigid, active, [k for k, (e, i) in enumerate(cand[:n]) if rigid[e, i] and active[e]]
-
-
-def _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol, max_joints):
-    """Which principal directions to hold rigid (n_el, 6), which elements stay reducible, and the error.
-
-    Every candidate direction (of a reducible element, not already forced) is ordered by its
-    largest modal strain-energy share, an order that no tolerance changes. A prefix of that
-    order is held rigid, except in elements it leaves with more than ``max_joints`` compliant
-    directions: those stay elements, all their directions released. As the prefix grows the
-    directions it holds only grow (an element leaves the released ones once enough of its
-    directions are in the prefix, never the other way), so the retained frequencies only rise
-    (constraints are added) and the longest prefix whose exact constrained eigenproblem keeps
-    them within ``freq_tol`` is found by bisection. Directions the scene needs (not
-    ``allowed``) count in that search as if rigid, then stay compliant; that only releases
-    more, which lowers the frequencies back towards the full model's.
-
-    Monotone by construction: a looser ``freq_tol`` gives a longer prefix and allows more
-    directions (``allowed`` grows with it), hence a superset of rigid directions, fewer released
-    elements and fewer coupled ones: a looser tolerance never keeps more. (Searching again after
-    releasing elements, as this did before, made the result depend on which elements a
-    tolerance released, and a looser one could keep more.)
-    """
-    lam = (2.0 * np.pi * freq) ** 2
-    target = freq[mask]
-    floor = _rigid_floor(freq)
-    n_rigid = int(np.sum(freq <= floor))
-    score = shares.max(axis=2, initial=0.0)
-    reducible = np.array(reducible, dtype=bool)
-    fixed = np.array([dirs[e].J[i] @ modes for e, i in zip(*np.nonzero(forced), strict=True)]).reshape(-1, len(lam))
-    cand = [(e, i) for e in np.nonzero(reducible)[0] for i in range(6)
-            if not forced[e, i] and np.isfinite(score[e, i])]  # fmt: skip
-    cand.sort(key=lambda c: score[c])
-    rows = np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))
-
-    def error(held):
-        return _constrained_error(lam, np.vstack([fixed, rows[held]]), target, n_rigid, floor)
-
-    lo, hi = 0, len(cand)
-    while lo < hi:  # largest n with error(n) <= freq_tol
-        mid = (lo + hi + 1) // 2
-        if error(_held(mid, cand, reducible, forced, max_joints)[2]) <= freq_tol:
-            lo = mid
-        else:
-            hi = mid - 1
-    rigid, active, held = _held(lo, cand, reducible, forced, max_joints, allowed)
-    return rigid, active, error(held)
-
-
-def scene_state(model, initial):
-    """``(qpos, qvel)`` of a scene's start: a keyframe name or index, or the pair itself."""
-    if isinstance(initial, str | int):
-        key = initial if isinstance(initial, int) else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, initial)
-        if not 0 <= key < model.nkey:
-            raise ValueError(f"scene: no keyframe {initial!r} in the model (it has {model.nkey})")
-        return model.key_qpos[key].copy(), model.key_qvel[key].copy()
-    qpos, qvel = (np.asarray(x, dtype=float) for x in initial)
-    if qpos.shape != (model.nq,) or qvel.shape != (model.nv,):
-        raise ValueError(f"scene: qpos must have shape ({model.nq},) and qvel ({model.nv},)")
-    return qpos, qvel
-
-
-def scene_shares(model, flex, dirs, scene):
-    """Largest strain energy of each principal direction along a simulated scene, over the largest total (n_el, 6).
-
-    ``scene = (initial, duration)``: ``initial`` is a keyframe name or index, or ``(qpos,
-    qvel)``; the full model runs for ``duration`` s with its own integrator and step. A
-    direction that stores a noticeable part of the scene's strain energy (a notch stretched by
-    the stroke of a closed-loop mechanism, or by centrifugal loads) must stay compliant even
-    if no retained normal mode uses it: linear modes cannot see second-order stiffening.
-    """
-    initial, duration = scene
-    data = mujoco.MjData(model)
-    data.qpos[:], data.qvel[:] = scene_state(model, initial)
-    if not duration > 0:
-        raise ValueError(f"scene: the duration must be positive [s]; got {duration!r}")
-    T = np.stack([d.T for d in dirs])
-    k = np.stack([d.k for d in dirs])
-    steps = max(1, round(duration / model.opt.timestep))
-    peak, total = np.zeros((len(dirs), 6)), 0.0
-    with flex:
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.isfinite(data.qvel).all():
-                raise ValueError(f"scene: the full model diverged at t = {data.time:.3g} s; fix the scene or its step")
-            # every step: the stiff directions this is for ring at the highest frequencies, whose peaks a
-            # sparser sampling misses (every 10th step underestimated a 30 kHz axial ring by 2x); the
-            # strain energy needs the poses only, so kinematics suffice
-            mujoco.mj_kinematics(model, data)
-            delta = np.einsum("eij,ej->ei", T, flex.displacements(data))
-            peak = np.maximum(peak, 0.5 * k * delta**2)
-            total = max(total, flex.potential_energy(data))
-    return peak / max(total, 1e-300)
-
-
-def _drop_damping(ratios, freq_sel, duration, tol, rtol=1e-6):
-    """Elements whose damping can go: smallest effect first, within ``tol`` per mode.
-
-    Elements whose effects are equal within ``rtol`` (mirror-symmetric ones, equal up to
-    round-off) are dropped together or not at all, so a symmetric model stays symmetric.
-    """
-    effect = ratios * (2.0 * np.pi * freq_sel * duration) if duration is not None else ratios
-    peak = effect.max(axis=1, initial=0.0)
-    order = np.argsort(peak, kind="stable")
-    used = np.zeros(effect.shape[1])
-    drop = np.zeros(effect.shape[0], dtype=bool)
-    start = 0
-    while start < len(order):
-        stop = start + 1
-        while stop < len(order) and peak[order[stop]] <= peak[order[start]] * (1.0 + rtol) + 1e-300:
-            stop += 1
-        group = order[start:stop]
-        total = effect[group].sum(axis=0)
-        if np.all(used + total <= tol):
-            drop[group] = True
-            used += total
-        start = stop
-    return drop, float(used.max(initial=0.0))
-
-
-def _joints(d, soft, keep_damping):
-    return [Joint(d.kind(i), d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]),
-                  float(d.b[i]) if keep_damping else 0.0) for i in soft]  # fmt: skip
-
-
-def _record_text(rec, K=None, B=None, viscous=None):
-    same = K is None  # the element stays whole: its polynomial terms too (restricted ones keep K's part only)
-    out = schema.FlexureRecord(rec.name, rec.method, rec.K if K is None else K, rec.B if B is None else B,
-                               rec.enabled, rec.viscous if viscous is None else viscous, rec.strain_per_radian,
-                               rec.source, rec.terms if same else None, rec.order if same else 2,
-                               stops=rec.stops if same else None)  # fmt: skip
-    if out.B is None or not np.any(out.B):
-        out.viscous = True  # nothing to switch off; keep the record minimal
-    return out.to_text()
-
-
-def _element_line(d, rigid_dirs, reason, shares_peak, dropped):
-    soft = [i for i in range(6) if not rigid_dirs[i]]
-    local = ", ".join(f"{d.labels[i]} {d.local_hz[i]:.0f} Hz" for i in soft)
-    held = ", ".join(f"{d.labels[i]} {100 * shares_peak[i]:.2g} %" for i in range(6) if rigid_dirs[i])
-    damp = "; damping dropped" if dropped else ""
-    if reason is not None:
-        return f"{d.element}: kept as an element ({reason}){damp}"
-    if not soft:
-        return f"{d.element}: rigid, bodies merged (largest modal energy shares: {held}){damp}"
-    kind = "joint" if len(soft) == 1 else "joints"
-    return f"{d.element}: {len(soft)} {kind} ({local} local) ; rigid: {held or 'none'}{damp}"
-
-
-class _Closer:
-    """Loop closures for :func:`reduce`."""
-
-    def __init__(self, loops, flex, dirs, drop, arm):
-        self.loops, self.flex, self.dirs, self.drop, self.arm = loops, flex, dirs, drop, arm
-
-    def __call__(self, tree, link):
-        e = self.flex.index(link.element)
-        rec, d = self.flex.records[e], self.dirs[e]
-        if self.loops == "constraint" and not link.joints:
-            rigid_closure(tree, link)
-            return f"{link.element}: closes a loop as a hard weld"
-        if self.loops == "constraint" and len(link.joints) == 1 and link.joints[0].kind == "hinge":
-            hinge_closure(tree, link, link.joints[0], self.arm)
-            i = d.labels.index(link.joints[0].label)
-            K, B = d.restricted([i])
-            tree.rewrite_element(link.element, _record_text(rec, K, B, viscous=not self.drop[e]))
-            return f"{link.element}: closes a loop as a hinge (two connect constraints; spring {d.k[i]:.4g} kept as "\
-                   "a one-direction element)"  # fmt: skip
-        tree.rewrite_element(link.element, _record_text(rec, viscous=False if self.drop[e] else None))
-        why = "loops='element'" if self.loops == "element" else "MuJoCo has no equality constraint for this joint"
-        return f"{link.element}: closes a loop, kept as a full element ({why})"
-
-
-@dataclass
-class _Plan:
-    """What :func:`reduce` decided, before the variant is built."""
-
-    spec: object
-    model: object
-    flex: object
-    dirs: list
-    freq: np.ndarray
-    mask: np.ndarray
-    reasons: list
-    keep: list
-    drop: np.ndarray
-    report: list
-    details: dict
-    normal: np.ndarray | None
 
 
 def _plane(model, flex, plane, scene):
@@ -352,61 +153,139 @@ def _plane(model, flex, plane, scene):
     )
 
 
-def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, plane):
+def _coupling(d, soft):
+    K = d.K_P[np.ix_(soft, soft)]
+    c = np.abs(K - np.diag(np.diag(K))) / np.sqrt(np.outer(np.diag(K), np.diag(K)) + 1e-300)
+    return float(c.max()) if len(soft) > 1 else 0.0
+
+
+def _step_choice(model, dirs, freq, modes, reducible, needs, forced, timestep, keep_below_hz, freq_tol):
+    """The target-step selection (:func:`choose_for_step`): rigid directions, band mask, info; ValueError when
+    no reduction reaches the step."""
+    integrator = _INTEGRATORS.get(int(model.opt.integrator), "Euler")
+    omega = step_omega(timestep, integrator)
+    band_hz = keep_below_hz if keep_below_hz is not None else omega / (2.0 * np.pi)
+    mask = (freq > rigid_floor(freq)) & (freq < band_hz)
+    needed = np.zeros_like(forced)
+    for e, i in needs:
+        needed[e, i] = True
+    candidate = reducible[:, None] & ~forced & ~needed
+    rigid, info = choose_for_step(dirs, freq, modes, candidate, omega, mask, freq_tol, forced, integrator)
+    info.update(timestep=timestep, integrator=integrator, band_hz=float(band_hz))
+    if not info["reached"]:
+        lim = info["limit"]
+        e, i = lim["index"]
+        why = ("needed by " + ", ".join(needs[e, i])) if needed[e, i] else "its element cannot be reduced"
+        largest = SAFETY * mode_limit(2 * np.pi * lim["frequency_hz"], 0.0, integrator)
+        raise ValueError(
+            f"timestep={timestep:g} s: no reduction reaches it with {integrator}: element {lim['element']!r}, "
+            f"direction {lim['direction']} ({why}) keeps a mode at {lim['frequency_hz']:.4g} Hz, above the "
+            f"{info['target_hz']:.4g} Hz "
+            f"the step resolves; the largest step with it is about {largest:.3g} s"
+        )
+    return rigid, mask, info
+
+
+def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_joints, scene, plane):
     spec = source_spec(source)
     model = compile_spec(spec, why=None)
     flex = Flexures(model)
     if not len(flex):
         raise ValueError("the model has no mjflex elements: there is nothing to reduce")
-    freq, modes = normal_modes(model, flex, joint_springs=True, constraints="project" if model.neq else "ignore")
-    mask = (freq > _rigid_floor(freq)) & (freq < keep_below_hz)
+    if timestep == "file":
+        timestep = float(model.opt.timestep)
+    step_mode = timestep is not None
+    freq, modes = normal_modes(model, flex, joint_springs=True, actuator_stiffness=True,
+                               constraints="project" if model.neq else "ignore")  # fmt: skip
     normal, plane_line = _plane(model, flex, plane, scene)
     dirs = element_directions(model, flex, normal)
-    forced = np.zeros((len(dirs), 6), dtype=bool)
+    n_el = len(dirs)
+    forced = np.zeros((n_el, 6), dtype=bool)
     if normal is not None:
         forced = out_of_plane(dirs, normal)
-        mask &= in_plane_modes(model, modes, normal)
-    reasons = _candidates(model, flex, dirs, normal is not None)
-    shares = energy_shares(dirs, freq, modes, mask)
-    reducible = [r is None for r in reasons]
-    used = scene_shares(model, flex, dirs, scene) if scene is not None else np.zeros((len(dirs), 6))
+    kinds = _classify(model, flex, dirs, normal is not None)
+    reasons = [reason for _, reason, _ in kinds]
+    edges = {e: edge for e, (kind, _, edge) in enumerate(kinds) if kind == "edge"}
+    needs = {}
+    for e, edge in edges.items():
+        forced[e] |= ~edge.free  # directions its joints cannot move are rigid already
+        for i, names in edge.needed.items():
+            needs[e, i] = names
+    needed = np.zeros((n_el, 6), dtype=bool)
+    for e, i in needs:
+        needed[e, i] = True
+    reducible = np.array([r is None for r in reasons], dtype=bool)
+    limit = np.array([6 if e in edges else max_joints for e in range(n_el)])  # in place, any number of joints
+    used = scene_shares(model, flex, dirs, scene) if scene is not None else np.zeros((n_el, 6))
     order = np.argsort(used, axis=None, kind="stable")
     allowed = np.zeros(used.size, dtype=bool)
     allowed[order[np.cumsum(used.ravel()[order]) <= 2.0 * freq_tol]] = True  # smallest first, within the budget
     allowed = allowed.reshape(used.shape)
-    rigid, active, predicted = _choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol,
-                                             max_joints)  # fmt: skip
-    for e in np.nonzero(~active & np.array(reducible))[0]:
-        reasons[e] = f"more than {max_joints} compliant directions matter below {keep_below_hz:g} Hz"
-    for e in np.nonzero(active)[0]:  # joint springs are independent: the compliant directions must not couple
+    step = None
+    restricted = np.zeros(n_el, dtype=bool)
+    if step_mode:
+        rigid, mask, step = _step_choice(model, dirs, freq, modes, reducible, needs, forced, timestep, keep_below_hz,
+                                         freq_tol)  # fmt: skip
+        keep_below_hz = step["band_hz"]
+        if normal is not None:
+            mask &= in_plane_modes(model, modes, normal)
+        active = reducible.copy()
+        predicted = step["band_error"]
+    else:
+        mask = (freq > rigid_floor(freq)) & (freq < keep_below_hz)
+        if normal is not None:
+            mask &= in_plane_modes(model, modes, normal)
+        shares = energy_shares(dirs, freq, modes, mask)
+        rigid, active, predicted = choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol,
+                                                limit, needed)  # fmt: skip
+        for e in np.nonzero(~active & reducible)[0]:
+            reasons[e] = f"more than {max_joints} compliant directions matter below {keep_below_hz:g} Hz"
+    shares = energy_shares(dirs, freq, modes, mask)
+    for e in np.nonzero(active)[0]:
         soft = np.nonzero(~rigid[e])[0]
-        K = dirs[e].K_P[np.ix_(soft, soft)]
-        c = np.abs(K - np.diag(np.diag(K))) / np.sqrt(np.outer(np.diag(K), np.diag(K)) + 1e-300)
-        if len(soft) > 1 and c.max() > COUPLING_TOL:
-            reasons[e] = f"its compliant directions are coupled ({c.max():.1e} > {COUPLING_TOL:g})"
-    keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(len(dirs))]
+        if e in edges:
+            if not rigid[e][edges[e].free].any():
+                reasons[e] = "none of its directions is held rigid: left as it is"
+            continue
+        if step_mode and (len(soft) > max_joints or _coupling(dirs[e], soft) > COUPLING_TOL):
+            if len(soft) == 6 or not rigid[e].any():
+                reasons[e] = "none of its directions is held rigid: left as it is"
+            else:
+                restricted[e] = True  # joints without springs, and the element in those directions only
+            continue
+        if _coupling(dirs[e], soft) > COUPLING_TOL:  # joint springs are independent: the directions must not couple
+            reasons[e] = f"its compliant directions are coupled ({_coupling(dirs[e], soft):.1e} > {COUPLING_TOL:g})"
+    keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(n_el)]
     # damping: judged on every elastic mode the kept directions still carry, not only the resolved band (modes
     # above it stay in the model and would ring undamped; the viscous part costs little to keep)
-    elastic = freq > _rigid_floor(freq)
+    elastic = freq > rigid_floor(freq)
     if normal is not None:
         elastic &= in_plane_modes(model, modes, normal)
     ratios = damping_ratios(dirs, freq, modes, elastic, keep)
-    drop, dropped = _drop_damping(ratios, freq[elastic], duration, viscous_tol)
+    drop, dropped = drop_damping(ratios, freq[elastic], duration, viscous_tol)
     drop &= np.array([bool(np.any(d.B_P)) for d in dirs], dtype=bool)  # nothing to drop without damping
     peak = shares.max(axis=2, initial=0.0)
-    report = [
-        f"reduced for the {int(mask.sum())} modes of the full model below {keep_below_hz:g} Hz "
-        f"(frequency tolerance {100 * freq_tol:g} %, damping tolerance {viscous_tol:g})",
-        *(_element_line(d, rigid[e], reasons[e], peak[e], drop[e]) for e, d in enumerate(dirs)),
-    ]
+    if step_mode:
+        head = (
+            f"reduced for a {timestep:g} s step ({step['integrator']}, safety {SAFETY:g}): directions whose modes "
+            f"lie above {step['target_hz']:.4g} Hz are held rigid (those carrying them first); the "
+            f"{int(mask.sum())} modes of the full model below {keep_below_hz:.4g} Hz are checked (tolerance "
+            f"{100 * freq_tol:g} %)"
+        )
+        lines = [step_line(d, rigid[e], reasons[e], drop[e], needs, e, step["target_hz"]) for e, d in enumerate(dirs)]
+    else:
+        head = (f"reduced for the {int(mask.sum())} modes of the full model below {keep_below_hz:g} Hz "
+                f"(frequency tolerance {100 * freq_tol:g} %, damping tolerance {viscous_tol:g})")  # fmt: skip
+        lines = [element_line(d, rigid[e], reasons[e], peak[e], drop[e]) for e, d in enumerate(dirs)]
+    report = [head, *lines]
     report += polynomial_terms_lines(
         flex,
         "are kept if it stays a full 3-D element; as joints, welds, a one-direction spring or a planar record "
         "it holds its stiffness at rest K only (the modal analysis uses K in every case)",
     )
     report += stops_lines(
-        flex, "are kept if it stays a full 3-D element; as joints, welds, a one-direction spring or a planar record "
-        "it has no range (the joints get no limits)",
+        flex, "are kept if it stays a full 3-D element or an element in fewer directions; as joints, welds, a "
+        "one-direction spring or a planar record it has no range (the joints get no limits)",
     )  # fmt: skip
     if plane_line:
         report.insert(1, plane_line)
@@ -422,82 +301,28 @@ def _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, sc
         "damping_removed_max": dropped, "predicted_error": predicted,
         "elements": {d.element: {"soft": [d.labels[i] for i in sorted(keep[e])], "kept": reasons[e] is not None,
                                  "reason": reasons[e], "damping_dropped": bool(drop[e]),
+                                 "in_place": e in edges, "restricted": bool(restricted[e]),
+                                 "rigid": [d.labels[i] for i in range(6) if rigid[e, i] and not reasons[e]],
+                                 "needed": {d.labels[i]: needs[e, i] for i in range(6) if (e, i) in needs},
                                  "local_hz": dict(zip(d.labels, np.round(d.local_hz, 3).tolist(), strict=True)),
                                  "max_share": dict(zip(d.labels, peak[e].tolist(), strict=True)),
                                  "scene_share": dict(zip(d.labels, used[e].tolist(), strict=True))}
                      for e, d in enumerate(dirs)},
     }  # fmt: skip
     details["plane"] = None if normal is None else normal.tolist()
-    return _Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details, normal)
+    details["actuator_stiffness"] = True  # a robot's servos hold its mechanism: their modes are elastic
+    if step is not None:
+        details["step"] = {k: v for k, v in step.items() if k != "limit"}
+    return Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details, normal, edges, restricted)
 
 
-def _build(plan, loops, name):
-    names = body_names(plan.model)
-    links = [
-        Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites,
-             joints=_joints(d, sorted(plan.keep[e]), not plan.drop[e]))
-        for e, d in enumerate(plan.dirs) if plan.reasons[e] is None
-    ]  # fmt: skip
-
-    def kept_records(tree):
-        data = mujoco.MjData(plan.model)
-        mujoco.mj_kinematics(plan.model, data)
-        for e, rec in enumerate(plan.flex.records):
-            if plan.normal is not None:  # every record left (kept, or closing a loop) becomes planar
-                try:
-                    current = schema.parse_text(rec.name, tree.element_text(rec.name))
-                except KeyError:
-                    continue
-                R_EF = plane_frame(data.site_xmat[plan.flex.site_ids[e, 0]].reshape(3, 3), plan.normal)
-                flat = planar_record(current, R_EF)
-                flat.viscous = flat.viscous and not plan.drop[e]
-                tree.rewrite_element(rec.name, _record_text(flat))
-                tree.rotate_sites(plan.dirs[e].sites, R_EF)
-            elif plan.reasons[e] is not None and plan.drop[e] and rec.B is not None and np.any(rec.B):
-                tree.rewrite_element(rec.name, _record_text(rec, viscous=False))
-
-    arm = 0.1 * max(float(plan.model.stat.extent), 1e-3)
-    closer = _Closer(loops, plan.flex, plan.dirs, plan.drop, arm)
-    details = dict(plan.details, loops=loops, constraints="project")
-    return assemble(plan.spec, plan.model, links, closer=closer, pre=kept_records, name=name, report=plan.report,
-                    details=details, plane=plan.normal, fewest_joints=True)  # fmt: skip
-
-
-def _modes(variant):
-    model = variant.model
-    flex = Flexures(model) if variant.has_flexures else None
-    return normal_modes(model, flex, joint_springs=True, constraints="project" if model.neq else "ignore")
-
-
-def closure_singularity(variant, count, amplitude=1e-3):
-    """How far the variant's loop constraints are from moving along its first ``count`` modes.
-
-    For each elastic mode ``u`` (scaled so that its largest joint coordinate is ``amplitude``
-    rad or m) the configuration ``qpos0 + u`` violates the loop constraints at second order;
-    the smallest correction ``w`` that restores them (least squares on their Jacobian) is
-    small compared with ``u`` for a regular mechanism and large at a singular one (straight
-    chains in toggle position, over-constrained loops, where only the stretch of stiff
-    directions lets the full model move). Returns the largest ``|w| / |u|`` (0 without loops).
-    """
-    model = variant.model
-    if model.neq == 0:
-        return 0.0
-    freq, modes = _modes(variant)
-    data = mujoco.MjData(model)
-    worst = 0.0
-    for k in np.nonzero(freq > _rigid_floor(freq))[0][:count]:
-        u = modes[:, k] * amplitude / np.abs(modes[:, k]).max()
-        data.qpos[:] = model.qpos0
-        mujoco.mj_integratePos(model, data.qpos, u, 1.0)
-        e, G = equality_rows(model, data)
-        w = np.linalg.lstsq(G, -e, rcond=None)[0]
-        worst = max(worst, float(np.linalg.norm(w) / np.linalg.norm(u)))
-    return worst
-
-
-def _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify, name):
+def _check_arguments(keep_below_hz, timestep, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify,
+                     name):  # fmt: skip
     """:func:`reduce`'s arguments, each checked before any work: TypeError / ValueError naming it."""
-    validation.check_number(keep_below_hz, "keep_below_hz", above=0.0)
+    if keep_below_hz is not None:
+        validation.check_number(keep_below_hz, "keep_below_hz", above=0.0)
+    if timestep is not None:
+        validation.check_number(timestep, "timestep", above=0.0)
     validation.check_number(freq_tol, "freq_tol", above=0.0, below=0.5)
     validation.check_number(viscous_tol, "viscous_tol", at_least=0.0)
     if duration is not None:
@@ -523,21 +348,30 @@ def _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duratio
 
 
 @keeps_element_kinds
-def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.01, viscous_tol=1e-3, duration=None,
-           loops="auto", max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
-    """A cheaper model of ``source`` that keeps its normal modes below ``keep_below_hz``.
+def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None, freq_tol=0.01, viscous_tol=1e-3,
+           duration=None, loops="auto", max_joints=3, verify=True, name=None) -> Variant:  # fmt: skip
+    """A cheaper model of ``source``: for a frequency band, or for a time step (by default the file's own).
 
     Parameters
     ----------
     source : str, os.PathLike, mujoco.MjSpec or mujoco.MjModel
         The full model (see :func:`mjflex.variants.variant.source_spec`); it is not modified.
-    keep_below_hz : float
-        Upper end of the band to resolve [Hz]: modes of the full model below it are kept.
+    keep_below_hz : float, optional
+        Upper end of the band to resolve [Hz]: modes of the full model below it are kept. Alone, it
+        selects the band mode: everything the band does not need is held rigid.
+    timestep : float, optional
+        The step the reduced model must run at [s] (its ``opt.timestep``) with the source's integrator: directions whose
+        modes the step does not resolve with the advice's margin (:func:`mjflex.step_advice`,
+        ``SAFETY``) are held rigid, stiffest first, and nothing else; the modes below that band
+        (or below ``keep_below_hz`` if given) are checked. When neither is given: the file's own
+        ``opt.timestep``. ValueError naming the element and direction when no reduction reaches
+        it; a :class:`mjflex.ReductionWarning` when it takes a direction the band's modes need (the
+        report gives the largest step that keeps it).
     scene : tuple, optional
         ``(initial, duration)``: a keyframe name or index (or ``(qpos, qvel)``) and a duration
         [s]. The full model is simulated over it (:func:`scene_shares`); directions may be
         held rigid only while their summed share of its peak strain energy stays within
-        ``2 freq_tol`` (smallest first).
+        ``2 freq_tol`` (smallest first). Band mode only.
     plane : None, "auto" or array_like (3,)
         Reduce to a planar model when the scene is planar (:mod:`mjflex.variants.planar`): with a
         normal vector the checks must pass (else ValueError saying which fails); ``"auto"``
@@ -556,11 +390,14 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.0
         :func:`closure_singularity` exceeds ``SINGULARITY_LIMIT`` for the kept modes, then
         elements.
     max_joints : int
-        Elements left with more compliant directions than this stay elements.
+        Elements between free bodies left with more compliant directions than this stay elements
+        (at a time step: joints without springs, and the element in those directions only).
     verify : bool
-        Compute the variant's normal modes and compare (``details["modes"]``).
+        Compute the variant's normal modes and compare (``details["modes"]``); at a time step also
+        its step advice (``details["step"]``) and its statics against the full model's
+        (``details["statics"]``).
     name : str, optional
-        Label of the variant (default ``"reduced(<keep_below_hz> Hz)"``).
+        Label of the variant (default ``"reduced(<keep_below_hz> Hz)"`` or ``"reduced(<step> s)"``).
 
     Returns
     -------
@@ -584,31 +421,133 @@ def reduce(source, keep_below_hz=2000.0, *, scene=None, plane=None, freq_tol=0.0
     ('reduced(15 Hz)', 3)
     >>> print(reduced.report.splitlines()[1])
     leaf: 3 joints (rx 19 Hz, ry 19 Hz, rz 14 Hz local) ; rigid: x 0.65 %, y 0.65 %, z 0 %
+
+    At the file's step (MuJoCo's default, 2 ms, Euler) the step resolves the rotations and the axial stretch (71 Hz
+    local): only the two shear directions (229 Hz) are held rigid, and the four left are joints with the element in
+    those four directions.
+
+    >>> at_step = mjflex.reduce(spec)
+    >>> at_step.name, at_step.model.nv, at_step.details["step"]["reached"]
+    ('reduced(0.002 s)', 4, True)
     """
-    _check_arguments(keep_below_hz, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify, name)
-    plan = _plan(source, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, plane)
-    name = name or f"reduced({keep_below_hz:g} Hz)"
-    variant = _build(plan, "constraint" if loops == "auto" else loops, name)
-    if loops == "auto" and variant.model.neq:
+    _check_arguments(keep_below_hz, timestep, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify,
+                     name)  # fmt: skip
+    if timestep is None and keep_below_hz is None:
+        timestep = "file"
+    plan = _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_joints, scene, plane)
+    step = plan.details.get("step")
+    name = name or (f"reduced({step['timestep']:g} s)" if step else f"reduced({keep_below_hz:g} Hz)")
+    variant = build(plan, "constraint" if loops == "auto" else loops, name)
+    if loops == "auto" and variant.model.neq > plan.model.neq:
         ratio = closure_singularity(variant, max(int(plan.mask.sum()), 1))
         variant.details["closure_singularity"] = ratio
         if ratio > SINGULARITY_LIMIT:
-            variant = _build(plan, "element", name)
+            variant = build(plan, "element", name)
             variant.details["closure_singularity"] = ratio
             variant.report += (
                 f"\nloops kept as elements: closing them by constraints would need second-order corrections "
                 f"{ratio:.3g} times the motion of the kept modes (a singular or over-constrained mechanism)"
             )
+    if step:  # the reduced model runs at the step it was made for
+        variant.model.opt.timestep = step["timestep"]
+        if variant.spec is not None:
+            variant.spec.option.timestep = step["timestep"]
     if verify:
         _verify(variant, plan.freq, plan.mask)
+        if step:
+            _verify_step(variant, plan)
+    _warn(variant, plan)
     return variant
+
+
+def _warn(variant, plan):
+    """A :class:`mjflex.ReductionWarning` for elements that could not be reduced and for directions the band needs."""
+    whole = [f"{d.element} ({r})" for d, r in zip(plan.dirs, plan.reasons, strict=True)
+             if r and not r.startswith(("none of its directions", "more than"))]  # fmt: skip
+    if whole:
+        warnings.warn(f"mjflex.reduce: {len(whole)} element(s) stay whole: {'; '.join(whole)}; the model made is "
+                      "the rest reduced (report)", ReductionWarning, stacklevel=3)  # fmt: skip
+    needed = (plan.details.get("step") or {}).get("needed")
+    if needed:
+        warnings.warn(
+            f"mjflex.reduce: the step {plan.details['step']['timestep']:g} s is reached only by holding rigid "
+            f"{needed['element']} {needed['direction']}, which the modes below {plan.details['keep_below_hz']:.4g} Hz "
+            f"need (their error {100 * plan.details['step']['band_error']:.3g} %); the largest step that keeps it is "
+            f"{needed['largest_step']:.3g} s",
+            ReductionWarning,
+            stacklevel=3,
+        )
+
+
+def _statics(model, flex, keyframe):
+    data = mujoco.MjData(model)
+    qpos = static_equilibrium(model, flex, keyframe=keyframe, tol=1e-8)  # positions to 1e-8 of the load: enough for 1 %
+    if keyframe is not None:
+        mujoco.mj_resetDataKeyframe(model, data, keyframe)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    return data
+
+
+def _verify_step(variant, plan):
+    """The variant's step advice, and its statics against the full model's under the scene's loads (each keyframe's
+    controls and gravity, or gravity at ``qpos0``): the largest error of a geom's centre (the parts, where they are:
+    positions and rotations of the bodies that carry them) over the largest displacement of one from ``qpos0``."""
+    flex = Flexures(variant.model) if variant.has_flexures else None
+    step = variant.details["step"] = dict(plan.details["step"])
+    try:
+        advice = step_advice(variant.model, flex)
+        step.update(advised_step=advice.recommended, advised_limit=advice.limit, limiting_hz=advice.frequency)
+    except ValueError as exc:  # no elastic mode at all: nothing limits the step
+        step.update(advised_step=float("inf"), advised_limit=float("inf"), limiting_hz=0.0, advice_note=str(exc))
+    ok = step["advised_step"] >= step["timestep"] * (1.0 - 1e-9)
+    variant.report += (
+        f"\nat {step['timestep']:g} s: the reduced model's step advice {step['advised_step']:.3g} s "
+        f"({'resolved' if ok else 'NOT resolved'}; limit {step['advised_limit']:.3g} s, mode "
+        f"{step['limiting_hz']:.4g} Hz)"
+    )
+    keys = list(range(plan.model.nkey)) or [None]
+    src_names = body_names(plan.model)
+    src = plan.model
+    errors = []
+    try:
+        ref = mujoco.MjData(src)
+        mujoco.mj_kinematics(src, ref)
+        for key in keys:
+            full = _statics(src, plan.flex, key)
+            red = _statics(variant.model, flex, key)
+            moved, err = 0.0, 0.0
+            for g in range(src.ngeom):  # every part's centre (and so the bodies' rotations), where it is
+                b = int(src.geom_bodyid[g])
+                vb, X_VS = variant.body_map.get(src_names[b], (None, None)) if b and src_names[b] else (None, None)
+                if vb is None:
+                    continue
+                v = variant.model.body(vb).id
+                r = full.xmat[b].reshape(3, 3).T @ (full.geom_xpos[g] - full.xpos[b])  # in the source body's frame
+                R_v = red.xmat[v].reshape(3, 3)
+                point = red.xpos[v] + R_v @ (X_VS[:3, :3] @ r + X_VS[:3, 3])
+                moved = max(moved, float(np.linalg.norm(full.geom_xpos[g] - ref.geom_xpos[g])))
+                err = max(err, float(np.linalg.norm(point - full.geom_xpos[g])))
+            scale = max(moved, 1e-9 * max(float(src.stat.extent), 1e-3))  # no load: judge against the model's size
+            errors.append({"keyframe": key, "moved": moved, "error": err, "relative": err / scale})
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # a scene without a rest (a free body)
+        variant.details["statics"] = {"failed": str(exc)}
+        variant.report += f"\nstatics not compared: {exc}"
+        return
+    variant.details["statics"] = errors
+    worst = max(errors, key=lambda r: r["relative"])
+    variant.report += (
+        f"\nstatics under the scene's loads ({len(errors)} state(s): gravity and each keyframe's controls): largest "
+        f"error of a part's position {worst['error']:.3g} m, {100 * worst['relative']:.3g} % of the largest "
+        f"displacement {worst['moved']:.3g} m"
+    )
 
 
 def _verify(variant, freq, mask):
     """Compare the variant's modes with the kept modes of the full model (details and report)."""
-    f_var, _ = _modes(variant)
+    f_var, _ = variant_modes(variant, variant.details.get("actuator_stiffness", False))
     full = freq[mask]
-    reduced = f_var[f_var > _rigid_floor(f_var)][: len(full)]
+    reduced = f_var[f_var > rigid_floor(f_var)][: len(full)]
     n = min(len(full), len(reduced))
     err = np.abs(reduced[:n] - full[:n]) / full[:n] if n else np.zeros(0)
     variant.details["modes"] = {
@@ -623,4 +562,4 @@ def _verify(variant, freq, mask):
     )
 
 
-__all__ = ["closure_singularity", "reduce", "scene_shares", "scene_state"]
+__all__ = ["ReductionWarning", "closure_singularity", "reduce", "scene_shares", "scene_state"]

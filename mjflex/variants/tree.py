@@ -74,7 +74,7 @@ def free_world_bodies(model) -> set[str]:
     return out
 
 
-def spanning_forest(links, masses, *, fewest_joints=False):
+def spanning_forest(links, masses, *, fewest_joints=False, attached=()):
     """Split ``links`` into tree edges and loop closers.
 
     A spanning forest (Kruskal) weighted by the number of joints. By default a *maximum* one,
@@ -85,7 +85,9 @@ def spanning_forest(links, masses, *, fewest_joints=False):
     (what :func:`mjflex.reduce` wants: a loop it cannot close by a constraint keeps its element).
     The minimum also makes the degrees of freedom monotone: with fewer joints per link, or more
     links, the minimum can only fall. Ties keep the order of ``links``. Each component is rooted
-    at the world if it touches it, else at its heaviest body.
+    at the world if it touches it, else at its heaviest body. Bodies in ``attached`` (those of the
+    model's own kinematic trees) already hang from the world: a link between two of them closes a
+    loop, and a free body linked to one is nested under it.
 
     Returns
     -------
@@ -103,6 +105,8 @@ def spanning_forest(links, masses, *, fewest_joints=False):
             x = parent[x]
         return x
 
+    for body in attached:
+        parent[find(body)] = find(WORLD)
     sign = 1 if fewest_joints else -1
     order = sorted(range(len(links)), key=lambda i: sign * len(links[i].joints))
     tree, closers = [], []
@@ -123,9 +127,10 @@ def spanning_forest(links, masses, *, fewest_joints=False):
         components.setdefault(find(body), []).append(body)
     roots = []
     for members in components.values():
-        roots.append(WORLD if WORLD in members else max(members, key=lambda b: (masses.get(b, 0.0), b)))
-    edges, seen = [], set(roots)
-    frontier = list(roots)
+        inside = WORLD in members or any(b in attached for b in members)
+        roots.append(WORLD if inside else max(members, key=lambda b: (masses.get(b, 0.0), b)))
+    edges, seen = [], set(roots) | set(attached)
+    frontier = list(roots) + sorted(b for b in attached if b in adjacency)
     while frontier:
         nxt = []
         for body in frontier:

@@ -238,7 +238,8 @@ class PoseFit:
     its spatial velocity. The variant's ``qpos`` is found by Gauss-Newton on these pose
     residuals (world-frame rotation vector and position of each frame origin; Jacobians from
     ``mj_jac``; integrated with ``mj_integratePos`` so that ball and free joints stay on their
-    manifolds) from ``qpos0``, and ``qvel`` by least squares on the frame velocities. The
+    manifolds) from ``qpos0`` with the joints both models have by name at the source's values, and
+    ``qvel`` by least squares on the frame velocities. The
     variant's own equality constraints (e.g. loop closures) are imposed exactly on both
     (unless ``constraints=False``).
 
@@ -320,10 +321,22 @@ class PoseFit:
         kkt = np.block([[A, scale * G.T], [scale * G, np.zeros((len(G), len(G)))]])
         return np.linalg.lstsq(kkt, np.concatenate([b, scale * g]), rcond=None)[0][:n]
 
+    def _seed(self, source_model, source_data):
+        """Start from ``qpos0`` with every joint that both models have (same name and type) at the source's value."""
+        m, d = self.model, self._data
+        d.qpos[:] = m.qpos0
+        for j in range(m.njnt):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            s = mujoco.mj_name2id(source_model, mujoco.mjtObj.mjOBJ_JOINT, name) if name else -1
+            if s >= 0 and source_model.jnt_type[s] == m.jnt_type[j]:
+                n = {int(mujoco.mjtJoint.mjJNT_FREE): 7, int(mujoco.mjtJoint.mjJNT_BALL): 4}.get(int(m.jnt_type[j]), 1)
+                a, b = m.jnt_qposadr[j], source_model.jnt_qposadr[s]
+                d.qpos[a : a + n] = source_data.qpos[b : b + n]
+
     def __call__(self, source_model, source_data):
         targets = self._targets(source_model, source_data)
         m, d = self.model, self._data
-        d.qpos[:] = m.qpos0
+        self._seed(source_model, source_data)
         if not targets or m.nv == 0:
             return d.qpos.copy(), np.zeros(m.nv)
         W = scipy.linalg.block_diag(*[t[4] for t in targets])
@@ -341,9 +354,15 @@ class PoseFit:
 
 
 def stops_lines(flex, fate: str) -> list[str]:
-    """Report lines for the elements of ``flex`` with end stops, saying what a variant does with them (never dropped
-    silently; :class:`mjflex.Stops`)."""
-    return [f"{name}: its end stops {fate}" for name, rec in zip(flex.names, flex.records, strict=True) if rec.stops]
+    """Report lines for the elements of ``flex`` with end stops or a rest pose, saying what a variant does with them
+    (never dropped silently; :class:`mjflex.Stops`)."""
+    pairs = list(zip(flex.names, flex.records, strict=True))
+    return [f"{name}: its end stops {fate}" for name, rec in pairs if rec.stops] + [
+        f"{name}: its rest pose (a preload) is kept by an element kept whole only; a MuJoCo-native replacement (weld, "
+        "bushing, joints) is at rest where the model compiled it"
+        for name, rec in pairs
+        if rec.rest is not None
+    ]
 
 
 def polynomial_terms_lines(flex, fate: str) -> list[str]:

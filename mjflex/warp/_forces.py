@@ -196,6 +196,7 @@ class WarpFlexures:
         self._stop_k_given = None  # stop_stiffness as set (None: the model's, derived from K where it is)
         self._set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous,
                             stop_lower=table.stop_lower, stop_upper=table.stop_upper)  # fmt: skip
+        _stops.set_damping(self._params, table, k["V6"], real, d)  # the model's, shared by the worlds
         self._states = {}
         self._no_watch = wp.zeros(0, dtype=wp.int32, device=d)
 

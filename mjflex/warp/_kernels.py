@@ -15,7 +15,11 @@ A new implementation of the formulas of the C engine (``mjflex/native/flexure_ke
   methods), energy ``sum k_i / 2 overshoot_i^2`` and, added to the element's wrench on B,
   ``m = -P(tau) G_tau``, ``f = -R_ab^T G_p`` (``G`` the energy's gradient in ``z``), as the C
   kernel's ``mjfx_stop_wrench``; an element without stops in every world skips them at one
-  per-element flag (``Params.stops``), read outside the element math;
+  per-element flag (``Params.stops``), read outside the element math; damped stops
+  (``Params.stop_damped``) add ``b zdot`` beyond a limit, with ``zdot = [P(tau)^T w; R_ab v]``,
+  clamped at zero so that a stop never attracts (the C kernel's ``mjfx_stop_damped``);
+* rest pose: folded into the rest offset (``qb``, ``p0``) by the C reader; the wrench query of an
+  element with a rest pose gives the moment about site b (``I_REST``), as the C engine's;
 * generalized forces: a free body takes the world force and the moment about its origin in its
   own axes; any other body maps the wrench through its chain of dofs (``cdof``).
 
@@ -36,7 +40,9 @@ TWIST = 0
 #: Kinds of a contribution to a dof: a free body's force or moment component, or a chain dof.
 FORCE, MOMENT, CHAIN = 0, 1, 2
 #: Integer columns of an element.
-I_BODY_A, I_BODY_B, I_SITE_A, I_SITE_B, I_METHOD, I_ROOT_A, I_ROOT_B, I_FREE_A, I_FREE_B, I_LO, I_HI, I_NCOL = range(12)
+I_BODY_A, I_BODY_B, I_SITE_A, I_SITE_B, I_METHOD, I_ROOT_A, I_ROOT_B, I_FREE_A, I_FREE_B, I_LO, I_HI, I_REST, I_NCOL = (
+    range(13)
+)
 
 
 def build(real, with_stops=True):
@@ -79,6 +85,8 @@ def build(real, with_stops=True):
         stop_hi: wp.array2d(dtype=V6)
         stop_k: wp.array2d(dtype=V6)  # their stiffness (read where a limit is finite)
         stops: wp.array(dtype=wp.int32)  # (n,): 1 when the element has a stop in some world
+        stop_b: wp.array2d(dtype=V6)  # the stops' damping (leading dimension 1: the model's)
+        stop_damped: wp.array(dtype=wp.int32)  # (n,): 1 when the element's stops are damped
 
     @wp.struct
     class Out:
@@ -301,6 +309,36 @@ def build(real, with_stops=True):
             g[i] = k[i] * (over - under)
         return real(0.5) * u, V3(g[0], g[1], g[2]), V3(g[3], g[4], g[5])
 
+    @wp.func
+    def stop_damped(par: Params, w: int, e: int, tau: V3, p: V3, zr: V3, zp: V3):
+        """The damped stops' force G' at z = [tau; p] with rates [zr; zp] (rotation part, position part), and the
+        power their damping dissipates (the C kernel's mjfx_stop_damped)."""
+        lo = par.stop_lo[w % par.stop_lo.shape[0], e]
+        hi = par.stop_hi[w % par.stop_hi.shape[0], e]
+        k = par.stop_k[w % par.stop_k.shape[0], e]
+        b = par.stop_b[w % par.stop_b.shape[0], e]
+        z = V6(tau[0], tau[1], tau[2], p[0], p[1], p[2])
+        r = V6(zr[0], zr[1], zr[2], zp[0], zp[1], zp[2])
+        zero = real(0.0)
+        g = V6()
+        pwr = zero
+        for i in range(6):
+            over = wp.max(z[i] - hi[i], zero)
+            under = wp.max(lo[i] - z[i], zero)
+            eo = k[i] * over
+            eu = k[i] * under
+            bo = zero
+            bu = zero
+            if over > zero:
+                bo = b[i]
+            if under > zero:
+                bu = b[i]
+            go = wp.max(eo + bo * r[i], zero)
+            gu = wp.max(eu - bu * r[i], zero)
+            g[i] = go - gu
+            pwr = pwr + ((go - eo) - (gu - eu)) * r[i]
+        return V3(g[0], g[1], g[2]), V3(g[3], g[4], g[5]), pwr
+
     @wp.kernel(module="unique", enable_backward=False)
     def wrench_kernel(
         el: Elements,
@@ -333,7 +371,11 @@ def build(real, with_stops=True):
         if spring_on != 0:
             y1, y2 = mat6(par.K[w % par.K.shape[0], e], e1, e2)
         pwr = real(0.0)
-        if damper_on != 0 and par.viscous[w % par.viscous.shape[0], e] != 0:
+        viscous = damper_on != 0 and par.viscous[w % par.viscous.shape[0], e] != 0
+        damped_stops = damper_on != 0 and spring_on != 0 and par.stop_damped[e] != 0
+        w_rel = zero  # velocity of frame b* relative to frame a, b* axes
+        v_rel = zero
+        if viscous or damped_stops:
             ba = el.ints[e, I_BODY_A]
             bb = el.ints[e, I_BODY_B]
             ca = cvel[w, ba]
@@ -346,10 +388,10 @@ def build(real, with_stops=True):
             vb = V3(real(cb[3]), real(cb[4]), real(cb[5])) + wp.cross(
                 wb, pb - vec_in(subtree_com[w, el.ints[e, I_ROOT_B]])
             )
-            r1, r2 = dual_map(
-                method, e1, e2, k0, k1, u0, u1, qw, s_d, real(1.0), wp.transpose(Rb) @ (wb - wa),
-                wp.transpose(Rb) @ (vb - va),
-            )  # fmt: skip
+            w_rel = wp.transpose(Rb) @ (wb - wa)
+            v_rel = wp.transpose(Rb) @ (vb - va)
+        if viscous:
+            r1, r2 = dual_map(method, e1, e2, k0, k1, u0, u1, qw, s_d, real(1.0), w_rel, v_rel)
             if method != TWIST:
                 r1 = real(0.5) * r1
                 r2 = real(0.5) * r2
@@ -387,11 +429,17 @@ def build(real, with_stops=True):
             if spring_on != 0 and par.stops[e] != 0:
                 tau, sk0, su0 = stop_rotation(method, q, e1, k0, u0, el)
                 _us, g1, g2 = stop_energy(par, w, e, tau, p)
+                if damped_stops:  # rates: P(tau)^T w_rel, R_ab v_rel
+                    zr = sk0 * w_rel + real(0.5) * wp.cross(tau, w_rel) + wp.dot(tau, w_rel) * su0
+                    g1, g2, stop_pwr = stop_damped(par, w, e, tau, p, zr, qapply(q, v_rel, False))
+                    pwr = pwr + stop_pwr
                 mb = mb - (sk0 * g1 - real(0.5) * wp.cross(tau, g1) + wp.dot(tau, g1) * su0)
                 fb = fb - qapply(q, g2, True)
         mo = Rb @ mb
         f = Rb @ fb
         out.mo[w, e] = mo
+        if el.ints[e, I_REST] != 0:  # the wrench query's moment about site b
+            out.mo[w, e] = mo + wp.cross(pb - vec_in(site_xpos[w, el.ints[e, I_SITE_B]]), f)
         out.f[w, e] = f
         out.power[w, e] = pwr
         total = mo[0] + mo[1] + mo[2] + f[0] + f[1] + f[2] + pwr

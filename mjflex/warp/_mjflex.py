@@ -22,7 +22,7 @@ from . import _kernels as kn
 #: Record fields the kernels implement, or that do not change the forces (reports, colours, provenance).
 SUPPORTED_FIELDS = {
     "name", "method", "K", "B", "enabled", "viscous", "terms", "order", "strain_per_radian", "source", "site",
-    "strain_scale", "stops",
+    "strain_scale", "stops", "rest",
 }  # fmt: skip
 METHODS = {"twist": kn.TWIST, "dualquat": 1}
 
@@ -54,9 +54,9 @@ class ElementTable:
         ``mjflex.warp._kernels``).
     qa, qb : ndarray, shape (n, 4)
         Orientation (w-first) of frame a in body A, and of frame b in body B times the rest offset's
-        inverse (frame b*).
+        inverse (frame b*; the rest offset: the sites' rounding residual, then the rest pose).
     p0 : ndarray, shape (n, 3)
-        Rest offset: position of frame b seen from frame a at ``qpos0`` [m].
+        Rest offset: position of frame b* in frame a at ``qpos0`` [m].
     lever_a, lever_b : ndarray, shape (n, 3)
         Origins of frames a and b* in their bodies [m].
     inv_mass, inv_inertia : ndarray, shape (n,)
@@ -75,6 +75,8 @@ class ElementTable:
         [N m/rad, N/m].
     stop_derived : ndarray of bool, shape (n,)
         The stops' stiffness is derived from K (none given; or no stops).
+    stop_damping : ndarray, shape (n, 6)
+        The stops' damping as the C engine reads it (0 where none or no limit) [N m s/rad, N s/m].
     exps : ndarray of int32, shape (M, 8)
         Exponents of the polynomial terms.
     coefs : ndarray, shape (M,)
@@ -119,6 +121,7 @@ class ElementTable:
     stop_upper: np.ndarray
     stop_stiffness: np.ndarray
     stop_derived: np.ndarray
+    stop_damping: np.ndarray
     exps: np.ndarray
     coefs: np.ndarray
     start: np.ndarray
@@ -198,6 +201,7 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
         ints[e, kn.I_ROOT_A], ints[e, kn.I_ROOT_B] = model.body_rootid[ba], model.body_rootid[bb]
         ints[e, kn.I_FREE_A], ints[e, kn.I_FREE_B] = row["free_a"] >= 0, row["free_b"] >= 0
         ints[e, kn.I_LO], ints[e, kn.I_HI] = row["terms_lo"], row["terms_hi"]
+        ints[e, kn.I_REST] = row["rest"]  # the rest pose is in R0, p0 (the C reader composed it)
         # frame b* = frame b times the rest offset's inverse: q_ab is the identity at qpos0
         R0, p0[e] = row["R0"].reshape(3, 3), row["p0"]
         q0 = _quat_from_rot(R0)
@@ -226,6 +230,7 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
         planar=np.array([r.planar for r in t.records], bool),
         stop_lower=rows["stop_lo"].copy(), stop_upper=rows["stop_hi"].copy(), stop_stiffness=rows["stop_k"].copy(),
         stop_derived=np.array([r.stops is None or r.stops.stiffness is None for r in t.records], bool),
+        stop_damping=rows["stop_b"].copy(),
         exps=t.exps.astype(np.int32), coefs=t.coefs.copy(), start=start,
         element=np.array([c[0] for c in flat], np.int32), code=np.array([c[1] for c in flat], np.int32),
         series_c=series["c"], series_g=series["g"], joined_trees=dict(t.joined_trees),

@@ -10,6 +10,7 @@ as editing ``K`` in the model would, until a stiffness is set.
 """
 
 import numpy as np
+import warp as wp
 
 from ..core import validation
 from ..core.stops import SPATIAL_COORDINATES, STIFFNESS_FACTOR
@@ -96,3 +97,12 @@ def effective(names, planar, lower, upper, k, precision_max) -> np.ndarray:
 def flags(lower, upper) -> np.ndarray:
     """``(n,)`` int32: 1 for an element with a stop in some world (the kernels' per-element flag)."""
     return (np.isfinite(lower) | np.isfinite(upper)).any(axis=(0, 2)).astype(np.int32)
+
+
+def set_damping(params, table, V6, real, device) -> None:
+    """Put the model's stop damping (``table.stop_damping``, shared by every world) and its per-element flag into the
+    kernels' parameters. The damping acts only where a limit is engaged, so limits set per world find it on the
+    coordinates the model damps."""
+    b = table.stop_damping if len(table.names) else np.zeros((1, 6))
+    params.stop_b = wp.array(np.ascontiguousarray(b[None], real), dtype=V6, device=device)
+    params.stop_damped = wp.array((b > 0).any(axis=1).astype(np.int32), dtype=wp.int32, device=device)

@@ -11,6 +11,9 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from ...analysis.advice import first_order
+from ...analysis.linearize import STEP, Options, linearize
+
 #: Eigenvalues of ``M^-1 K`` below this fraction of the largest count as rigid-body modes. The
 #: finite-difference noise of the linearization is ~1e-16 of the largest eigenvalue (measured on
 #: ARCADE: rigid eigenvalues |lambda| < 7e-7 against lambda_max = 7.5e9), so 1e-12 separates them
@@ -174,35 +177,14 @@ class Linearization(NamedTuple):
     rate: float  # largest |eigenvalue| of the first-order system with damping [1/s]
 
 
-def jacobian(model, data, qpos, which, step):
-    """``-d qacc / d qpos`` (``which="qpos"``, along ``mj_integratePos``) or ``-d qacc / d qvel``."""
-    J = np.zeros((model.nv, model.nv))
-    for i in range(model.nv):
-        cols = []
-        for sign in (1.0, -1.0):
-            data.qpos[:] = qpos
-            data.qvel[:] = 0.0
-            if which == "qpos":
-                dq = np.zeros(model.nv)
-                dq[i] = sign * step
-                mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
-            else:
-                data.qvel[i] = sign * step
-            mujoco.mj_forward(model, data)
-            cols.append(data.qacc.copy())
-        J[:, i] = -(cols[0] - cols[1]) / (2.0 * step)
-    return J
-
-
-def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=1e-6):
+def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=STEP):
     """Natural frequencies [Hz] and fastest rate of a model linearized at ``qpos``, at rest.
 
-    Central differences of MuJoCo's ``qacc`` (``mj_forward`` with the elements installed, so
-    joint springs, soft equality constraints and mjflex elements all count) along each tangent
-    direction (``mj_integratePos``) give ``A = -d qacc / d q = M^-1 K``, whose eigenvalues are
-    ``omega^2``; the same along ``qvel`` gives ``D = M^-1 B``. This works for any model, with or
-    without mjflex elements (for those alone it agrees with
-    :func:`mjflex.normal_modes` to ~1e-10, tested).
+    The model as MuJoCo steps it (:func:`mjflex.analysis.linearize.linearize` with everything on: the
+    elements, joint springs, actuators at ``ctrl``/``act``, gravity and the soft constraints) gives
+    ``A = M^-1 K``, whose eigenvalues are ``omega^2``, and ``D = M^-1 C``. This works for any model,
+    with or without mjflex elements (for those alone it agrees with :func:`mjflex.normal_modes` to
+    ~1e-10, tested).
 
     Returns
     -------
@@ -213,21 +195,18 @@ def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=1e-6)
         ``[[0, I], [-A, -D]]`` [1/s], which bounds explicit time steps (``|lambda| h`` below about
         2 for Euler, 2.8 for RK4) also where damping, not stiffness, is the fastest effect.
     """
-    data = mujoco.MjData(model)
-    if ctrl is not None:
-        data.ctrl[:] = ctrl
-    if act is not None:
-        data.act[:] = act
     if not model.nv:
         return Linearization(np.zeros(0), 0.0, 0.0)
-    with flex:
-        A = jacobian(model, data, qpos, "qpos", step)
-        D = jacobian(model, data, qpos, "qvel", step)
-    lam = np.sort(np.linalg.eigvals(A).real)
+    base = mujoco.MjData(model)
+    base.qpos[:] = qpos
+    if ctrl is not None:
+        base.ctrl[:] = ctrl
+    if act is not None:
+        base.act[:] = act
+    lin = linearize(model, flex, base, Options(True, "spring", True, True), step=step, damping=True, dynamics=True)
+    lam = np.sort(np.linalg.eigvals(np.linalg.solve(lin.M, lin.K)).real)
     top = float(lam[-1])
-    n = model.nv
-    system = np.block([[np.zeros((n, n)), np.eye(n)], [-A, -D]])
-    rate = float(np.max(np.abs(np.linalg.eigvals(system))))
+    rate = float(np.max(np.abs(first_order(lin)[0])))
     if not top > 0:
         return Linearization(np.zeros(0), 0.0, rate)
     elastic = lam[lam > RIGID_EIGENVALUE_RTOL * top]

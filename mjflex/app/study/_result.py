@@ -363,6 +363,17 @@ class StudyResult:
                     "",
                 ]
             out += [f"- {lim.text()}" for lim in self.limits]
+        own = self.model_setting
+        at_file = [r for r in self.rows if own and r.integrator == own.get("integrator")
+                   and abs(r.timestep - own.get("timestep", -1.0)) <= 1e-9 * r.timestep]  # fmt: skip
+        if at_file:
+            out += ["", "## At the model file's step", "",
+                    f"Every model at the file's own step ({own['timestep']:.3g} s) and integrator "
+                    f"({own['integrator']}): cost per simulated second and error against the reference, side by side.",
+                    "",
+                    "| variant | method | status | cost per sim s | pose error |", "|---|---|---|---|---|"]  # fmt: skip
+            out += [f"| {r.variant} | {r.method} | {r.status} | {_fmt(r.cost, '.3g')} | "
+                    f"{_percent(r.pose_error, floor)} |" for r in at_file]  # fmt: skip
         if self.variants:
             out += ["", "## Variants", ""] + [f"- **{k}**: {v}" for k, v in self.variants.items()]
         clock = "CPU" if self.clock == "cpu" else "wall"

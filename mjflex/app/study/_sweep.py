@@ -26,7 +26,7 @@ from ._scene import (
     tracked_items,
     variant_state,
 )
-from ._stability import MAX_HALVINGS, MAX_NV, limiting_mode, linear_limit, linearization, perturbation
+from ._stability import MAX_HALVINGS, MAX_NV, advised_limit, limiting_mode, perturbation
 from .variants import DEFAULT_VARIANTS
 
 INTEGRATORS = ("rk4", "euler", "implicitfast", "discrete")
@@ -84,7 +84,10 @@ def _plan(h_model, freq, rate, *, duration, samples, steps, step_count, max_step
                   for u in range(unit, 4 * unit + 1)]  # fmt: skip
         unit += next((i for i, m in enumerate(misfit) if m < 1e-9), int(np.argmin(misfit)))
     interval = unit * h_model
-    grid = sorted({max(1, round(interval / h)) for h in targets})
+    grid = {max(1, round(interval / h)) for h in targets}
+    if not steps:  # the model file's own step too: every variant side by side where the file runs
+        grid.add(unit)
+    grid = sorted(grid)
     return Plan(interval, max(1, round(duration / interval)), grid, unit)
 
 
@@ -96,7 +99,6 @@ class _Study:
         self.repeat, self.max_run_wall, self.n_freq = repeat, max_run_wall, frequencies
         self.ref_traj = self.scales = self.energy_limit = None
         self._freq = {}
-        self._linear = {}  # (variant, method) -> the linearization at the initial pose (_stability)
         self._timed = []  # (row or reference, sim, integrator, method, h, sampled outcome) to time
 
     # ---------------------------------------------------------------- reference
@@ -254,31 +256,27 @@ class _Study:
         return [runs[n] for n in sorted(runs)], limit
 
     def _check_limit(self, sim, method, integrator, limit, rtol):
-        """The linear limit, the mode it names, and the recommended step checked by perturbed runs (see _stability)."""
+        """The advised limit (mjflex.step_advice's), the mode it names, and the recommended step checked by perturbed
+        runs (see _stability)."""
         guess = limit.largest_stable or limit.smallest_unstable
         if guess is None:
             return
         who = f"{sim.name} {integrator} {sim.methods_label(method)}"
-        self.bar.set_description(f"{who} linear limit")
+        self.bar.set_description(f"{who} advised limit")
         if sim.model.nv > MAX_NV:
-            limit.checked, limit.linear_note = True, f"linear limit not computed (nv = {sim.model.nv} > {MAX_NV})"
+            limit.checked, limit.linear_note = True, f"advised limit not computed (nv = {sim.model.nv} > {MAX_NV})"
             self._check_recommended(sim, method, integrator, limit, None, rtol)
             return
-        key = (sim.name, method)
-        if key not in self._linear:
-            sim.configure(integrator, method, guess)
-            self._linear[key] = linearization(sim)
-        lin = self._linear[key]
-        h_lin, T, last = linear_limit(sim, integrator, method, guess, rtol, self.plan.duration, lin["growth"])
-        limit.linear_step, limit.checked = h_lin, True
-        if h_lin is not None:
-            limit.linear_unstable = last  # the bisection's bracket: [h_lin, last]
-        if T is not None:
-            limit.linear_mode = limiting_mode(sim, T, lin)
-        if h_lin is None:
-            limit.linear_note = (f"the linearized model is unstable at every step down to {last:.3g} s" if T is not None
-                                 else f"the linearized model is stable at every step up to {last:.3g} s")  # fmt: skip
-        self._check_recommended(sim, method, integrator, limit, h_lin, rtol)
+        advice, last, none = advised_limit(sim, integrator, method, guess, rtol, self.plan.duration)
+        limit.checked = True
+        if advice is not None:
+            limit.linear_step, limit.linear_unstable = advice.limit, advice.unstable
+            limit.linear_mode = limiting_mode(sim, advice)
+        else:
+            limit.linear_note = (
+                f"the linearized model is {none} at every step {'down' if none == 'unstable' else 'up'} to {last:.3g} s"
+            )
+        self._check_recommended(sim, method, integrator, limit, limit.linear_step, rtol)
 
     def _check_recommended(self, sim, method, integrator, limit, h_lin, rtol):
         """Perturbed runs at the smaller of the two limits (halved until one runs through) and at the measured one."""

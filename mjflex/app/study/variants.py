@@ -12,8 +12,10 @@ Each is swept over the same integrators and steps as the full model, so each add
 cost of one element method to a study.
 """
 
+import warnings
+
 from ...variants.alternatives import pseudo_rigid_body_variant, weld_variant
-from ...variants.reduce import reduce
+from ...variants.reduce import ReductionWarning, reduce
 from ...variants.variant import VariantNotApplicableError
 
 #: Upper end of the band the default reduction keeps [Hz] (the issue's example figure).
@@ -26,7 +28,7 @@ def reduced_variant(source):
     Raises :class:`VariantNotApplicableError` when the reduction changes nothing (it would only repeat the
     full model's rows).
     """
-    variant = reduce(source, REDUCE_KEEP_BELOW_HZ)
+    variant = reduce(source, REDUCE_KEEP_BELOW_HZ)  # the band: what the band needs, whatever the step
     elements = variant.details["elements"]
     if all(e["kept"] and not e["damping_dropped"] for e in elements.values()):
         reasons = sorted({e["reason"] for e in elements.values()})
@@ -34,5 +36,26 @@ def reduced_variant(source):
     return variant
 
 
+def reduced_at_file_step(source):
+    """:func:`mjflex.reduce` of the source at the file's own step (``opt.timestep``, with its integrator).
+
+    Raises :class:`VariantNotApplicableError` when the step holds nothing rigid (the full model runs there already),
+    or when no reduction reaches it (the message names the element and direction).
+    """
+    try:
+        with warnings.catch_warnings():  # a ReductionWarning is in the variant's report, which the study shows
+            warnings.simplefilter("ignore", ReductionWarning)
+            variant = reduce(source)
+    except ValueError as exc:
+        raise VariantNotApplicableError(str(exc)) from None
+    elements = variant.details["elements"]
+    if all(e["kept"] and not e["damping_dropped"] for e in elements.values()):
+        raise VariantNotApplicableError(
+            f"the file's step {variant.details['step']['timestep']:g} s holds nothing rigid"
+        )
+    variant.name = "reduced(file step)"
+    return variant
+
+
 #: Builders (or variants) every study compares with the full model unless told otherwise.
-DEFAULT_VARIANTS: list = [reduced_variant, weld_variant, pseudo_rigid_body_variant]
+DEFAULT_VARIANTS: list = [reduced_variant, reduced_at_file_step, weld_variant, pseudo_rigid_body_variant]

@@ -1,0 +1,298 @@
+"""Which principal directions a reduction holds rigid: the band's modes, a simulated scene, the damping, a time step.
+
+The selection of :func:`mjflex.reduce` (its module docstring says why each criterion), on the full
+model's normal modes in mass-normalized modal coordinates: holding directions rigid is a set of
+linear constraints on them, so each candidate set is judged by an exact constrained
+eigenproblem, cheap next to building a model.
+"""
+
+import mujoco
+import numpy as np
+import scipy.linalg
+
+from ..analysis.advice import SAFETY, mode_limit
+from ..analysis.directions import energy_shares
+
+
+def rigid_floor(freq):
+    return max(1e-3, 1e-7 * float(np.max(freq, initial=0.0)))
+
+
+def constrained_error(lam, rows, target, n_rigid, floor):
+    """Largest relative change of the ``target`` frequencies [Hz] when ``rows @ eta = 0`` is imposed.
+
+    In mass-normalized modal coordinates ``eta`` (``M -> I``, ``K -> diag(lam)``), so the
+    constrained problem is a standard symmetric one on the null space of ``rows``.
+    """
+    if len(rows):
+        Q, R, _ = scipy.linalg.qr(rows.T, pivoting=True)
+        d = np.abs(np.diag(R))
+        rank = int(np.sum(d > 1e-10 * d.max(initial=0.0))) if d.size else 0
+        N = Q[:, rank:]
+    else:
+        N = np.eye(len(lam))
+    count = min(n_rigid + len(target), N.shape[1])
+    w2 = scipy.linalg.eigh((N.T * lam) @ N, eigvals_only=True, subset_by_index=[0, count - 1]) if count else []
+    f = np.sqrt(np.maximum(w2, 0.0)) / (2.0 * np.pi)
+    f = f[f > floor][: len(target)]  # constraints may remove rigid-body modes (planar joints), never add any
+    if len(f) < len(target):
+        return np.inf
+    return float(np.max(np.abs(f - target) / target, initial=0.0))
+
+
+def held_prefix(n, cand, reducible, forced, max_joints, allowed=None):
+    """Rigid directions (n_el, 6), reducible elements and the indices into ``cand`` held rigid, for the prefix ``n``.
+
+    The first ``n`` candidates are held rigid (those ``allowed``, if given); elements then left
+    with more than ``max_joints`` compliant directions stay elements, their directions released.
+    """
+    rigid = forced.copy()
+    for e, i in cand[:n]:
+        rigid[e, i] = allowed is None or allowed[e, i]
+    active = reducible & ((~rigid).sum(axis=1) <= max_joints)
+    return rigid, active, [k for k, (e, i) in enumerate(cand[:n]) if rigid[e, i] and active[e]]
+
+
+def choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol, max_joints, needed=None):
+    """Which principal directions to hold rigid (n_el, 6), which elements stay reducible, and the error.
+
+    Every candidate direction (of a reducible element, not already forced) is ordered by its
+    largest modal strain-energy share, an order that no tolerance changes. A prefix of that
+    order is held rigid, except in elements it leaves with more than ``max_joints`` compliant
+    directions: those stay elements, all their directions released. As the prefix grows the
+    directions it holds only grow (an element leaves the released ones once enough of its
+    directions are in the prefix, never the other way), so the retained frequencies only rise
+    (constraints are added) and the longest prefix whose exact constrained eigenproblem keeps
+    them within ``freq_tol`` is found by bisection. Directions the scene needs (not
+    ``allowed``) count in that search as if rigid, then stay compliant; that only releases
+    more, which lowers the frequencies back towards the full model's.
+
+    Monotone by construction: a looser ``freq_tol`` gives a longer prefix and allows more
+    directions (``allowed`` grows with it), hence a superset of rigid directions, fewer released
+    elements and fewer coupled ones: a looser tolerance never keeps more. Directions ``needed``
+    (n_el, 6; by an actuator, a tendon or an equality on the joint that moves them) are never candidates.
+    ``max_joints`` may be one number or one per element. (Searching again after
+    releasing elements, as this did before, made the result depend on which elements a
+    tolerance released, and a looser one could keep more.)
+    """
+    lam = (2.0 * np.pi * freq) ** 2
+    target = freq[mask]
+    floor = rigid_floor(freq)
+    n_rigid = int(np.sum(freq <= floor))
+    score = shares.max(axis=2, initial=0.0)
+    reducible = np.array(reducible, dtype=bool)
+    fixed = np.array([dirs[e].J[i] @ modes for e, i in zip(*np.nonzero(forced), strict=True)]).reshape(-1, len(lam))
+    needed = np.zeros_like(forced) if needed is None else needed
+    cand = [(e, i) for e in np.nonzero(reducible)[0] for i in range(6)
+            if not forced[e, i] and not needed[e, i] and np.isfinite(score[e, i])]  # fmt: skip
+    cand.sort(key=lambda c: score[c])
+    rows = np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))
+
+    def error(held):
+        return constrained_error(lam, np.vstack([fixed, rows[held]]), target, n_rigid, floor)
+
+    lo, hi = 0, len(cand)
+    while lo < hi:  # largest n with error(n) <= freq_tol
+        mid = (lo + hi + 1) // 2
+        if error(held_prefix(mid, cand, reducible, forced, max_joints)[2]) <= freq_tol:
+            lo = mid
+        else:
+            hi = mid - 1
+    rigid, active, held = held_prefix(lo, cand, reducible, forced, max_joints, allowed)
+    return rigid, active, error(held)
+
+
+def scene_state(model, initial):
+    """``(qpos, qvel)`` of a scene's start: a keyframe name or index, or the pair itself."""
+    if isinstance(initial, str | int):
+        key = initial if isinstance(initial, int) else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, initial)
+        if not 0 <= key < model.nkey:
+            raise ValueError(f"scene: no keyframe {initial!r} in the model (it has {model.nkey})")
+        return model.key_qpos[key].copy(), model.key_qvel[key].copy()
+    qpos, qvel = (np.asarray(x, dtype=float) for x in initial)
+    if qpos.shape != (model.nq,) or qvel.shape != (model.nv,):
+        raise ValueError(f"scene: qpos must have shape ({model.nq},) and qvel ({model.nv},)")
+    return qpos, qvel
+
+
+def scene_shares(model, flex, dirs, scene):
+    """Largest strain energy of each principal direction along a simulated scene, over the largest total (n_el, 6).
+
+    ``scene = (initial, duration)``: ``initial`` is a keyframe name or index, or ``(qpos,
+    qvel)``; the full model runs for ``duration`` s with its own integrator and step. A
+    direction that stores a noticeable part of the scene's strain energy (a notch stretched by
+    the stroke of a closed-loop mechanism, or by centrifugal loads) must stay compliant even
+    if no retained normal mode uses it: linear modes cannot see second-order stiffening.
+    """
+    initial, duration = scene
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = scene_state(model, initial)
+    if not duration > 0:
+        raise ValueError(f"scene: the duration must be positive [s]; got {duration!r}")
+    T = np.stack([d.T for d in dirs])
+    k = np.stack([d.k for d in dirs])
+    steps = max(1, round(duration / model.opt.timestep))
+    peak, total = np.zeros((len(dirs), 6)), 0.0
+    with flex:
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.isfinite(data.qvel).all():
+                raise ValueError(f"scene: the full model diverged at t = {data.time:.3g} s; fix the scene or its step")
+            # every step: the stiff directions this is for ring at the highest frequencies, whose peaks a
+            # sparser sampling misses (every 10th step underestimated a 30 kHz axial ring by 2x); the
+            # strain energy needs the poses only, so kinematics suffice
+            mujoco.mj_kinematics(model, data)
+            delta = np.einsum("eij,ej->ei", T, flex.displacements(data))
+            peak = np.maximum(peak, 0.5 * k * delta**2)
+            total = max(total, flex.potential_energy(data))
+    return peak / max(total, 1e-300)
+
+
+def drop_damping(ratios, freq_sel, duration, tol, rtol=1e-6):
+    """Elements whose damping can go: smallest effect first, within ``tol`` per mode.
+
+    Elements whose effects are equal within ``rtol`` (mirror-symmetric ones, equal up to
+    round-off) are dropped together or not at all, so a symmetric model stays symmetric.
+    """
+    effect = ratios * (2.0 * np.pi * freq_sel * duration) if duration is not None else ratios
+    peak = effect.max(axis=1, initial=0.0)
+    order = np.argsort(peak, kind="stable")
+    used = np.zeros(effect.shape[1])
+    drop = np.zeros(effect.shape[0], dtype=bool)
+    start = 0
+    while start < len(order):
+        stop = start + 1
+        while stop < len(order) and peak[order[stop]] <= peak[order[start]] * (1.0 + rtol) + 1e-300:
+            stop += 1
+        group = order[start:stop]
+        total = effect[group].sum(axis=0)
+        if np.all(used + total <= tol):
+            drop[group] = True
+            used += total
+        start = stop
+    return drop, float(used.max(initial=0.0))
+
+
+def step_omega(timestep, integrator) -> float:
+    """Highest angular frequency [rad/s] a step resolves with the advice's margin (``advice.SAFETY``).
+
+    The undamped limit of :func:`mjflex.analysis.advice.mode_limit` is ``c / omega`` (``c = 2`` for Euler and
+    the implicit integrators, ``2 sqrt 2`` for RK4); a mode is resolved when ``SAFETY`` times its
+    limit is at least ``timestep``.
+    """
+    return mode_limit(1.0, 0.0, integrator) * SAFETY / timestep
+
+
+def top_omega2(lam, rows) -> tuple[float, np.ndarray]:
+    """Largest ``omega^2`` with ``rows @ eta = 0`` imposed in modal coordinates, and its mode ``eta`` (n,)."""
+    if len(rows):
+        Q, R, _ = scipy.linalg.qr(rows.T, pivoting=True)
+        d = np.abs(np.diag(R))
+        rank = int(np.sum(d > 1e-10 * d.max(initial=0.0))) if d.size else 0
+        N = Q[:, rank:]
+    else:
+        N = np.eye(len(lam))
+    if N.shape[1] == 0:
+        return 0.0, np.zeros(len(lam))
+    w2, v = scipy.linalg.eigh((N.T * lam) @ N, subset_by_index=[N.shape[1] - 1, N.shape[1] - 1])
+    return float(max(w2[0], 0.0)), N @ v[:, 0]
+
+
+def _first(n_max, bad):
+    """Smallest ``n`` in ``[0, n_max]`` with ``bad(n)`` (monotone), or ``n_max + 1``."""
+    lo, hi = 0, n_max + 1
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if bad(mid):
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+def choose_for_step(dirs, freq, modes, candidate, omega_band, band_mask, freq_tol, forced, integrator):
+    """Hold rigid the fewest directions that bring every mode to the step's band: those that carry the modes above it
+    first (their largest strain-energy share there, then their local frequency).
+
+    Parameters
+    ----------
+    dirs : list of Directions
+    freq, modes : ndarray
+        The full model's frequencies [Hz] and mass-normalized modes (nv, n).
+    candidate : ndarray of bool (n_el, 6)
+        Directions that may be held rigid (reducible elements, not needed by an actuator,
+        tendon or equality, not already rigid).
+    omega_band : float
+        :func:`step_omega` [rad/s].
+    band_mask : ndarray of bool (n,)
+        The full model's modes that must stay within ``freq_tol`` (below the band).
+    forced : ndarray of bool (n_el, 6)
+        Directions rigid whatever the step (a planar scene's out-of-plane ones).
+    integrator : str
+        MuJoCo's name of the integrator (for the largest step that keeps a needed direction).
+
+    Returns
+    -------
+    rigid : ndarray of bool (n_el, 6)
+    info : dict
+        ``target_hz`` (the band, or the rigid model's own highest mode if higher), ``reached``,
+        ``top_hz`` (highest mode left), ``limit`` (the element, direction and frequency that set
+        it when not reached), ``needed`` (the first held direction that the band's modes need,
+        with the largest step that keeps it) and ``band_error``.
+
+    Holding a direction rigid is a linear constraint in modal coordinates; the highest
+    frequency of the constrained problem only falls as constraints are added (interlacing), and
+    the band's frequencies only rise, so both prefixes of the stiffest-first order are found by
+    bisection. The target never goes below the model with every element direction rigid (the
+    rigid robot): a mode of the file's own that the step does not resolve is the author's
+    choice, not the elements'.
+    """
+    lam = (2.0 * np.pi * freq) ** 2
+    floor = rigid_floor(freq)
+    n_rigid = int(np.sum(freq <= floor))
+
+    def rows_of(pairs):
+        return np.array([dirs[e].J[i] @ modes for e, i in pairs]).reshape(len(pairs), len(lam))
+
+    every = [(e, i) for e in range(len(dirs)) for i in range(6)]
+    all_rows = rows_of(every)
+    target2 = max(omega_band**2, top_omega2(lam, all_rows)[0] * (1.0 + 1e-9))
+    fixed = rows_of([(int(e), int(i)) for e, i in zip(*np.nonzero(forced), strict=True)])
+    above = freq**2 * (2.0 * np.pi) ** 2 > target2
+    share = energy_shares(dirs, freq, modes, above).max(axis=2, initial=0.0)  # in the modes the step cannot take
+    cand = [(e, i) for e, i in every if candidate[e, i]]
+    cand.sort(key=lambda c: (-share[c], -dirs[c[0]].local_hz[c[1]]))
+    rows = rows_of(cand)
+
+    def top(n):
+        return top_omega2(lam, np.vstack([fixed, rows[:n]]))
+
+    n = _first(len(cand), lambda k: top(k)[0] <= target2)
+    info = {"target_hz": float(np.sqrt(target2) / (2 * np.pi)), "reached": n <= len(cand), "limit": None,
+            "needed": None}  # fmt: skip
+    n = min(n, len(cand))
+    w2, eta = top(n)
+    info["top_hz"] = float(np.sqrt(w2) / (2 * np.pi))
+    if not info["reached"]:  # which direction left compliant carries the limiting mode
+        shares = [(dirs[e].k[i] * float(dirs[e].J[i] @ modes @ eta) ** 2, e, i) for e, i in every
+                  if not candidate[e, i] and not forced[e, i]]  # fmt: skip
+        _, e, i = max(shares) if shares else (0.0, 0, 0)
+        info["limit"] = {"element": dirs[e].element, "direction": dirs[e].labels[i], "index": (int(e), int(i)),
+                         "frequency_hz": info["top_hz"]}  # fmt: skip
+    target = freq[band_mask]
+
+    def band_error(k):
+        return constrained_error(lam, np.vstack([fixed, rows[:k]]), target, n_rigid, floor)
+
+    info["band_error"] = band_error(n) if len(target) else 0.0
+    if info["band_error"] > freq_tol:
+        n0 = _first(n, lambda k: band_error(k) > freq_tol)
+        e, i = cand[n0 - 1]
+        keep2 = top(n0 - 1)[0]
+        info["needed"] = {"element": dirs[e].element, "direction": dirs[e].labels[i],
+                          "largest_step": float(SAFETY * mode_limit(np.sqrt(keep2), 0.0, integrator))
+                          if keep2 > 0 else float("inf")}  # fmt: skip
+    rigid = forced.copy()
+    for e, i in cand[:n]:
+        rigid[e, i] = True
+    return rigid, info
