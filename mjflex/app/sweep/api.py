@@ -116,19 +116,16 @@ def _run_executor(executor, plan, grid, chunk_size, bar):
 _WARNED = set()  # deprecated argument names used (each warns once)
 
 
-def _renamed_recipe(recipe, renamed):
-    """``recipe``, or what was given as ``variants=`` (its name until 1.0: warns once); TypeError otherwise."""
-    unknown = set(renamed) - {"variants"}
-    if unknown:
-        raise TypeError(f"sweep() got unexpected keyword arguments {sorted(unknown)}")
-    if "variants" in renamed:
+def _renamed_recipe(recipe, variants):
+    """``recipe``, or what was given as ``variants=`` (its name until 1.0: warns once); TypeError without either."""
+    if variants is not None:
         if recipe is not None:
             raise TypeError("sweep() got both recipe and variants (its old name); give recipe")
         if "variants" not in _WARNED:
             _WARNED.add("variants")
             warnings.warn("mjflex.sweep(variants=...) is deprecated; use mjflex.sweep(recipe=...)", DeprecationWarning,
                           stacklevel=3)  # fmt: skip
-        recipe = renamed["variants"]
+        recipe = variants
     if recipe is None:
         raise TypeError("sweep() needs the model family: a mjflex.Recipe, a model file or MJCF text (recipe=)")
     return recipe
@@ -145,7 +142,7 @@ def sweep(
     *,
     samples: int | None = None,
     chunk_size: int | None = None,
-    **renamed,
+    variants=None,
 ):
     """Simulate every variant of a model family over a grid of parameters and observe each.
 
@@ -154,8 +151,7 @@ def sweep(
     recipe : Recipe, str or os.PathLike
         The model family: a :class:`mjflex.Recipe` (source model + module-level
         ``edit(spec, **params)``), or a model file / MJCF text alone (then ``grid`` is empty).
-        (Named ``variants`` until 1.0, which still works and warns once: in mjflex a variant is
-        a :class:`mjflex.Variant`, what ``mjflex.study(variants=...)`` compares.)
+        (Named ``variants`` until 1.0.)
     grid : dict or list of dict, optional
         A dict of 1-D value arrays varies every combination (the result has one dimension
         per parameter, in this order); a list of dicts gives explicit variants (one dimension
@@ -192,6 +188,9 @@ def sweep(
         MuJoCo Warp batches (default 512). Otherwise a process builds and steps at most 256
         variants at once (fewer if its flexure registry, 1024 models, has less room): larger
         sweeps and chunks run in parts, automatically.
+    variants : Recipe, str or os.PathLike, optional
+        Deprecated: the old name of ``recipe``, which warns once (in mjflex a variant is a
+        :class:`mjflex.Variant`, what ``mjflex.study(variants=...)`` compares).
 
     Returns
     -------
@@ -238,7 +237,7 @@ def sweep(
     True
     """
     start = time.perf_counter()
-    recipe = _renamed_recipe(recipe, renamed)
+    recipe = _renamed_recipe(recipe, variants)
     recipe = recipe if isinstance(recipe, Recipe) else Recipe(recipe)
     _check_args(duration, samples, threads, chunk_size, observe)
     g = make_grid(grid)
