@@ -301,7 +301,7 @@ STUDY = os.path.join(HERE, "..", "study")
 STUDY_TITLE = "# Speed-accuracy study:"
 #: Sections of a study report kept whole on its page; the others are summed up there (the full report, with every run,
 #: is a page of its own, written at each build into ``study/full/``, ignored by git).
-STUDY_KEPT = ("Recommendation", "Which choice for which need", "Largest stable step")
+STUDY_KEPT = ("Recommendation", "Which choice for which need", "Largest stable step", "At the model file's step")
 
 
 def study_reports():
