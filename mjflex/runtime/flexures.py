@@ -179,7 +179,7 @@ class Flexures:
         self._fingerprints = {}
         self._warn_contacts(model)
         for message in plausibility.implausible_stiffness(model, t.records, t.elements[: len(self.names)]):
-            warn_likely_mistake(message, stacklevel=2)  # attributed to the caller of Flexures(model)
+            warn_likely_mistake(message, stacklevel=plausibility.outside_stacklevel())  # the user's line
         self._sleep_policy(model)
         self._fingerprints[model._address] = tables.fingerprint(model)
         self._snapshot = _snapshot(model)  # what the queries compare flex.model with (an in-place edit since)

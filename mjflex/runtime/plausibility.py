@@ -10,6 +10,8 @@ the element does not. The sag is the linear deflection ``K^+ w`` of the element 
 bound where several elements share a body), clipped to the element's end stops, carried to the centre of mass.
 """
 
+import os
+import sys
 from typing import NamedTuple
 
 import mujoco
@@ -115,6 +117,18 @@ def sags(model, records, elements) -> list[Sag]:
         out.append(Sag(record.name, mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"#{body}",
                        float(mass), size, sag, xi, bool(np.linalg.norm(turn) >= np.linalg.norm(xi[3:]))))  # fmt: skip
     return out
+
+
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def outside_stacklevel() -> int:
+    """The ``stacklevel`` (counted from the caller of this function, 1) of the first frame outside mjflex: a warning
+    given where mjflex reads a model for its own purposes (``reduce``, the variants) is the user's call's, once."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE + os.sep):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def implausible_stiffness(model, records, elements) -> list[str]:
