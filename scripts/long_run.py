@@ -33,7 +33,8 @@ import numpy as np
 from _bench import write_json
 
 import mjflex
-from mjflex.app.study._run import INTEGRATOR_ENUMS, quiet_mujoco_warnings
+from mjflex.app.simulate import INTEGRATORS
+from mjflex.app.study._run import quiet_mujoco_warnings
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -49,7 +50,7 @@ def long_run(models, integrator, method, steps, every):
     ``models``: method -> ``(model, flex)``, each compiled with that method (plugin elements hold it).
     """
     model, flex = models[method]
-    model.opt.integrator = getattr(mujoco.mjtIntegrator, INTEGRATOR_ENUMS[integrator])
+    model.opt.integrator = getattr(mujoco.mjtIntegrator, INTEGRATORS[integrator])
     data = mujoco.MjData(model)
     if model.nkey:
         mujoco.mj_resetDataKeyframe(model, data, 0)

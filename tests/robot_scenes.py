@@ -17,8 +17,9 @@ controls of the scene's actuated run (``ctrl(t)``) and the keyframe that holds i
 * :func:`pusher_wrist`: gymnasium's pusher arm as the package ships it (10 ms, Euler), its wrist flexion made a
   compliant wrist (a series-elastic flexure, soft about the flexion axis).
 
-Until ``replace_joints`` keeps the replaced joints' armature (issue 32 item 3, on another branch), each scene gives
-it back, as that change will.
+``replace_joints`` keeps the replaced joints' armature (issue 32 item 3); each scene still sets it, as it did
+before that change. The scenes turn the joints' ranges into element stops (``stops="element"``, 1.0.0's
+behaviour), which the reduction keeps as the element in the stopped direction.
 """
 
 import math
@@ -122,7 +123,7 @@ def gripper(xml=None):
             body = f"{s}_{part}"
             pos, quat = _hinge_frame(full, body)
             c = mjflex.make_compliant(full, body, K, pos=pos, quat=quat, frame="parent", replace_joints=True,
-                                      name=f"{body}_notch", damping_ratio=0.02)  # fmt: skip
+                                      name=f"{body}_notch", damping_ratio=0.02, stops="element")  # fmt: skip
             for j in c.replaced.joints:
                 full.joint(j).armature = PIVOT_ARMATURE
     return rigid, full, {"ctrl": lambda t: [0.6 if t > 1.0 else 0.0, 0.1 if t > 3.0 else 0.0], "keyframe": "open"}
@@ -164,7 +165,7 @@ def spine():
     """``(rigid, full, info)``: the spine with muscles at 2 ms, and with L3's hinges replaced by a disc."""
     rigid = mujoco.MjSpec.from_string(spine_scene_xml())
     full = mujoco.MjSpec.from_string(spine_scene_xml())
-    c = mjflex.make_compliant(full, "L3", K_DISC, replace_joints=True, name="disc", damping_ratio=0.05)
+    c = mjflex.make_compliant(full, "L3", K_DISC, replace_joints=True, name="disc", damping_ratio=0.05, stops="element")
     for j in c.replaced.joints:
         full.joint(j).armature = FACET_ARMATURE
     return rigid, full, {"ctrl": lambda t: [0.3 * math.sin(3 * t), 0.1, 0.0, 0.5 + 0.4 * math.sin(2 * t), 0.3],
@@ -185,7 +186,7 @@ def pusher_wrist():
         spec.add_key(name="push", qpos=spec.compile().qpos0, ctrl=PUSH)
     pos, quat = _hinge_frame(full, "r_wrist_flex_link")
     c = mjflex.make_compliant(full, "r_wrist_flex_link", K_WRIST, pos=pos, quat=quat, frame="parent",
-                              replace_joints=True, name="wrist", damping_ratio=0.05)  # fmt: skip
+                              replace_joints=True, name="wrist", damping_ratio=0.05, stops="element")  # fmt: skip
     for j in c.replaced.joints:
         full.joint(j).armature = 0.04
     return rigid, full, {"ctrl": lambda t: [0.5 * math.sin(t + k) for k in range(7)], "keyframe": "push"}

@@ -1,6 +1,7 @@
 """mjflex.reduce: cheaper models that keep the low modes, their state maps and their dynamics."""
 
 import itertools
+import os
 
 import mujoco
 import numpy as np
@@ -141,6 +142,27 @@ def test_planar_scene_becomes_a_planar_model():
     f_red = _elastic(normal_modes(m, None, joint_springs=True)[0])
     assert len(in_plane) == 3 and len(in_plane) < len(_elastic(f_full[f_full < 3000.0]))  # out-of-plane ones go
     np.testing.assert_allclose(f_red[:3], in_plane, rtol=0.01)
+
+
+def test_joints_the_element_springs_have_no_spring_of_their_own():
+    """A restricted element's joints, and a planar scene's root joints, hold no stiffness or damping: the element (in
+    its compliant directions) springs them, once."""
+    spec = mujoco.MjSpec.from_string(
+        '<mujoco><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+        '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+    )
+    K = [2, 2, 1, 1e5, 1e5, 1e5]
+    mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=K, B=1e-4 * np.diag(K))
+    restricted = mjflex.reduce(spec, verify=False).model  # at the file's step: 4 compliant directions, > max_joints
+    assert restricted.njnt == 4 and len(mjflex.Flexures(restricted)) == 1
+    np.testing.assert_array_equal(restricted.jnt_stiffness, 0.0)
+    np.testing.assert_array_equal(restricted.dof_damping, 0.0)
+    two_body = os.path.join(os.path.dirname(__file__), "..", "models", "two_body.xml")
+    planar = mjflex.reduce(two_body, 500.0, plane="auto", verify=False).model
+    roots = [j for j in range(planar.njnt) if ":plane_" in mujoco.mj_id2name(planar, mujoco.mjtObj.mjOBJ_JOINT, j)]
+    assert len(roots) == 3
+    np.testing.assert_array_equal(planar.jnt_stiffness[roots], 0.0)
+    np.testing.assert_array_equal(planar.dof_damping[planar.jnt_dofadr[roots]], 0.0)
 
 
 def test_plane_checks_say_what_is_not_planar():

@@ -10,6 +10,9 @@ symmetry (a conservative model), and the undo against the original compiled mode
 """
 
 import math
+import os
+import subprocess
+import sys
 import warnings
 
 import mujoco
@@ -23,12 +26,10 @@ from tests.spine import HINGES, LEVELS, key_values, radians, spine_spec
 K_DISC = np.array([50.0, 50.0, 30.0, 2e5, 2e5, 5e5])  # N m/rad x 3 (bend x, flex y, rot z), N/m x 3
 
 
-def _xml_without_extension(spec):
-    """The spec's XML without the <extension> block: MjSpec cannot take back a plugin activation (no instance
-    is left, and the compiled model has no plugin)."""
-    text = spec.to_xml()
-    start = text.find("  <extension>")
-    return text if start < 0 else text[:start] + text[text.index("</extension>", start) + len("</extension>\n\n") :]
+def _undone(spec, c):
+    """``make_rigid``; ``spec.to_xml()`` then still declares the plugin (MjSpec cannot take it back)."""
+    mjflex.make_rigid(spec, c)
+    assert 'plugin="mjflex.flexure"' in spec.to_xml()
 
 
 def assert_same_model(a, b):
@@ -76,22 +77,33 @@ def _replace(spec, body="L3", **kwargs):
 # ----------------------------------------------------------------------------- the spine
 
 
-def test_a_driven_level_is_replaced_and_its_couplings_removed():
+@pytest.mark.parametrize("stops", ["limits", "element"])
+def test_a_driven_level_is_replaced_and_its_couplings_removed(stops):
+    """The default (``stops="limits"``) keeps the hinges' ranges as MuJoCo's joint limits, with their solref and
+    solimp; ``stops="element"`` makes them the element's stops. Either way the hinges keep their armature (rotor
+    inertia, there whatever the stiffness) and lose their springs and dampers."""
     spec = spine_spec()
     rigid = spec.compile()
-    c = _replace(spec)
+    c = _replace(spec, stops=None if stops == "limits" else stops)
     model = spec.compile()
     r = c.replaced
-    assert r.joints == ("L3_flex", "L3_bend", "L3_rot")
-    # the hinges stay as the element's coordinates, with nothing of a joint model left; three slides are added
+    assert r.joints == ("L3_flex", "L3_bend", "L3_rot") and r.stops == stops and r.kept == ()
+    # the hinges stay as the element's coordinates, without springs and dampers; three slides are added
     assert c.joints == tuple(f"L3_compliance/{j}" for j in "xyz")
     assert (model.nq, model.nv) == (rigid.nq + 3, rigid.nv + 3)
     for name in r.joints:
-        j = model.joint(name).id
-        assert model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE and not model.jnt_limited[j]
-        assert model.jnt_stiffness[j] == model.dof_damping[j] == model.dof_armature[j] == 0
-        np.testing.assert_array_equal(model.jnt_axis[j], rigid.jnt_axis[rigid.joint(name).id])
-    # saved and read back, the joints stay free of the class's limits, springs, dampers and armature
+        j, i = model.joint(name).id, rigid.joint(name).id
+        assert model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
+        assert model.jnt_stiffness[j] == model.dof_damping[j] == 0
+        assert model.dof_armature[model.jnt_dofadr[j]] == rigid.dof_armature[rigid.jnt_dofadr[i]] == 1e-4
+        np.testing.assert_array_equal(model.jnt_axis[j], rigid.jnt_axis[i])
+        assert model.jnt_limited[j] == (stops == "limits")
+        for field in ("jnt_range", "jnt_solref", "jnt_solimp", "jnt_margin"):
+            same = np.array_equal(getattr(model, field)[j], getattr(rigid, field)[i])
+            assert same or (stops == "element" and field == "jnt_range"), field
+    for j in c.joints:  # the added joints have MuJoCo's built-in settings
+        assert model.dof_armature[model.jnt_dofadr[model.joint(j).id]] == 0
+    # saved and read back, the joints keep what they have, whatever the class says
     again = mujoco.MjModel.from_xml_string(spec.to_xml())
     for name in ("jnt_limited", "jnt_range", "jnt_stiffness", "dof_damping", "dof_armature", "dof_frictionloss"):
         # rtol: MuJoCo writes the other levels' ranges (degrees made radians) with 6 digits
@@ -110,30 +122,42 @@ def test_a_driven_level_is_replaced_and_its_couplings_removed():
         for field in ("eq_obj1id", "eq_obj2id"):
             joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, getattr(model, field)[k])
             assert joint == mujoco.mj_id2name(rigid, mujoco.mjtObj.mjOBJ_JOINT, getattr(rigid, field)[old])
-    # ranges -> stops: bend (x) on rx, flex (y) on ry, rot (z) on rz, in radians; no translation stop
+    # ranges in element coordinates: bend (x) on rx, flex (y) on ry, rot (z) on rz, in radians; no translation
     ranges = {h: radians(lohi) for h, _, lohi in HINGES}
     np.testing.assert_allclose(r.lower[:3], [ranges["bend"][0], ranges["flex"][0], ranges["rot"][0]], rtol=1e-15)
     np.testing.assert_allclose(r.upper[:3], [ranges["bend"][1], ranges["flex"][1], ranges["rot"][1]], rtol=1e-15)
     assert np.all(np.isinf(r.lower[3:])) and np.all(np.isinf(r.upper[3:]))
-    stops = mjflex.Flexures(model).records[0].stops
-    np.testing.assert_array_equal(stops.lower, r.lower)  # and the element has them
-    np.testing.assert_array_equal(stops.upper, r.upper)
-    # what the element does not carry is said: the joints' springs, dampers and armature
+    element_stops = mjflex.Flexures(model).records[0].stops
+    if stops == "limits":
+        assert element_stops is None  # MuJoCo's limits stop the motion, not the element
+    else:
+        np.testing.assert_array_equal(element_stops.lower, r.lower)  # the element has them
+        np.testing.assert_array_equal(element_stops.upper, r.upper)
+    # what the element does not carry is said: the joints' springs and dampers (the armature stays)
     assert len(r.notes) == 3 and all("stiffness 20 (give it in K)" in n and "damping 0.2" in n for n in r.notes)
+    assert not any("armature" in n for n in r.notes)
 
 
-def test_what_named_the_joints_reads_and_acts_as_before():
+@pytest.mark.parametrize("stops", ["limits", "element"])
+def test_what_named_the_joints_reads_and_acts_as_before(stops):
     """Actuators, sensors and the tendon at the bent, moving keyframe, with the motor and servo driven: the same
-    values in both models (the limit sensor, which has no limit left to read, is removed; an inherited control
-    range becomes explicit)."""
+    values in both models. With the limits kept the limit sensor reads the same value and the servo still inherits
+    its control range; with element stops the limit sensor, which has no limit left to read, is removed, and the
+    inherited control range becomes explicit."""
     spec = spine_spec()
     rigid = spec.compile()
-    c = _replace(spec)
+    c = _replace(spec, stops=stops)
     model = spec.compile()
     edits = {(e.kind, e.name): e.action for e in c.replaced.edits}
-    assert edits[("sensor", "L3_flex_limit")] == "removed" and edits[("actuator", "L3_bender")] == "changed"
     np.testing.assert_allclose(model.actuator_ctrlrange[model.actuator("L3_bender").id], radians((-6, 6)),
                                rtol=1e-15)  # fmt: skip
+    readings = ["L3_flex_angle", "L5_orientation", "L3_rot_rate", "L4_flex_angle", "flex45_length"]
+    if stops == "limits":
+        assert ("sensor", "L3_flex_limit") not in edits and ("actuator", "L3_bender") not in edits
+        assert spec.actuator("L3_bender").inheritrange == 1
+        readings.insert(4, "L3_flex_limit")
+    else:
+        assert edits[("sensor", "L3_flex_limit")] == "removed" and edits[("actuator", "L3_bender")] == "changed"
     old, new = _state(rigid), _state(model)
     np.testing.assert_array_equal(new.ctrl, old.ctrl)
     for name in ("L3_flexor", "L3_bender", "L4_flexor"):
@@ -141,10 +165,10 @@ def test_what_named_the_joints_reads_and_acts_as_before():
         assert model.actuator_trntype[j] == rigid.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT
         assert math.isclose(new.actuator_length[j], old.actuator_length[i], rel_tol=1e-14)
         assert math.isclose(new.actuator_force[j], old.actuator_force[i], rel_tol=1e-14, abs_tol=1e-15)
-    for name in ("L3_flex_angle", "L5_orientation", "L3_rot_rate", "L4_flex_angle", "flex45_length"):
+    for name in readings:
         np.testing.assert_allclose(_sensor(model, new, name), _sensor(rigid, old, name), rtol=1e-14, atol=1e-15)
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i) for i in range(model.nsensor)]
-    assert names == ["L3_flex_angle", "L5_orientation", "L3_rot_rate", "L4_flex_angle", "flex45_length"]
+    assert names == readings
 
 
 def test_keyframes_put_every_body_where_it_was_with_its_velocity():
@@ -202,11 +226,48 @@ def test_make_rigid_restores_the_original_model_exactly(body):
     original, xml = spec.compile(), spec.to_xml()
     c = _replace(spec, body, damping_ratio=0.05)
     assert spec.compile().nq == original.nq + 3
-    mjflex.make_rigid(spec, c)
+    _undone(spec, c)
     assert_same_model(spec.compile(), original)
-    assert _xml_without_extension(spec) == xml
+    assert mjflex.spec_xml(spec) == xml
     with pytest.raises(ValueError, match="make_rigid called already"):
         mjflex.make_rigid(spec, c)
+
+
+#: Loads each model file given on the command line in a process that imports mujoco alone; prints its sizes or
+#: MuJoCo's error, one line each.
+PLAIN_MUJOCO = """import sys, warnings
+warnings.simplefilter("ignore")  # mjflex's entry point cannot register the plugin here, and says so
+import mujoco
+for path in sys.argv[1:]:
+    try:
+        m = mujoco.MjModel.from_xml_path(path)
+        print("loaded", m.nq, m.nv, m.nbody, m.njnt, m.nplugin)
+    except ValueError as exc:
+        print("refused", str(exc).splitlines()[0])
+"""
+
+
+def test_the_rigid_file_loads_in_a_mujoco_without_mjflex(tmp_path):
+    """Issue 33 item 3: after make_rigid, spec.to_xml() still declares mjflex.flexure (MjSpec cannot take a plugin
+    declaration back), and a MuJoCo without mjflex refuses that file; mjflex.spec_xml writes
+    the rigid model without it, which loads there with the original sizes. The subprocess imports mujoco with
+    MJFLEX_NATIVE_DIR at an empty folder, so mjflex's entry point registers no plugin."""
+    spec = _pusher()
+    original = spec.compile()
+    c = mjflex.make_compliant(spec, "r_elbow_flex_link", K_ELBOW, replace_joints=True)
+    _undone(spec, c)
+    (tmp_path / "rigid.xml").write_text(mjflex.spec_xml(spec))
+    (tmp_path / "declared.xml").write_text(spec.to_xml())
+    (tmp_path / "empty").mkdir()
+    env = {**os.environ, "MJFLEX_NATIVE_DIR": str(tmp_path / "empty")}
+    files = [str(tmp_path / "rigid.xml"), str(tmp_path / "declared.xml")]
+    out = subprocess.run([sys.executable, "-c", PLAIN_MUJOCO, *files], env=env, capture_output=True, text=True,
+                         check=True, cwd=tmp_path).stdout.splitlines()  # fmt: skip
+    assert out[0] == f"loaded {original.nq} {original.nv} {original.nbody} {original.njnt} 0", out
+    assert out[1] == "refused XML Error: plugin mjflex.flexure not found", out  # the plugin is truly absent there
+    assert mjflex.spec_xml(spec) == spec.to_xml().replace(
+        '  <extension>\n    <plugin plugin="mjflex.flexure"/>\n  </extension>\n\n', ""
+    )
 
 
 def test_make_rigid_keeps_later_edits_of_other_elements():
@@ -236,7 +297,7 @@ def test_replace_joints_is_needed_for_a_body_with_joints_and_unknown_names_get_s
 
 # ----------------------------------------------------------------------------- robot arms with an elastic joint
 
-K_ELBOW = np.array([2e3, 80.0, 2e3, 1e6, 1e6, 1e6])  # stiff bearings; 80 N m/rad about the elbow axis (y)
+K_ELBOW = np.array([2e3, 2e3, 80.0, 1e6, 1e6, 1e6])  # stiff bearings; 80 N m/rad about the elbow axis (element z)
 
 
 def _pusher():
@@ -253,13 +314,15 @@ def test_the_pusher_elbow_becomes_an_elastic_joint_and_comes_back():
     model = spec.compile()
     r = c.replaced
     assert r.joints == ("r_elbow_flex_joint",)
-    # the element frame is the joint's: origin at its anchor, axes the link's (the hinge is along y); the link
-    # gets the other two rotations and the three translations
-    assert c.frame == ((0.4, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))  # in the parent's frame
-    assert c.joints == tuple(f"r_elbow_flex_link_compliance/{d}" for d in ("x", "y", "z", "rx", "rz"))
-    np.testing.assert_allclose(r.lower, [-np.inf, -2.3213, -np.inf, -np.inf, -np.inf, -np.inf], rtol=1e-15)
-    np.testing.assert_allclose(r.upper, [np.inf, 0.0, np.inf, np.inf, np.inf, np.inf])
-    assert [n.split(":")[0] for n in r.notes] == ["hinge r_elbow_flex_joint"]  # damping 0.1, armature 0.04
+    # the element frame is the joint's: origin at its anchor, z along the hinge (the link's y), x the link's x; the
+    # link gets the other two rotations and the three translations
+    assert c.frame[0] == (0.4, 0.0, 0.0)  # in the parent's frame
+    np.testing.assert_allclose(c.frame[1], [math.sqrt(0.5), -math.sqrt(0.5), 0, 0], rtol=1e-15)  # -90 deg about x
+    assert c.joints == tuple(f"r_elbow_flex_link_compliance/{d}" for d in ("x", "y", "z", "rx", "ry"))
+    np.testing.assert_allclose(r.lower, [-np.inf, -np.inf, -2.3213, -np.inf, -np.inf, -np.inf], rtol=1e-15)
+    np.testing.assert_allclose(r.upper, [np.inf, np.inf, 0.0, np.inf, np.inf, np.inf])
+    assert r.stops == "limits" and model.jnt_limited[model.joint("r_elbow_flex_joint").id]
+    assert [n.split(":")[0] for n in r.notes] == ["hinge r_elbow_flex_joint"]  # damping 0.1 (the armature stays)
     old, new = _state(original), _state(model)
     new.ctrl[:] = old.ctrl[:] = [0.5, -0.3, 0.2, 1.5, 0.1, -0.2, 0.3]
     for m, d in ((original, old), (model, new)):
@@ -268,9 +331,9 @@ def test_the_pusher_elbow_becomes_an_elastic_joint_and_comes_back():
     before, after = _poses(original, 0), _poses(model, 0)
     np.testing.assert_allclose(after[0], before[0], atol=1e-15)
     np.testing.assert_allclose(after[2], before[2], atol=1e-15)
-    mjflex.make_rigid(spec, c)
+    _undone(spec, c)
     assert_same_model(spec.compile(), original)
-    assert _xml_without_extension(spec) == xml
+    assert mjflex.spec_xml(spec) == xml
 
 
 def test_a_loaded_elastic_joint_under_its_servo_is_conservative_and_runs():
@@ -284,10 +347,10 @@ def test_a_loaded_elastic_joint_under_its_servo_is_conservative_and_runs():
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # nothing but what the Compliance reports
-        c = mjflex.make_compliant(spec, "link3", [2e3, 300.0, 2e3, 2e4, 2e4, 2e4], replace_joints=True)
+        c = mjflex.make_compliant(spec, "link3", [2e3, 2e3, 300.0, 2e4, 2e4, 2e4], replace_joints=True)
     model = spec.compile()
     assert "stiffness 2" in c.replaced.notes[0] and "friction loss 0.1" in c.replaced.notes[0]
-    np.testing.assert_allclose([c.replaced.lower[1], c.replaced.upper[1]], [-3, 3], rtol=1e-15)
+    np.testing.assert_allclose([c.replaced.lower[2], c.replaced.upper[2]], [-3, 3], rtol=1e-15)
     flex = mjflex.Flexures(model)
     q = mjflex.static_equilibrium(model, flex, keyframe="home")
     K = mjflex.analysis.linearize.stiffness_matrix(model, flex, q, keyframe="home", joint_springs=True,
@@ -340,27 +403,31 @@ BALL = """<mujoco><worldbody><body name="base" pos="0 0 0.3"><geom size="0.05"/>
 
 def test_a_ball_joint_keeps_its_ball_and_its_cone_becomes_the_circumscribed_box():
     """A ball (cone of 40 deg) and a slide off the element axes (the element frame given: the body's): the body
-    gets the two slides that complete the translations (never more than six dofs), the cone gives +-40 deg on each
-    rotation, and the slide's range is said not to be carried."""
+    gets the two slides that complete the translations (never more than six dofs); as element stops
+    (``stops="element"``) the cone gives +-40 deg on each rotation, and the slide's range is said not to be
+    carried."""
     spec = mujoco.MjSpec.from_string(BALL)
     K = [5, 5, 5, 1e5, 1e5, 1e5]  # the element frame given: the body's axes, not the joints'
-    c = mjflex.make_compliant(spec, "head", K, replace_joints=True, stops=False, pos=[0, 0, 0], frame="body")
+    c = mjflex.make_compliant(spec, "head", K, replace_joints=True, stops="element", pos=[0, 0, 0], frame="body")
     model = spec.compile()
     assert c.joints == ("head_compliance/x", "head_compliance/z")
     assert model.nv == 3 + 1 + 2
     np.testing.assert_allclose(c.replaced.upper[:3], [math.radians(40)] * 3, rtol=1e-15)
     assert any("circumscribed box" in n for n in c.replaced.notes)
     assert any(n.startswith("the range of slide shift was not carried") for n in c.replaced.notes)
-    assert mjflex.Flexures(model).records[0].stops is None  # stops=False: the element has none
+    stops = mjflex.Flexures(model).records[0].stops
+    np.testing.assert_array_equal(stops.upper, c.replaced.upper)
+    assert not model.jnt_limited.any()  # the ranges went to the element
 
 
 def test_a_loaded_disc_stays_within_the_range_of_the_hinges_it_replaced():
     """40 N forward on the torso extends L3's disc past the hinges' 4.8 deg: without stops it rests at 12.6 deg; with
-    the carried stops it rests 0.09 deg past the limit (the stop's own compliance, 100 times the disc's stiffness), and
-    a run from rest at the step advised for that loaded, engaged state peaks 0.2 deg past it, without diverging (the
-    advice against measured stable steps at such states: tests/test_operating_pose.py)."""
+    the ranges carried as element stops (``stops="element"``) it rests 0.09 deg past the limit (the stop's own
+    compliance, 100 times the disc's stiffness), and a run from rest at the step advised for that loaded, engaged
+    state peaks 0.2 deg past it, without diverging (the advice against measured stable steps at such states:
+    tests/test_operating_pose.py)."""
     static, runs = {}, {}
-    for stops in (None, False):
+    for stops in ("element", False):
         spec = spine_spec()
         c = _replace(spec, K=[30, 30, 20, 2e5, 2e5, 5e5], damping_ratio=0.05, stops=stops)
         model = spec.compile()
@@ -388,8 +455,8 @@ def test_a_loaded_disc_stays_within_the_range_of_the_hinges_it_replaced():
     upper = c.replaced.upper[1]
     assert math.isclose(upper, math.radians(4.8), rel_tol=1e-15)
     assert static[False] > upper + 0.1  # the load the range held
-    overshoot = static[None] - upper
+    overshoot = static["element"] - upper
     assert 0 < overshoot < 0.003
-    peak, final = runs[None]
+    peak, final = runs["element"]
     # the impact on the stop adds to the static overshoot (2.3x measured): 0.2 deg past the limit, against 12.6 deg
-    assert peak < upper + 3 * overshoot and abs(final - static[None]) < 0.25 * overshoot  # settling after 1 s
+    assert peak < upper + 3 * overshoot and abs(final - static["element"]) < 0.25 * overshoot  # settling after 1 s

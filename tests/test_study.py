@@ -128,6 +128,10 @@ def test_a_report_is_made_again_from_its_json(two_body_run):
     bracketed = [lim for lim in again.limits if lim.linear_step is not None]
     assert bracketed and all(lim.linear_step < lim.linear_unstable for lim in bracketed)
     assert all(lim.linear_unstable is None for lim in again.limits if lim.linear_step is None)
+    older = {k: v for k, v in result.items() if k not in ("command", "notes", "targets", "fastest_rate_per_s")}
+    older = StudyResult.from_dict(older)  # recorded before those fields existed: their defaults
+    assert (older.command, older.notes, older.targets, older.fastest_rate) == ("", [], StudyResult.targets, None)
+    assert older.rows == again.rows and older.limits == again.limits
 
 
 def test_the_recorded_arcade_report_is_what_its_json_gives():

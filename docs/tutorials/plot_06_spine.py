@@ -5,8 +5,8 @@ A spine: vertebrae on hinges, one level replaced by a disc with stops
 Musculoskeletal models join vertebrae by three hinges per level (flexion, lateral bending, axial rotation) and tie
 the levels together with equality constraints; ranges limit each hinge. Here such a model is built from scratch,
 one level is replaced by an intervertebral disc (a full 6×6 element with literature stiffness) in one call, and the
-disc's statics, modes, time step and a loaded run are checked: the hinges' ranges become the disc's end stops, and
-the run stays within them.
+disc's statics, modes, time step and a loaded run are checked: the hinges' ranges become the disc's end stops
+(``stops="element"``; by default they would stay MuJoCo's joint limits), and the run stays within them.
 
 Run it as a script: ``python docs/tutorials/plot_06_spine.py``.
 """
@@ -58,16 +58,16 @@ print(f"{original.nv} hinges, {original.neq} equalities")
 # The disc between L4 and L3 gets stiffness from the literature, given in N m/deg and N/mm (:mod:`mjflex.units`
 # converts them): bending 1.5, flexion 1.2 and axial rotation 4 N m/deg; shear 150 and compression 1500 N/mm.
 # ``replace_joints=True`` hands L3's three hinges to the element: they stay as its coordinates (so everything that
-# names them keeps its meaning) without their ranges, springs and dampers; L3 gets three slides for the
-# translations; the three equalities that drove L3 go (the disc determines its motion now); the hinges' ranges
-# become the disc's stops. Its damping is 5 % in each of its modes, computed with the other levels free and the
-# equalities as rigid couplings (``constraints="project"``).
+# names them keeps its meaning) without their springs and dampers (their armature stays); L3 gets three slides for
+# the translations; the three equalities that drove L3 go (the disc determines its motion now). ``stops="element"``
+# makes the hinges' ranges the disc's stops (by default they stay MuJoCo's joint limits on the hinges:
+# :doc:`/howto/add_flexures_to_a_robot` says when to prefer which). Its damping is 5 % in each of its modes, computed
+# with the other levels free and the equalities as rigid couplings (``constraints="project"``).
 u = mjflex.units
 K_disc = [1.5 * u.N_m_per_deg, 1.2 * u.N_m_per_deg, 4 * u.N_m_per_deg, 150 * u.N_per_mm, 150 * u.N_per_mm,
           1500 * u.N_per_mm]  # fmt: skip
-disc = mjflex.make_compliant(
-    spec, "L3", K_disc, replace_joints=True, name="disc", damping_ratio=0.05, others="free", constraints="project"
-)
+disc = mjflex.make_compliant(spec, "L3", K_disc, replace_joints=True, name="disc", damping_ratio=0.05, others="free",
+                             constraints="project", stops="element")  # fmt: skip
 print(disc)
 for edit in disc.replaced.edits:
     print(f"  {edit.kind} {edit.name}: {edit.action} ({edit.detail})")
@@ -125,7 +125,7 @@ advice = mjflex.step_advice(model, flex, qpos=loaded, xfrc_applied=push)
 # stays at its range (past it by the stop's own compliance); without them (``stops=False``), it swings past 10 deg.
 # A run that does not diverge is the check of the advised step.
 runs = {}
-for stops in (None, False):
+for stops in ("element", False):
     s = mujoco.MjSpec.from_string(SPINE)
     mjflex.make_compliant(s, "L3", K_disc, replace_joints=True, name="disc", damping_ratio=0.05, others="free",
                           constraints="project", stops=stops)  # fmt: skip
@@ -139,7 +139,7 @@ for stops in (None, False):
         mujoco.mj_step(m, d)
         t.append(d.time)
         ry.append(f.displacements(d)[0][1])
-    runs["with stops" if stops is None else "without stops"] = np.array(t), np.degrees(ry)
+    runs["with stops" if stops else "without stops"] = np.array(t), np.degrees(ry)
 for label, (_, ry) in runs.items():
     print(f"{label}: peak extension {ry.max():.2f} deg, at 1 s {ry[-1]:.2f} deg (range ends at {upper[1]:.1f} deg)")
 
@@ -155,7 +155,8 @@ fig.tight_layout()
 # Back to the hinges
 # ------------------
 # :func:`mjflex.make_rigid` puts it all back: the hinges' ranges, springs and dampers, the three equalities in their
-# places, the keyframes. The compiled model is the original one.
+# places, the keyframes. The compiled model is the original one. (The spec still declares the plugin, which MjSpec
+# cannot take back: save it with :func:`mjflex.spec_xml`, which leaves the declaration out.)
 mjflex.make_rigid(spec, disc)
 again = spec.compile()
 same = all(np.array_equal(getattr(again, n), getattr(original, n)) for n in ("jnt_range", "eq_data", "eq_obj1id",

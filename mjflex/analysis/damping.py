@@ -14,6 +14,7 @@ import scipy.linalg
 from ..mjcf import schema
 from ..mjcf.notices import warn_likely_mistake
 from ..runtime.flexures import Flexures
+from .directions import element_matrices
 from .linearize import (
     STEP,
     Options,
@@ -204,7 +205,7 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     if flex.model is not model:
         raise ValueError("flex must be the Flexures of this model (flex.model is model)")
     record = flex.records[flex.index(element)]
-    Ke = schema.embed_planar(record.K) if record.planar else record.K
+    Ke = element_matrices(record)[0]
     given = checked_ratios(ratios, 3 if record.planar else 6, strict=strict, stacklevel=3)
     r = given
     if record.planar:  # the other directions do not move a planar element: their weights are zero
@@ -224,7 +225,8 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
     psi = J @ phi
     strain = np.einsum("ik,ij,jk->k", psi, Ke, psi)
     elastic = lam > 1e-12 * max(lam.max(initial=0.0), 1e-300)
-    sv = np.linalg.svd(J, compute_uv=False)
+    stiff = np.flatnonzero(np.any(Ke != 0, axis=0))  # a direction without stiffness (a kept joint's) gets no damping
+    sv = np.linalg.svd(J[stiff], compute_uv=False)
     n = int(np.sum(sv > 1e-9 * max(sv.max(initial=0.0), 1e-300)))
     share = np.where(elastic, strain / np.where(elastic, lam, 1.0), -np.inf)
     chosen = np.argsort(-share)[:n]
@@ -234,12 +236,13 @@ def damping_from_ratios(model, element, ratios, *, flex=None, keyframe=None, qpo
             f"but the element moves in {n} direction(s): a direction without stiffness has no damping ratio. "
             "Give the element stiffness in every direction its joints allow"
         )
-    P = psi[:, chosen]
-    w = np.maximum(P * (Ke @ P), 0.0)
+    P = psi[np.ix_(stiff, chosen)]
+    w = np.maximum(P * (Ke[np.ix_(stiff, stiff)] @ P), 0.0)
     w = w / np.maximum(w.sum(axis=0), 1e-300)
-    zeta = r @ w
+    zeta = r[stiff] @ w
     omega = np.sqrt(lam[chosen])
     Pp = np.linalg.pinv(P)
-    B = Pp.T @ np.diag(2.0 * zeta * omega) @ Pp
+    B = np.zeros((6, 6))
+    B[np.ix_(stiff, stiff)] = Pp.T @ np.diag(2.0 * zeta * omega) @ Pp
     B = 0.5 * (B + B.T)
     return B[np.ix_(schema.PLANAR_INDEX, schema.PLANAR_INDEX)] if record.planar else B

@@ -93,6 +93,13 @@ class Directions:
         return 0.5 * (K + K.T), 0.5 * (B + B.T)
 
 
+def element_matrices(record):
+    """``(K, B)`` ``(6, 6)`` of an element's record, element frame (a planar one embedded, no damping as zeros)."""
+    K = schema.embed_planar(record.K) if record.planar else record.K
+    B = np.zeros((6, 6)) if record.B is None else (schema.embed_planar(record.B) if record.planar else record.B)
+    return K, B
+
+
 def _principal_axes(block, normal=None):
     """Eigenvectors of a symmetric 3x3 block, ordered and signed to match the frame axes when possible.
 
@@ -101,17 +108,15 @@ def _principal_axes(block, normal=None):
     is planar, so that in-plane and out-of-plane directions never mix, even for an isotropic
     block).
     """
+    off = block - np.diag(np.diag(block))
     if normal is not None:
         u = np.linalg.svd(np.outer(normal, normal))[0][:, 1:]  # orthonormal basis of the plane
         _, v = np.linalg.eigh(u.T @ block @ u)
         Q = np.column_stack([u @ v, normal])
-        order = np.argmax(np.abs(Q), axis=0)
-        Q = Q[:, np.argsort(order)] if len(set(order)) == 3 else Q
-        return Q * np.sign(Q[np.argmax(np.abs(Q), axis=0), range(3)])
-    off = block - np.diag(np.diag(block))
-    if np.abs(off).max() <= 1e-12 * max(np.abs(block).max(), 1e-300):
+    elif np.abs(off).max() <= 1e-12 * max(np.abs(block).max(), 1e-300):
         return np.eye(3)
-    _, Q = np.linalg.eigh(block)
+    else:
+        _, Q = np.linalg.eigh(block)
     order = np.argmax(np.abs(Q), axis=0)
     if len(set(order)) == 3:
         Q = Q[:, np.argsort(order)]
@@ -158,8 +163,7 @@ def element_directions(model, flex, normal=None, qpos=None) -> list[Directions]:
     out = []
     for rec, (sa, sb) in zip(flex.records, flex.site_ids, strict=True):
         sa, sb = int(sa), int(sb)
-        K = schema.embed_planar(rec.K) if rec.planar else rec.K
-        B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
+        K, B = element_matrices(rec)
         R_WE, p_WE = data.site_xmat[sa].reshape(3, 3).copy(), data.site_xpos[sa].copy()
         c = _centre(K, extent)
         Ad_EC = adjoint_from_transform(np.eye(3), c, check=False)

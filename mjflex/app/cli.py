@@ -2,6 +2,7 @@
 
 import argparse
 import datetime
+import inspect
 import json
 import math
 import os
@@ -62,10 +63,6 @@ def provenance(argv=None):
     return {"command": shlex.join(["python", "-m", "mjflex", *args]), "date": date}
 
 
-def _print_command_time(started):
-    print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
-
-
 def _simulate_command(args):
     started = time.perf_counter()
     check_output(args.json, "--json")
@@ -78,7 +75,7 @@ def _simulate_command(args):
             fps=args.fps, slowdown=args.slowdown, progress=not args.quiet,
         )  # fmt: skip
     print(summary.text())
-    _print_command_time(started)
+    print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(summary.to_dict(), f, indent=2)
@@ -151,15 +148,12 @@ def _cli_spelling(name):
     return "--" + name.replace("_", "-")
 
 
-def _study_options(args):
-    return dict(
-        keyframe=args.keyframe, qpos=None, qvel=None, duration=args.duration, track=args.track, frame=args.frame,
-        methods=args.methods, integrators=args.integrators, steps=args.steps, step_count=args.step_count,
-        max_step=args.max_step, min_step=args.min_step, variants=[] if args.no_variants else None,
-        repeat=args.repeat, bisect=args.bisect, limit_rtol=0.02, reference_tol=args.reference_tol,
-        max_refinements=args.max_refinements, reference_step=args.reference_step, frequencies=3,
-        samples=args.samples, max_run_wall=args.max_run_wall, targets=args.targets, clock=args.clock,
-    )  # fmt: skip
+def _study_options(args, study):
+    """``study``'s keyword options from the parsed ``args`` (its own defaults for those the command line lacks)."""
+    options = {k: p.default for k, p in inspect.signature(study).parameters.items() if p.kind == p.KEYWORD_ONLY}
+    del options["out"], options["progress"]
+    options.update({k: getattr(args, k) for k in options if hasattr(args, k)})
+    return options | {"variants": [] if args.no_variants else None}
 
 
 def _docs_parser(sub):
@@ -177,7 +171,7 @@ def _docs_parser(sub):
 def _study_command(args):
     from .study import StudyError, check_options, study  # tqdm and the study's modules load only for this command
 
-    options = _study_options(args)
+    options = _study_options(args, study)
     try:  # every option, before anything is loaded, run or written
         check_options(options, args.out, spell=_cli_spelling)
     except StudyError as exc:

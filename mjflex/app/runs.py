@@ -27,7 +27,6 @@ from .simulate import DivergenceError, configure, simulate, step_count, summariz
 from .timing import Stopwatch
 
 #: Exit status of a run that diverged (1: bad input, 2: bad command line).
-#: Exit status of a run that diverged (1: bad input, 2: bad command line).
 EXIT_DIVERGED = 3
 
 

@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 
 from ..geometry import leaf_spring_stiffness, notch_hinge_stiffness
+from ..geometry.sections import shear_constants
 from ..mjcf.build import add_flexure
 from ..mjcf.spec import reference_body_poses
 
@@ -92,8 +93,7 @@ class Beam:
 
     def tip_deflection(self, F) -> float:
         """Linear tip deflection under an end load ``F`` [N] along y: bending plus shear [m]."""
-        G = self.E / (2 * (1 + self.nu))
-        kappa = 10 * (1 + self.nu) / (12 + 11 * self.nu)
+        G, kappa = shear_constants(self.E, self.nu)
         return F * self.L**3 / (3 * self.EI) + F * self.L / (kappa * G * self.b * self.t)
 
     def frequencies(self, count=3) -> np.ndarray:

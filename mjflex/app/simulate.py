@@ -112,6 +112,11 @@ class Summary:
         return "\n".join(lines)
 
 
+def integrator_label(model) -> str:
+    """The model's integrator by its lowercase MJCF name (a key of :data:`INTEGRATORS`)."""
+    return mujoco.mjtIntegrator(model.opt.integrator).name.replace("mjINT_", "").lower()
+
+
 def configure(model, *, integrator=None, timestep=None):
     """Set the integrator (name as in MJCF, case-insensitive) and time step; validated."""
     if integrator is not None:
@@ -365,7 +370,7 @@ def summarize(model_name, model, flex, run, wall, steps, *, strain_per_radian=No
     methods = sorted(set(flex.methods))
     return Summary(
         model=model_name, method="/".join(methods),
-        integrator=mujoco.mjtIntegrator(model.opt.integrator).name.replace("mjINT_", "").lower(),
+        integrator=integrator_label(model),
         timestep=float(model.opt.timestep), duration=float(duration), steps=steps, wall_time=wall,
         wall_per_simulated_second=wall / duration, energy_start=float(E[0]), energy_end=float(E[-1]),
         dissipated=float(run.dissipated[-1]), energy_balance_error=balance,

@@ -28,10 +28,24 @@ from ._batch import flatten
 from .validation import as_array, check_rotation, check_unit_dual_quaternion
 
 
-def _pose(R, p, check):
+def _coordinates(R, p, check, kernel, width):
+    """``(..., width)`` coordinates of poses ``(R, p)`` by a batch ``kernel(R, p, out)``."""
     if check:
         R, p = check_rotation(R, "R"), as_array(p, "p", (3,))
-    return np.ascontiguousarray(R, dtype=np.float64), np.ascontiguousarray(p, dtype=np.float64)
+    R, p = np.ascontiguousarray(R, dtype=np.float64), np.ascontiguousarray(p, dtype=np.float64)
+    shape, (R_, p_) = flatten([R, p], [R.shape[:-2], p.shape[:-1]], ["R", "p"])
+    out = np.empty((math.prod(shape), width))
+    kernel(R_, p_, out)
+    return out.reshape(shape + (width,))
+
+
+def _pose(x, name, kernel):
+    """``(R, p)`` of coordinates ``x`` (C-contiguous float64, ``(..., k)``) by a batch ``kernel(x, R, p)``."""
+    shape, (x_,) = flatten([x], [x.shape[:-1]], [name])
+    R = np.empty((len(x_), 3, 3))
+    p = np.empty((len(x_), 3))
+    kernel(x_, R, p)
+    return R.reshape(shape + (3, 3)), p.reshape(shape + (3,))
 
 
 def twist_from_transform(R, p, *, check=True):
@@ -61,11 +75,7 @@ def twist_from_transform(R, p, *, check=True):
     >>> print(np.round(mjflex.twist_from_transform(R, [0.1, 0.0, 0.0]), 4) + 0.0)
     [ 0.      0.      0.3     0.0992 -0.015   0.    ]
     """
-    R, p = _pose(R, p, check)
-    shape, (R_, p_) = flatten([R, p], [R.shape[:-2], p.shape[:-1]], ["R", "p"])
-    out = np.empty((math.prod(shape), 6))
-    _k.twist_from_transform_batch(R_, p_, out)
-    return out.reshape(shape + (6,))
+    return _coordinates(R, p, check, _k.twist_from_transform_batch, 6)
 
 
 def transform_from_twist(xi, *, check=True):
@@ -101,11 +111,7 @@ def transform_from_twist(xi, *, check=True):
     (4, 2, 3, 3) (4, 2, 3)
     """
     xi = np.ascontiguousarray(as_array(xi, "xi", (6,)) if check else xi, dtype=np.float64)
-    shape, (xi_,) = flatten([xi], [xi.shape[:-1]], ["xi"])
-    R = np.empty((len(xi_), 3, 3))
-    p = np.empty((len(xi_), 3))
-    _k.transform_from_twist_batch(xi_, R, p)
-    return R.reshape(shape + (3, 3)), p.reshape(shape + (3,))
+    return _pose(xi, "xi", _k.transform_from_twist_batch)
 
 
 def dual_quaternion_from_transform(R, p, *, check=True):
@@ -134,11 +140,7 @@ def dual_quaternion_from_transform(R, p, *, check=True):
     >>> print(np.round(q, 6) + 0.0)  # (w, x, y, z, w', x', y', z')
     [1.  0.  0.  0.  0.  0.1 0.  0. ]
     """
-    R, p = _pose(R, p, check)
-    shape, (R_, p_) = flatten([R, p], [R.shape[:-2], p.shape[:-1]], ["R", "p"])
-    out = np.empty((math.prod(shape), 8))
-    _k.dual_quaternion_from_transform_batch(R_, p_, out)
-    return out.reshape(shape + (8,))
+    return _coordinates(R, p, check, _k.dual_quaternion_from_transform_batch, 8)
 
 
 def transform_from_dual_quaternion(q, *, check=True):
@@ -170,8 +172,4 @@ def transform_from_dual_quaternion(q, *, check=True):
     True True
     """
     q = np.ascontiguousarray(check_unit_dual_quaternion(q, "q") if check else q, dtype=np.float64)
-    shape, (q_,) = flatten([q], [q.shape[:-1]], ["q"])
-    R = np.empty((len(q_), 3, 3))
-    p = np.empty((len(q_), 3))
-    _k.transform_from_dual_quaternion_batch(q_, R, p)
-    return R.reshape(shape + (3, 3)), p.reshape(shape + (3,))
+    return _pose(q, "q", _k.transform_from_dual_quaternion_batch)

@@ -52,7 +52,7 @@ from scipy.sparse.linalg import splu
 from skfem import Basis, ElementHex2, ElementQuad2
 
 from .fe_mesh import Counts, LeafProfile, NotchProfile, section_mesh, solid_mesh
-from .sections import rectangle_torsion_constant
+from .sections import rectangle_torsion_constant, shear_constants
 
 #: Models accepted by the functions of this module.
 MODELS = ("solid", "plane_stress", "plane_strain")
@@ -203,19 +203,14 @@ def transport_compliance(C, x):
     return A @ C @ A.T
 
 
-def rectangle_shear_coefficient(nu):
-    """Cowper's shear coefficient of a rectangle, ``10 (1 + nu) / (12 + 11 nu)``."""
-    return 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
-
-
 def plain_segment_compliance(length, height, width, E, nu, model="solid"):
     """Diagonal compliance (6x6) at the centre of a plain bar segment ``|x| <= length/2``.
 
     Saint-Venant beam of the ``height x width`` rectangle (``y x z``): torsion with the exact
     rectangle constant, bending with ``E`` (``E / (1 - nu^2)`` and axial likewise in plane
-    strain), shear with Cowper's coefficient (:func:`rectangle_shear_coefficient`).
+    strain), shear with Cowper's coefficient (:func:`mjflex.geometry.sections.shear_constants`).
     """
-    G, kappa = E / (2 * (1 + nu)), rectangle_shear_coefficient(nu)
+    G, kappa = shear_constants(E, nu)
     Ep = E / (1 - nu**2) if model == "plane_strain" else E
     A, Iz, Iy = height * width, width * height**3 / 12, height * width**3 / 12
     ell = length

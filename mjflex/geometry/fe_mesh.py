@@ -21,6 +21,7 @@ solid ends at the faces ``x = +-x_end``.
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import brentq
 from skfem import MeshHex1, MeshHex2, MeshQuad1, MeshQuad2
 
 
@@ -64,16 +65,15 @@ def _width_map(zeta, half_width, edge, layers):
 
 def _grading_for_first_cell(fraction, n):
     """Grading ``c`` for which the first of ``n`` equal parameter steps maps to ``fraction`` of the length."""
-    if fraction >= 1.0 / n:
+    if n == 1 or fraction >= 1.0 / n:  # one step is the whole length: no grading moves a lattice vertex
         return 0.0
-    lo, hi = 1e-9, 200.0
-    for _ in range(200):
-        c = 0.5 * (lo + hi)
-        if np.expm1(c / n) / np.expm1(c) > fraction:
-            lo = c
-        else:
-            hi = c
-    return 0.5 * (lo + hi)
+    return brentq(lambda c: np.expm1(c / n) / np.expm1(c) - fraction, 1e-9, 200.0, xtol=1e-300)
+
+
+def _columns(block, flexure):
+    """Parameter ``s`` of the lattice's columns: ``block`` per block in [-2, -1] and [1, 2], ``flexure`` in [-1, 1]."""
+    return np.concatenate([np.linspace(-2, -1, block + 1)[:-1], np.linspace(-1, 1, flexure + 1),
+                           np.linspace(1, 2, block + 1)[1:]])  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -107,9 +107,7 @@ class NotchProfile:
         return 0.0 if q >= 0.5 else 2.0 * np.arccosh(1.0 / (2.0 * q))
 
     def lattice(self, n: Counts):
-        s = np.concatenate([np.linspace(-2, -1, n.block + 1)[:-1], np.linspace(-1, 1, n.flexure + 1),
-                            np.linspace(1, 2, n.block + 1)[1:]])  # fmt: skip
-        return s, np.linspace(0.0, 1.0, n.thin + 1), None
+        return _columns(n.block, n.flexure), np.linspace(0.0, 1.0, n.thin + 1)
 
     def mask(self, s_mid, eta_mid):
         return np.ones((s_mid.size, eta_mid.size), bool)
@@ -182,11 +180,8 @@ class LeafProfile:
         return 2 * int(np.ceil(0.5 * n.flexure * max(1.0, 0.5 * (self.L / self.t) ** (1 / 3))))
 
     def lattice(self, n: Counts):
-        m = self._leaf_columns(n)
-        s = np.concatenate([np.linspace(-2, -1, n.block + 1)[:-1], np.linspace(-1, 1, m + 1),
-                            np.linspace(1, 2, n.block + 1)[1:]])  # fmt: skip
         eta = np.concatenate([np.linspace(0, 1, n.thin + 1), np.linspace(1, 2, n.outer + 1)[1:]])
-        return s, eta, None
+        return _columns(n.block, self._leaf_columns(n)), eta
 
     def mask(self, s_mid, eta_mid):
         keep = np.ones((s_mid.size, eta_mid.size), bool)
@@ -224,29 +219,21 @@ def _mids(v):
     return 0.5 * (v[1:] + v[:-1])
 
 
-def _quadratic(lin_cls, quad_cls, lattice, mask_flat):
+def _quadratic(profile, lin_cls, quad_cls, lattice):
+    """The quadratic mesh of the lattice's cells that ``profile`` keeps (found by their centres)."""
     mesh = lin_cls.init_tensor(*lattice)
-    if not mask_flat.all():
-        mesh = mesh.remove_elements(np.flatnonzero(~mask_flat))
-    return quad_cls.from_mesh(mesh)
-
-
-def _cell_mask(profile, s, eta, mesh_lin_cls, zeta=None):
-    """Keep-mask of the tensor cells in scikit-fem's element order (found from the cell centres)."""
-    lattice = (s, eta) if zeta is None else (s, eta, zeta)
-    mesh = mesh_lin_cls.init_tensor(*lattice)
     centres = mesh.p[:, mesh.t].mean(axis=1)
-    keep = profile.mask(_mids(s), _mids(eta))
-    i = np.searchsorted(s, centres[0]) - 1
-    j = np.searchsorted(eta, centres[1]) - 1
-    return keep[i, j]
+    s, eta = lattice[:2]
+    keep = profile.mask(_mids(s), _mids(eta))[np.searchsorted(s, centres[0]) - 1, np.searchsorted(eta, centres[1]) - 1]
+    if not keep.all():
+        mesh = mesh.remove_elements(np.flatnonzero(~keep))
+    return quad_cls.from_mesh(mesh)
 
 
 def section_mesh(profile, level=1, counts=DEFAULT_COUNTS):
     """Quadratic 2-D mesh (``MeshQuad2``) of the half ``y >= 0`` of the flexure and its blocks."""
-    s, eta, _ = profile.lattice(counts.at(level))
-    keep = _cell_mask(profile, s, eta, MeshQuad1)
-    mesh = _quadratic(MeshQuad1, MeshQuad2, (s, eta), keep)
+    s, eta = profile.lattice(counts.at(level))
+    mesh = _quadratic(profile, MeshQuad1, MeshQuad2, (s, eta))
     x, y = profile.map(*mesh.doflocs, (s, eta))
     return replace(mesh, doflocs=np.vstack([x, y]))
 
@@ -254,10 +241,9 @@ def section_mesh(profile, level=1, counts=DEFAULT_COUNTS):
 def solid_mesh(profile, width, level=1, counts=DEFAULT_COUNTS):
     """Quadratic 3-D mesh (``MeshHex2``) of the quarter ``y >= 0, z >= 0`` (``width`` is the full ``b``)."""
     n = counts.at(level)
-    s, eta, _ = profile.lattice(n)
+    s, eta = profile.lattice(n)
     zeta = np.linspace(0.0, 1.0, n.width + 1)
-    keep = _cell_mask(profile, s, eta, MeshHex1, zeta)
-    mesh = _quadratic(MeshHex1, MeshHex2, (s, eta, zeta), keep)
+    mesh = _quadratic(profile, MeshHex1, MeshHex2, (s, eta, zeta))
     x, y = profile.map(mesh.doflocs[0], mesh.doflocs[1], (s, eta))
     z = _between(mesh.doflocs[2], zeta, _width_map(zeta, 0.5 * width, 0.5 * profile.t, counts.width))
     return replace(mesh, doflocs=np.vstack([x, y, z]))

@@ -122,10 +122,6 @@ def _fe_module():
     return fe
 
 
-def _from_factors(C_beam, factors):
-    return np.diag(factors / C_beam)
-
-
 def notch_hinge_stiffness(
     R, t, b, E, nu, *, method="table", wide=None, allow_out_of_range=False, fe_level=1, block_length=None
 ):
@@ -225,7 +221,7 @@ def notch_hinge_stiffness(
     from .tables import correction_factors  # late: reads the stored FE tables, only for the table method
 
     f = correction_factors("notch", t / R, b / R, nu)
-    return _from_factors(_beam_compliance(lambda x: notch_hinge_thickness(x, R, t), R, b, E, nu, False), f)
+    return np.diag(f / _beam_compliance(lambda x: notch_hinge_thickness(x, R, t), R, b, E, nu, False))
 
 
 def leaf_spring_stiffness(
@@ -331,7 +327,7 @@ def leaf_spring_stiffness(
             "only: use method='fe' for other block heights"
         )
     f = correction_factors("leaf", L / t, b / t, nu)
-    return _from_factors(_beam_compliance(lambda x: t, 0.5 * L, b, E, nu, False), f)
+    return np.diag(f / _beam_compliance(lambda x: t, 0.5 * L, b, E, nu, False))
 
 
 def bending_strain_per_radian(K, t, b, E, nu, *, wide=None):

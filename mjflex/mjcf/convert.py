@@ -6,10 +6,13 @@
   of the same doubles), the sites are not touched. :func:`mjflex.convert_file` does the same
   for a model file without rewriting the rest of the file.
 * :func:`copy_spec` and :func:`attach` are ``MjSpec.copy`` and ``MjSpec.attach`` that keep the
-  plugin instances (MuJoCo 4.0 drops the unreferenced ones).
+  plugin instances (MuJoCo 4.0 drops the unreferenced ones); :func:`spec_xml` is ``MjSpec.to_xml``
+  without a declaration of the plugin that no instance uses (MjSpec cannot take one back).
 
 Reading and editing elements in place: :mod:`mjflex.mjcf.elements`.
 """
+
+import re
 
 import mujoco
 
@@ -104,6 +107,48 @@ def attach(parent, child, *, prefix="", suffix="", **where):
 
 
 # ----------------------------------------------------------------------------- conversion
+
+
+#: The ``<plugin plugin="mjflex.flexure"/>`` that MuJoCo's writer gives a declaration without instances, and an
+#: ``<extension>`` left empty (with the blank line after it), as ``MjSpec.to_xml`` writes them.
+_UNUSED = re.compile(r'^[ \t]*<plugin plugin="' + re.escape(schema.PLUGIN_NAME) + r'"\s*/>[ \t]*\n', re.MULTILINE)
+_EMPTY = re.compile(r"^[ \t]*<extension>\s*</extension>[ \t]*\n(?:[ \t]*\n)?", re.MULTILINE)
+
+
+def spec_xml(spec) -> str:
+    """``spec.to_xml()`` without a declaration of the engine plugin ``mjflex.flexure`` that no instance uses.
+
+    MuJoCo's ``MjSpec`` cannot take back a plugin declaration: after the last plugin element of a
+    spec is removed (:func:`mjflex.make_rigid`, :func:`mjflex.remove_flexure`,
+    :func:`mjflex.convert_model` to records), ``spec.to_xml()`` still writes
+    ``<extension><plugin plugin="mjflex.flexure"/></extension>``, and a MuJoCo without mjflex
+    refuses to load that file ("plugin mjflex.flexure not found"). This writes the same text
+    without it (and without an ``<extension>`` left empty); a declaration that instances use is
+    kept, and nothing else changes.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The spec to write (not modified).
+
+    Returns
+    -------
+    str
+        The MJCF text.
+
+    Examples
+    --------
+    >>> import mujoco, mjflex
+    >>> spec = mujoco.MjSpec.from_string(
+    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
+    ... )
+    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
+    >>> mjflex.remove_flexure(spec, "mount")
+    >>> "mjflex.flexure" in spec.to_xml(), "mjflex.flexure" in mjflex.spec_xml(spec)
+    (True, False)
+    """
+    check_spec(spec)
+    return _EMPTY.sub("", _UNUSED.sub("", spec.to_xml()))
 
 
 def records_to_plugins(spec, names=None) -> list[str]:

@@ -3,21 +3,23 @@
 Most models have joints where the compliance belongs: a vertebra's three hinges tied to the next
 level by equality constraints, a robot's series-elastic joint, a bushing modelled as a hinge.
 Replacing them hands the body's motion relative to its parent (a body's joints in MuJoCo are
-always to its parent) to the element: the joints stop being a joint model (no range, spring,
-damper, armature or friction loss: the element's stiffness, damping and stops take over) and
-become *coordinates* of the motion the element needs; :func:`mjflex.make_compliant` adds the
-missing ones (slides along the element axes, hinges about the element axes the joints do not
-turn about, at the joints' anchor) so that the body moves in all of the element's directions.
-Every joint keeps its name, axis, anchor and reference, so everything that names it keeps its
-meaning, exactly:
+always to its parent) to the element: the joints stop being a joint model (no spring, damper or
+friction loss: the element's stiffness and damping take over) and become *coordinates* of the
+motion the element needs; :func:`mjflex.make_compliant` adds the missing ones (slides along the
+element axes, hinges about the element axes the joints do not turn about, at the joints' anchor)
+so that the body moves in all of the element's directions. Every joint keeps its name, axis,
+anchor, reference and **armature** (the inertia of a rotor or gear train behind the joint, there
+whatever the stiffness; dropping it would change the model's inertia, its stable time step, and
+the effective mass that soft equality constraints and limits scale their stiffness with), so
+everything that names it keeps its meaning, exactly:
 
 * **Actuators** keep their joint transmission: a motor applies the same torque about the same
   axis between the same bodies, a servo holds the same angle. Only an inherited control range
-  (``inheritrange``, from the joint's range, which goes) becomes the explicit range it compiled to.
-  (A site transmission between the element's sites with ``refsite`` would measure the element's
-  rotation vector, but MuJoCo's moment arm for it is the angular velocity, not the rotation
-  vector's gradient: at a loaded, bent element a servo on it is not conservative, and its
-  flutter diverges at any time step. A joint transmission has neither problem.)
+  (``inheritrange``, from the joint's range, where the range goes) becomes the explicit range it
+  compiled to. (A site transmission between the element's sites with ``refsite`` would measure
+  the element's rotation vector, but MuJoCo's moment arm for it is the angular velocity, not the
+  rotation vector's gradient: at a loaded, bent element a servo on it is not conservative, and
+  its flutter diverges at any time step. A joint transmission has neither problem.)
 * **Sensors** (``jointpos``, ``jointvel``, ``ballquat``, ...) read the same coordinate; fixed
   **tendons** sum the same coordinates; **keyframes** keep every value and get the rest values of
   the added joints (the body is where it was).
@@ -27,28 +29,35 @@ meaning, exactly:
   (``joint2``: a spine's driving level) is kept as it is: the follower follows the same coordinate,
   now moved by the element. ``equalities="remove"`` removes every joint equality that names a
   replaced joint; ``equalities="refuse"`` refuses (naming them) so that the user decides.
-* Sensors that read a joint's **limit** (``jointlimitpos``, ``jointlimitvel``, ``jointlimitfrc``)
-  have none left to read: they are removed and reported.
-* **Ranges** become the element's stops, in element coordinates (rotation-vector components of
-  frame b relative to frame a, then the position of b's origin in a): a limited hinge or slide
-  whose axis lies along an element axis gives that coordinate ``[lo - ref, hi - ref]`` (its sign
-  flipped for an axis against the element's; ``ref`` is the joint's value at ``qpos0``, where the
-  element is unstressed). A hinge's angle equals the rotation-vector component exactly for
-  rotation about its axis alone, and to second order in the other components otherwise. A ball
-  joint's range is a cone, ``|rotation| <= range[1]``; it becomes the circumscribed box
-  ``[-range[1], range[1]]`` on the three rotations: exact along each element axis, up to
-  ``sqrt(3)`` times the angle along a diagonal. A range beyond ``pi`` from the rest, or of a
-  joint whose axis is not along an element axis, is not carried (the report says so; align the
-  element frame with the joint, which is the default).
-* Joint properties that the element does not carry (stiffness, damping, armature, friction loss)
-  are listed in the report's notes: give them in ``K`` and ``B``.
+* **Ranges** (``stops=``): ``"limits"`` (the default) keeps them as MuJoCo's joint limits on the
+  coordinates, with their ``solref``, ``solimp`` and margin: constraints, dissipative and stable at
+  the file's time step, exact on the joint's angle, as the rigid model had them; sensors that read
+  a limit keep reading it. ``"element"`` turns them into the element's stops, in element
+  coordinates (rotation-vector components of frame b relative to frame a, then the position of
+  b's origin in a): a limited hinge or slide whose axis lies along an element axis gives that
+  coordinate ``[lo - ref, hi - ref]`` (its sign flipped for an axis against the element's; ``ref``
+  is the joint's value at ``qpos0``, where the element is unstressed). A hinge's angle equals the
+  rotation-vector component exactly for rotation about its axis alone, and to second order in the
+  other components otherwise. A ball joint's range is a cone, ``|rotation| <= range[1]``; it
+  becomes the circumscribed box ``[-range[1], range[1]]`` on the three rotations: exact along each
+  element axis, up to ``sqrt(3)`` times the angle along a diagonal. A range beyond ``pi`` from the
+  rest, or of a joint whose axis is not along an element axis, is not carried (the report says so;
+  align the element frame with the joint, which is the default). The sensors that read a joint's
+  **limit** (``jointlimitpos``, ``jointlimitvel``, ``jointlimitfrc``) then have none left to read:
+  they are removed and reported.
+* Joint properties that the element does not carry (stiffness, damping, friction loss) are listed
+  in the report's notes: give them in ``K`` and ``B``.
+* **Some of the joints** (``replace_joints=["name", ...]``): the others stay joints with their own
+  joint model (range, spring, damper, armature); the element leaves their directions alone (its
+  stiffness there must be zero, and each must lie along an element axis). The element frame comes
+  from the replaced joints: :mod:`mjflex.mjcf.coordinates` has the rule (one hinge: its axis is the
+  element's z) and the checks.
 
 :func:`mjflex.make_rigid` restores all of it: the joints' attributes, the removed equalities and
 sensors in their places (so the compiled model's ids are the original ones), the actuators'
 ranges and the keyframes.
 """
 
-import math
 from dataclasses import dataclass, field
 
 import mujoco
@@ -58,18 +67,20 @@ _T = mujoco.mjtJoint
 _HINGE, _SLIDE, _BALL, _FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
 _KIND = {_HINGE: "hinge", _SLIDE: "slide", _BALL: "ball", _FREE: "free"}
 _S = mujoco.mjtSensor
-#: Sensors that read a joint's limit: none is left once the range becomes the element's stops.
+#: Sensors that read a joint's limit: none is left once the range becomes the element's stops (``stops="element"``).
 LIMIT_SENSORS = {int(_S.mjSENS_JOINTLIMITPOS), int(_S.mjSENS_JOINTLIMITVEL), int(_S.mjSENS_JOINTLIMITFRC)}
 #: What makes a joint a joint model (the element takes over): reset to MuJoCo's built-in values on the replaced
-#: joints. Their name, type, axis, anchor, reference and actuation settings stay.
-STRIPPED = ("armature", "damping", "frictionloss", "limited", "margin", "range", "solimp_friction", "solimp_limit",
-            "solref_friction", "solref_limit", "springdamper", "springref", "springyield", "stiffness")  # fmt: skip
+#: joints. Their name, type, axis, anchor, reference, armature and actuation settings stay.
+STRIPPED = ("damping", "frictionloss", "solimp_friction", "solref_friction", "springdamper", "springref",
+            "springyield", "stiffness")  # fmt: skip
+#: A joint's limit: kept with ``stops="limits"``, reset (the range becomes element stops or nothing) otherwise.
+LIMIT = ("limited", "margin", "range", "solimp_limit", "solref_limit")
+#: How a replaced joint's range goes on: MuJoCo's joint limit on the coordinate, or the element's stops.
+STOP_KINDS = ("limits", "element")
 _JOINT_TRN = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
 EQUALITY_CHOICES = ("auto", "remove", "refuse")
 #: Attributes never copied when a spec element is snapshotted and re-created.
 _SKIP = {"id", "signature", "compiler", "info", "parent", "frame", "classname", "plugin", "default"}
-#: An axis this close to an element axis (1 - |cos|) counts as along it.
-ALIGNED = 1e-9
 
 
 @dataclass(frozen=True)
@@ -89,16 +100,22 @@ class Edit:
 
 @dataclass
 class Replacement:
-    """What ``replace_joints=True`` did (the ``replaced`` attribute of :class:`mjflex.Compliance`).
+    """What ``replace_joints`` did (the ``replaced`` attribute of :class:`mjflex.Compliance`).
 
     Attributes
     ----------
     joints : tuple of str
-        The replaced joints, in order: now the element's coordinates (no range, spring, damper,
-        armature or friction loss), with their names, axes and anchors.
+        The replaced joints, in order: now the element's coordinates (no spring, damper or
+        friction loss; their armature kept), with their names, axes and anchors.
     lower, upper : ndarray, shape (6,)
-        The stops their ranges give, element coordinates ``[rx, ry, rz, x, y, z]`` [rad, m]
-        (``-inf`` / ``inf``: none); the element has them unless ``stops=`` said otherwise.
+        Their ranges in element coordinates ``[rx, ry, rz, x, y, z]`` [rad, m] (``-inf`` /
+        ``inf``: none): the element's stops where ``stops == "element"``.
+    stops : {"limits", "element", "given", "none"}
+        What became of the ranges: MuJoCo's joint limits kept on the coordinates (``"limits"``),
+        the element's stops ``lower``/``upper`` (``"element"``), the stops given as
+        :class:`mjflex.Stops` (``"given"``), or none (``stops=False``, or no range).
+    kept : tuple of str
+        The body's joints that stay joints (``replace_joints=[...]`` named the others).
     edits : tuple of Edit
         The equalities, sensors and actuators removed, kept or changed, with the reason.
     notes : tuple of str
@@ -117,11 +134,13 @@ class Replacement:
     ...     '<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></body></worldbody>'
     ...     '<actuator><motor joint="elbow"/></actuator></mujoco>'
     ... )
-    >>> c = mjflex.make_compliant(spec, "arm", [50, 5, 50, 1e5, 1e5, 1e5], replace_joints=True)
-    >>> print(c.replaced.joints, c.replaced.lower[1], c.replaced.upper[1])  # the elbow's range: stops on ry
-    ('elbow',) -1.0 0.5
+    >>> c = mjflex.make_compliant(spec, "arm", [50, 50, 5, 1e5, 1e5, 1e5], replace_joints=True)
+    >>> print(c.replaced.joints, c.replaced.stops)  # the elbow's range stays MuJoCo's joint limit
+    ('elbow',) limits
+    >>> print(c.replaced.lower[2], c.replaced.upper[2])  # the range on the element's rz: the elbow's axis
+    -1.0 0.5
     >>> c.joints  # added: the translations and the other rotations the element needs
-    ('arm_compliance/x', 'arm_compliance/y', 'arm_compliance/z', 'arm_compliance/rx', 'arm_compliance/rz')
+    ('arm_compliance/x', 'arm_compliance/y', 'arm_compliance/z', 'arm_compliance/rx', 'arm_compliance/ry')
     >>> c.replaced.notes
     ('hinge elbow: damping 0.1 (give it in B or damping_ratio)',)
     """
@@ -132,6 +151,8 @@ class Replacement:
     edits: tuple[Edit, ...] = ()
     notes: tuple[str, ...] = ()
     saved: dict = field(default_factory=dict, repr=False)
+    stops: str = "none"
+    kept: tuple[str, ...] = ()
 
     @property
     def has_stops(self) -> bool:
@@ -210,28 +231,32 @@ class Plan:
     """What will be done, checked before the spec is touched (a refusal leaves it as it was)."""
 
     body: str
-    joints: list  # (name, rigid joint id)
+    joints: list  # (name, rigid joint id) of the replaced joints
     equalities: dict  # index -> ("remove" | "keep", reason)
     sensors: list  # indices of limit sensors to remove
     actuators: list  # indices of actuators whose inherited range becomes explicit
+    keep_limits: bool = True  # the ranges stay MuJoCo's joint limits (stops="limits")
+    places: list = field(default_factory=list)  # the replaced joints' places among the body's joints
 
 
 def _label(obj, i, kind):
     return obj.name or f"{kind} #{i}"
 
 
-def make_plan(spec, rigid, body, equalities="auto") -> Plan:
-    """Check what names the body's joints; raise ValueError when ``equalities="refuse"`` meets one."""
+def make_plan(spec, rigid, body, joints, equalities="auto", keep_limits=True) -> Plan:
+    """Check what names the replaced ``joints`` (``(name, id)`` in ``rigid``, of ``body``); raise ValueError when
+    ``equalities="refuse"`` meets one. ``keep_limits``: their ranges stay MuJoCo's joint limits."""
     if equalities not in EQUALITY_CHOICES:
         raise ValueError(f"equalities={equalities!r}: use one of {EQUALITY_CHOICES}")
-    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body.name)
-    ids = list(range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib]))
-    joints = [(mujoco.mj_id2name(rigid, mujoco.mjtObj.mjOBJ_JOINT, j) or "", j) for j in ids]
-    names = {n for n, _ in joints if n}
-    return Plan(body.name, joints, _equality_plan(spec, body, names, equalities),
-                [i for i, s in enumerate(spec.sensors) if int(s.type) in LIMIT_SENSORS and s.objname in names],
-                [i for i, a in enumerate(spec.actuators)
-                 if int(a.trntype) in _JOINT_TRN and a.target in names and a.inheritrange > 0])  # fmt: skip
+    names = {n for n, _ in joints if not n.startswith("#")}
+    first = rigid.body_jntadr[mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body.name)]
+    sensors = [i for i, s in enumerate(spec.sensors) if int(s.type) in LIMIT_SENSORS and s.objname in names]
+    actuators = [i for i, a in enumerate(spec.actuators)
+                 if int(a.trntype) in _JOINT_TRN and a.target in names and a.inheritrange > 0]  # fmt: skip
+    if keep_limits:  # the limits stay: so do the sensors that read them and the ranges that actuators inherit
+        sensors, actuators = [], []
+    return Plan(body.name, list(joints), _equality_plan(spec, body, names, equalities), sensors, actuators,
+                keep_limits, [int(j - first) for _, j in joints])  # fmt: skip
 
 
 def _equality_plan(spec, body, names, choice):
@@ -262,88 +287,8 @@ def _equality_plan(spec, body, names, choice):
     return plan
 
 
-# ------------------------------------------------------------------ the element frame the joints suggest
-
-
-def joint_frame(rigid, body_name) -> tuple[np.ndarray, np.ndarray]:
-    """World pose ``(p_WE, R_WE)`` at ``qpos0`` of the element frame the body's joints suggest.
-
-    Origin: the anchor of the first hinge or ball joint (the body's origin for slides alone).
-    Axes: the body's, when every hinge and slide axis lies along one of them; else z along the
-    joints' one axis direction; else x along the first axis and y in the plane of the first two.
-    """
-    data = mujoco.MjData(rigid)
-    mujoco.mj_kinematics(rigid, data)
-    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
-    ids = range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib])
-    R_WB, p = data.xmat[ib].reshape(3, 3).copy(), data.xpos[ib].copy()
-    rotational = [j for j in ids if rigid.jnt_type[j] in (_HINGE, _BALL)]
-    if rotational:
-        p = data.xanchor[rotational[0]].copy()
-    axes = [data.xaxis[j].copy() for j in ids if rigid.jnt_type[j] in (_HINGE, _SLIDE)]
-    if all(np.abs(R_WB.T @ a).max() > 1 - ALIGNED for a in axes):
-        return p, R_WB
-    distinct = [axes[0]]
-    for a in axes[1:]:
-        if abs(abs(a @ distinct[0]) - 1) > ALIGNED:
-            distinct.append(a)
-            break
-    if len(distinct) == 1:
-        z = distinct[0] / np.linalg.norm(distinct[0])
-        x = R_WB[:, int(np.argmin(np.abs(R_WB.T @ z)))]
-        x = x - (x @ z) * z
-        x /= np.linalg.norm(x)
-        return p, np.column_stack([x, np.cross(z, x), z])
-    x = distinct[0] / np.linalg.norm(distinct[0])
-    y = distinct[1] - (distinct[1] @ x) * x
-    y /= np.linalg.norm(y)
-    return p, np.column_stack([x, y, np.cross(x, y)])
-
-
-# ------------------------------------------------------------------ ranges -> stops
-
-
-def stops_from_ranges(rigid, joints, R_BE) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """``(lower, upper, notes)``: the stops (element coordinates) that the joints' ranges give.
-
-    ``joints``: ``(name, id)`` in the rigid model; ``R_BE``: the element frame's axes in the
-    body's frame. See the module docstring for the mapping.
-    """
-    lower, upper, notes = np.full(6, -np.inf), np.full(6, np.inf), []
-    for name, j in joints:
-        kind, label = int(rigid.jnt_type[j]), name or f"joint #{j}"
-        if not rigid.jnt_limited[j]:
-            continue
-        lo, hi = (float(v) for v in rigid.jnt_range[j])
-        if kind == _BALL:
-            hi = min(hi, math.pi)  # a rotation-vector component never leaves [-pi, pi]
-            lower[:3], upper[:3] = np.maximum(lower[:3], -hi), np.minimum(upper[:3], hi)
-            notes.append(f"ball joint {label}'s cone range {math.degrees(hi):.4g} deg became stops of +-"
-                         f"{math.degrees(hi):.4g} deg on rx, ry, rz (the circumscribed box: exact along each element "
-                         "axis, up to sqrt(3) times the angle along a diagonal)")  # fmt: skip
-            continue
-        if kind not in (_HINGE, _SLIDE):
-            continue
-        axis = R_BE.T @ rigid.jnt_axis[j]
-        k = int(np.argmax(np.abs(axis)))
-        if abs(axis[k]) < 1 - 1e-6:
-            notes.append(f"the range of {_KIND[kind]} {label} was not carried: its axis {np.round(axis, 4).tolist()} "
-                         "(element frame) is not along an element axis; give stops yourself or align the element "
-                         "frame with the joint")  # fmt: skip
-            continue
-        ref = float(rigid.qpos0[rigid.jnt_qposadr[j]])
-        bounds = sorted(np.sign(axis[k]) * (v - ref) for v in (lo, hi))
-        if kind == _HINGE and max(abs(b) for b in bounds) > math.pi:
-            notes.append(f"hinge {label}: the side of its range beyond pi from its rest ({np.round(bounds, 4)} rad) "
-                         "was not carried: a rotation-vector component never leaves [-pi, pi]")  # fmt: skip
-            bounds = [b if abs(b) <= math.pi else math.copysign(math.inf, b) for b in bounds]
-        c = k if kind == _HINGE else 3 + k
-        lower[c], upper[c] = max(lower[c], bounds[0]), min(upper[c], bounds[1])
-    return lower, upper, notes
-
-
-def dropped_properties(rigid, joints) -> list[str]:
-    """Notes on joint properties the element does not carry (give them in K and B)."""
+def dropped_properties(rigid, joints, springs_carried=False) -> list[str]:
+    """Notes on joint properties the element does not carry (give them in K and B); the armature stays."""
     notes = []
     for name, j in joints:
         label, dofs = name or f"joint #{j}", _dofs(rigid, j)
@@ -352,10 +297,11 @@ def dropped_properties(rigid, joints) -> list[str]:
             found.append(f"stiffness {rigid.jnt_stiffness[j]:.6g} (give it in K)")
         q = rigid.jnt_qposadr[j]
         if rigid.jnt_stiffness[j] and rigid.jnt_type[j] in (_HINGE, _SLIDE) and rigid.qpos_spring[q] != rigid.qpos0[q]:
-            found.append(f"spring reference {rigid.qpos_spring[q]:.6g} != ref {rigid.qpos0[q]:.6g} (the element is "
-                         "unstressed at ref)")  # fmt: skip
+            found.append(
+                f"spring reference {rigid.qpos_spring[q]:.6g} != ref {rigid.qpos0[q]:.6g} ("
+                + ("carried over: the element rests there)" if springs_carried else "the element is unstressed at ref)")
+            )
         for what, values, hint in (("damping", rigid.dof_damping, "give it in B or damping_ratio"),
-                                   ("armature", rigid.dof_armature, "not carried"),
                                    ("friction loss", rigid.dof_frictionloss, "not carried")):  # fmt: skip
             if np.any(values[dofs]):
                 found.append(f"{what} {values[dofs].max():.6g} ({hint})")
@@ -372,15 +318,19 @@ def _dofs(model, j):
 # ------------------------------------------------------------------ apply and undo
 
 
-def apply(spec, plan: Plan, rigid, stops) -> Replacement:
-    """Strip the body's joints of their joint model and carry over what named them (snapshots for :func:`undo`).
+def apply(spec, plan: Plan, rigid, stops, kind="limits", kept=(), springs_carried=False) -> Replacement:
+    """Strip the replaced joints of their joint model and carry over what named them (snapshots for :func:`undo`).
 
-    ``stops``: ``(lower, upper, notes)`` of :func:`stops_from_ranges`.
+    ``stops``: ``(lower, upper, notes)`` of :func:`mjflex.mjcf.coordinates.stops_from_ranges`; ``kind``: what
+    became of the ranges (:attr:`Replacement.stops`); ``kept``: the names of the body's joints left as they are;
+    ``springs_carried``: the joints' spring references became the element's rest pose.
     """
     body = spec.body(plan.body)
+    joints = list(body.joints)
     saved = {
         "body": plan.body,
-        "joints": [snapshot(j) for j in body.joints],
+        "places": list(plan.places),
+        "joints": [snapshot(joints[k]) for k in plan.places],
         "equalities": [snapshot(e) for e in spec.equalities],
         "sensors": [snapshot(s) for s in spec.sensors],
         "actuators": {i: snapshot(spec.actuators[i]) for i in plan.actuators},
@@ -398,7 +348,7 @@ def apply(spec, plan: Plan, rigid, stops) -> Replacement:
         s = spec.sensors[i]
         edits.append(Edit("sensor", _label(s, i, "sensor"), "removed",
                           f"{mujoco.mjtSensor(int(s.type)).name[7:].lower()} of {s.objname}: the joint has no limit "
-                          "left to read (its range is the element's stop)"))  # fmt: skip
+                          "left to read (its range became the element's stops, or none)"))  # fmt: skip
     for i in plan.actuators:
         act = spec.actuators[i]
         act.inheritrange = 0.0
@@ -413,53 +363,23 @@ def apply(spec, plan: Plan, rigid, stops) -> Replacement:
     _rebuild_tail(spec, "equalities", wanted)
     _rebuild_tail(spec, "sensors", [s for i, s in enumerate(saved["sensors"]) if i not in removed])
     blank = mujoco.MjSpec().worldbody.add_body().add_joint()
-    for joint in body.joints:
-        for attr in STRIPPED:  # set on the joint, they override its class's values (also in a saved file)
-            setattr(joint, attr, getattr(blank, attr))
+    for k in plan.places:
+        for attr in STRIPPED + (() if plan.keep_limits else LIMIT):  # set on the joint, they override its class's
+            setattr(joints[k], attr, getattr(blank, attr))  # values (also in a saved file)
     lower, upper, notes = stops
-    return Replacement(tuple(n or f"#{j}" for n, j in plan.joints), np.asarray(lower, dtype=float),
+    return Replacement(tuple(n for n, _ in plan.joints), np.asarray(lower, dtype=float),
                        np.asarray(upper, dtype=float), tuple(edits),
-                       (*notes, *dropped_properties(rigid, plan.joints)), saved)  # fmt: skip
-
-
-def missing_directions(rigid, body_name, R_BE, directions) -> tuple[str, ...]:
-    """The element directions of ``directions`` that need a joint added: those the body's joints do not move it in.
-
-    A direction counts as moved in when it lies in the span of the joints' axes (hinges and a ball
-    for rotations, slides for translations; a free joint moves in all), so a joint off the
-    element's axes still takes its share and the body never gets more than six dofs.
-    """
-    ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
-    spans = {"r": [], "t": []}
-    for j in range(rigid.body_jntadr[ib], rigid.body_jntadr[ib] + rigid.body_jntnum[ib]):
-        kind = int(rigid.jnt_type[j])
-        if kind == _FREE:
-            return ()
-        if kind == _BALL:
-            spans["r"] += list(np.eye(3))
-        else:
-            spans["r" if kind == _HINGE else "t"].append(R_BE.T @ rigid.jnt_axis[j])
-    added = []
-    for d in directions:
-        span = spans["r" if d.startswith("r") else "t"]
-        axis = np.eye(3)["xyz".index(d[-1])]
-        if _rank([*span, axis]) > _rank(span):
-            span.append(axis)
-            added.append(d)
-    return tuple(added)
-
-
-def _rank(vectors) -> int:
-    return int(np.linalg.matrix_rank(np.array(vectors), tol=1e-6)) if len(vectors) else 0
+                       (*notes, *dropped_properties(rigid, plan.joints, springs_carried)), saved, kind,
+                       tuple(kept))  # fmt: skip
 
 
 def undo(spec, replacement: Replacement) -> None:
     """Put back the joints' attributes, the equalities, sensors and actuator ranges (the caller removes the added
     joints, the element and the keyframe entries)."""
     saved = replacement.saved
-    body = spec.body(saved["body"])
-    for joint, s in zip(list(body.joints), saved["joints"], strict=False):
-        _restore_attributes(joint, s)
+    joints = list(spec.body(saved["body"]).joints)
+    for k, s in zip(saved["places"], saved["joints"], strict=True):
+        _restore_attributes(joints[k], s)
     for i, s in saved["actuators"].items():
         _restore_attributes(spec.actuators[i], s)
     _rebuild_tail(spec, "equalities", _merged(spec.equalities, saved["equalities"], saved["kept_equalities"]))

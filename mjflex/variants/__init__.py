@@ -1,6 +1,7 @@
 """Other models of the same mechanism, built from a source model.
 
-A compliant part in a rigid model (:mod:`.compliance`: :func:`make_compliant`, :func:`make_rigid`),
+A compliant part in a rigid model (:mod:`.compliance`: :func:`make_compliant`, :func:`make_rigid`;
+:mod:`.placement`, :mod:`.closures`: what it places, the equality closures it reports),
 a reduced model (:mod:`.reduce`: stiff directions become joints or constraints), and the
 alternatives written with MuJoCo's own elements only (:mod:`.alternatives`: welds, joint springs,
 tendons), with what they share (:mod:`.variant`: :class:`Variant`, sources, pose fits;
@@ -10,11 +11,13 @@ tendons), with what they share (:mod:`.variant`: :class:`Variant`, sources, pose
 """
 
 from .alternatives import bushing_variant, pseudo_rigid_body_variant, weld_variant
+from .closures import Closure
 from .compliance import Compliance, make_compliant, make_rigid
 from .reduce import ReductionWarning, reduce
 from .variant import Variant, VariantNotApplicableError
 
 __all__ = [
+    "Closure",
     "Compliance",
     "ReductionWarning",
     "Variant",

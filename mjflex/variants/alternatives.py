@@ -35,7 +35,7 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
-from ..analysis.directions import element_directions
+from ..analysis.directions import element_directions, element_matrices
 from ..mjcf import schema
 from ..mjcf.spec import compile_spec
 from ..runtime.flexures import Flexures
@@ -83,8 +83,7 @@ def weld_targets(record, match):
     translational and rotational blocks of ``K`` (element frame, about its origin);
     ``beta`` is the damping ratio ``b / k`` of the matched rotational eigen-direction.
     """
-    K = schema.embed_planar(record.K) if record.planar else record.K
-    B = np.zeros((6, 6)) if record.B is None else (schema.embed_planar(record.B) if record.planar else record.B)
+    K, B = element_matrices(record)
     lam_r, vec_r = np.linalg.eigh(K[:3, :3])
     k_t, k_r = _pick(np.linalg.eigvalsh(K[3:, 3:]), match), _pick(lam_r, match)
     v = vec_r[:, int(np.argmin(np.abs(lam_r - k_r)))]
@@ -137,7 +136,7 @@ def matched_welds(spec, flex, elements, match):
         ts = float(np.sqrt(4.0 * k_r * A_r / s))
         weld.solref = [-s, -beta * s]
         weld.data[TORQUESCALE] = ts
-        diag = np.diag(schema.embed_planar(rec.K) if rec.planar else rec.K)
+        diag = np.diag(element_matrices(rec)[0])
         lines.append(
             f"{name}: weld k_t {k_t:.4g} N/m (element {', '.join(f'{x:.3g}' for x in diag[3:])}), k_r "
             f"{k_r:.4g} N m/rad (element {', '.join(f'{x:.3g}' for x in diag[:3])}), damping {beta:.3g} K; "

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from ..mjcf.spec import compile_spec
-from .tree import TreeXml, free_world_bodies, merged_body_map, spanning_forest
+from .tree import TreeXml, free_world_bodies, merged_body_map, numbers, spanning_forest
 from .variant import PoseFit, Variant, body_names
 
 #: Loop closures that should act as rigid: as stiff as the time step allows (MuJoCo's refsafe raises
@@ -19,23 +19,20 @@ HARD_SOLREF = (1e-9, 1.0)
 HARD_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 
 
-def _fmt(v):
-    return " ".join(f"{float(x):.17g}" for x in np.atleast_1d(v))
-
-
 def hinge_closure(tree, link, joint, arm):
     """Two ``connect`` constraints on the hinge axis (at the axis point and ``arm`` m along it)."""
     R_WA, p_WA = tree.pose(link.body_a)
     for k, point in enumerate((joint.point, joint.point + arm * joint.axis)):
         tree.add("equality", "connect", name=f"{link.element}:loop{k}", body1=link.body_a, body2=link.body_b,
-                 anchor=_fmt(R_WA.T @ (point - p_WA)), solref=_fmt(HARD_SOLREF), solimp=_fmt(HARD_SOLIMP))  # fmt: skip
+                 anchor=numbers(R_WA.T @ (point - p_WA)), solref=numbers(HARD_SOLREF),
+                 solimp=numbers(HARD_SOLIMP))  # fmt: skip
 
 
 def rigid_closure(tree, link):
     """A hard weld between the element's two sites (its record is dropped)."""
     a, b = tree.drop_element(link.element, link.sites)
-    tree.add("equality", "weld", name=f"{link.element}:loop", site1=a, site2=b, solref=_fmt(HARD_SOLREF),
-             solimp=_fmt(HARD_SOLIMP))  # fmt: skip
+    tree.add("equality", "weld", name=f"{link.element}:loop", site1=a, site2=b, solref=numbers(HARD_SOLREF),
+             solimp=numbers(HARD_SOLIMP))  # fmt: skip
 
 
 def _by_name(source_model, model, kind, count):

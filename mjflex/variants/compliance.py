@@ -22,23 +22,22 @@ import mujoco
 import numpy as np
 
 from ..analysis.damping import DIRECTIONS, checked_ratios, damping_from_ratios
+from ..core.stops import stop_coordinates
+from ..mjcf import coordinates, keyframes
 from ..mjcf import joints as joint_replacement
-from ..mjcf import keyframes, naming
 from ..mjcf.build import add_flexure, joints_checked, remove_flexure
 from ..mjcf.elements import element_record, spec_elements, write_record
 from ..mjcf.keyframes import KeyframeEdit
-from ..mjcf.spec import compile_spec, quaternion_from_rotation, rotation_from_quaternion, unit_quaternion
+from ..mjcf.schema import checked_rest
+from ..mjcf.spec import compile_spec, quaternion_from_rotation
 from ..mjcf.stops import Stops
 from ..runtime import contacts
 from ..runtime.flexures import Flexures
+from . import placement
+from .closures import Closure, closures
 
-_GROUPS = {"all": DIRECTIONS, "rotations": DIRECTIONS[:3], "translations": DIRECTIONS[3:]}
-_SLIDE, _HINGE, _BALL = mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL
-#: Joint attributes reset to MuJoCo's built-in defaults on the joints added (a body's ``childclass``
-#: or the model's ``<default>`` would otherwise give them armature, ranges, damping, springs...).
-_CLEAN = ("actfrclimited", "actfrcrange", "actgravcomp", "armature", "damping", "frictionloss", "group", "limited",
-          "margin", "range", "ref", "solimp_friction", "solimp_limit", "solref_friction", "solref_limit",
-          "springdamper", "springref", "springyield", "stiffness")  # fmt: skip
+#: The ``stops=`` kinds for replaced joints: MuJoCo's joint limits kept (the default), or the element's stops.
+STOP_KINDS = joint_replacement.STOP_KINDS
 
 
 @dataclass
@@ -53,7 +52,8 @@ class Compliance:
         The body made compliant and the body it is now joined to (``"world"`` possible).
     directions : tuple of str
         The element directions the body may move in, of ``("rx", "ry", "rz", "x", "y", "z")``
-        (rotations about and translations along the element frame's axes).
+        (rotations about and translations along the element frame's axes); with kept joints
+        (``replace_joints=[...]``) those they move are not the element's.
     joints : tuple of str
         The joints added to the body, in order: slides, then a ball (three rotations) or hinges.
     frame : str or tuple
@@ -70,9 +70,19 @@ class Compliance:
         The values inserted into each keyframe: the new joints' rest values, or with
         ``replace_joints`` the values that put the body where the keyframe had it.
     replaced : Replacement or None
-        With ``replace_joints``: the joints removed, the stops their ranges give (``lower``,
-        ``upper``), the equalities, actuators and sensors changed (``edits``) and what was not
-        carried (``notes``); :mod:`mjflex.mjcf.joints`. None otherwise.
+        With ``replace_joints``: the joints replaced and kept, what became of their ranges
+        (``stops``: MuJoCo's limits kept, or the element's stops ``lower``, ``upper``), the
+        equalities, actuators and sensors changed (``edits``) and what was not carried
+        (``notes``); :mod:`mjflex.mjcf.joints`. None otherwise.
+    closures : tuple of Closure
+        Each equality constraint's violation at the operating pose (``keyframe``, at rest) in the
+        rigid and in the compliant model (:mod:`mjflex.variants.closures`); one that opens more
+        than 10 times is warned about. Empty when the model has no equality.
+    closure_note : str or None
+        Why the closures were not measured (a model with no rest at the operating pose).
+    rest : tuple (pos, quat) or None
+        The element's rest pose (frame b in frame a; m, w-first quaternion): given (``rest=``),
+        or where the replaced joints' springs rested (their ``springref``); None: the compiled pose.
 
     Examples
     --------
@@ -103,13 +113,20 @@ class Compliance:
     kept: tuple[tuple[str, str], ...] = ()
     keyframes: tuple[KeyframeEdit, ...] = field(default_factory=tuple)
     replaced: "joint_replacement.Replacement | None" = None
+    closures: tuple[Closure, ...] = ()
+    closure_note: str | None = None
+    rest: tuple | None = None
 
     def __repr__(self):
         replaced = ""
         if self.replaced is not None:
             r = self.replaced
-            replaced = (f", replaced={list(r.joints)} (stops: {'yes' if r.has_stops else 'none'}, "
-                        f"{len(r.edits)} edits, {len(r.notes)} notes)")  # fmt: skip
+            kept = f", kept={list(r.kept)}" if r.kept else ""
+            replaced = (f", replaced={list(r.joints)}{kept} (stops: {r.stops}, {len(r.edits)} edits, "
+                        f"{len(r.notes)} notes)")  # fmt: skip
+        if self.closures:
+            opened = sorted({c.equality for c in self.closures if c.opened})
+            replaced += f", closures: {len(self.closures)} ({'opened: ' + ', '.join(opened) if opened else 'held'})"
         return (
             f"Compliance(body={self.body!r} on {self.parent!r}, element={self.element!r}, "
             f"directions={''.join(f'{d} ' for d in self.directions).strip()!r}, joints={list(self.joints)}, "
@@ -118,201 +135,11 @@ class Compliance:
         )
 
 
-def _directions(directions) -> tuple[str, ...]:
-    if isinstance(directions, str):
-        directions = _GROUPS.get(directions, (directions,))
-    try:
-        asked = list(directions)
-    except TypeError:
-        raise ValueError(
-            f"directions must be names of {DIRECTIONS} (or 'all', 'rotations'); got {directions!r}"
-        ) from None
-    unknown = [d for d in asked if d not in DIRECTIONS]
-    if unknown:
-        raise ValueError(
-            f"directions {unknown} unknown: use names of {DIRECTIONS} (rotations about and translations along the "
-            "element frame's axes), or 'all', 'rotations', 'translations'"
-        )
-    if not asked:
-        raise ValueError(
-            "directions is empty: the body would keep no degree of freedom, and the element would act on nothing; "
-            "name at least one of " + ", ".join(DIRECTIONS)
-        )
-    return tuple(d for d in DIRECTIONS if d in asked)
-
-
-def _matrix6(value, directions, what):
-    """A K or B given for the six directions or for the chosen ones only, as 6x6 (zero elsewhere)."""
-    a = np.asarray(value, dtype=float)
-    n = len(directions)
-    if n < 6 and a.shape in ((n,), (n, n)):
-        idx = [DIRECTIONS.index(d) for d in directions]
-        out = np.zeros((6, 6))
-        out[np.ix_(idx, idx)] = np.diag(a) if a.ndim == 1 else a
-        return out
-    if a.shape in ((6,), (6, 6)):
-        return np.diag(a) if a.ndim == 1 else a
-    raise ValueError(f"{what} must be 6 numbers or 6x6 (or {n} / {n}x{n} for the directions {directions}); "
-                     f"got shape {a.shape}")  # fmt: skip
-
-
-def _find_body(spec, body):
-    if isinstance(body, mujoco.MjsBody):
-        found, label = body, body.name
-    elif isinstance(body, str):
-        found, label = (spec.worldbody if body == "world" else spec.body(body)), body
-    else:
-        raise TypeError(f"body must be a body's name or an MjsBody; got {type(body).__name__}")
-    if found is None:
-        raise ValueError(f"body {body!r} is not in the spec"
-                         + naming.spec_hint(spec, body, "body"))  # fmt: skip
-    if found.name == "world" or found.parent is None:
-        raise ValueError("the world body has no parent to be compliant against; name the body to make compliant "
-                         "(e.g. a robot's hand or its mount)")  # fmt: skip
-    if not found.name:
-        raise ValueError(f"body {label!r} has no name; name it (the element and the excludes refer to it by name)")
-    return found
-
-
-def _check_body(spec, body, replace_joints=False):
-    joints = [j.name or f"#{i}" for i, j in enumerate(body.joints)]
-    if joints and not replace_joints:
-        raise ValueError(
-            f"body {body.name!r} already has joints ({', '.join(joints)}): make_compliant turns the weld between a "
-            "body and its parent into an element, and a joint's motion would deflect the element. Pass "
-            "replace_joints=True to replace these joints by the element (their ranges become its stops, equalities "
-            "and actuators that name them are carried over), make a welded body compliant (e.g. the hand rather than "
-            "the wrist link), or add a body between the joint and the part"
-        )
-    if body.mocap:
-        raise ValueError(f"body {body.name!r} is a mocap body, which cannot have joints; make a child of it compliant")
-
-
-def _frame_argument(frame, pos, quat):
-    """The frame that ``pos``/``quat`` are given in: ``frame``, or the parent's with a FutureWarning when unsaid."""
-    if frame is None and (pos is not None or quat is not None):
-        warnings.warn(
-            "make_compliant(pos=..., quat=...) without frame= gives the element frame in the parent body's frame, "
-            "while add_flexure's pos= is in the world frame; this default is deprecated. Pass frame='parent' to keep "
-            "it, or frame='world' (or a body's name) for the frame you mean; without frame=, a future release will "
-            "read pos= in the world frame, as add_flexure does",
-            FutureWarning,
-            stacklevel=3,
-        )
-        return "parent"
-    return frame
-
-
-def _frame_pose(spec, model, data, body, parent, frame):
-    """``(R_WF, p_WF)`` at ``qpos0`` of the frame that ``pos``/``quat`` are given in."""
-    if isinstance(frame, mujoco.MjsBody):
-        frame = "world" if frame is spec.worldbody else frame.name
-    if not isinstance(frame, str):
-        raise TypeError(f"frame must be 'parent', 'body', 'world' or a body's name; got {frame!r}")
-    name = {"parent": parent.name or "world", "body": body.name}.get(frame, frame)
-    i = 0 if name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
-    if i < 0:
-        raise ValueError(f"frame={frame!r} is neither 'parent', 'body', 'world' nor a body of the spec"
-                         + naming.spec_hint(spec, frame, "body"))  # fmt: skip
-    return data.xmat[i].reshape(3, 3), data.xpos[i]
-
-
-def _element_pose(spec, model, body, parent, site, pos, quat, frame=None):
-    """World pose ``(p_WE, R_WE)`` of the element frame at ``qpos0``, and the frame as reported (a site's
-    name, or ``(pos, quat)`` in the parent's frame)."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    if site is not None:
-        if pos is not None or quat is not None:
-            raise ValueError("give the element frame as site=... or as pos=/quat= (with frame=), not both")
-        name = site if isinstance(site, str) else getattr(site, "name", None)
-        found = spec.site(name) if isinstance(name, str) else None
-        if found is None:
-            raise ValueError(f"site {name!r} is not in the spec"
-                             + naming.spec_hint(spec, name, "site"))  # fmt: skip
-        if found.parent.name not in (body.name, parent.name):
-            raise ValueError(
-                f"site {name!r} belongs to body {found.parent.name or 'world'!r}, not to {body.name!r} or its parent "
-                f"{parent.name or 'world'!r}: the element frame must move with one of the two bodies; use a site of "
-                "either, or give pos=/quat= (with frame=)"
-            )
-        i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
-        return data.site_xpos[i].copy(), data.site_xmat[i].reshape(3, 3).copy(), name
-    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)
-    if pos is None and quat is None:  # the body's own frame
-        return data.xpos[i].copy(), data.xmat[i].reshape(3, 3).copy(), None
-    R_WF, p_WF = _frame_pose(spec, model, data, body, parent, frame)
-    p = np.zeros(3) if pos is None else np.asarray(pos, dtype=float)
-    q = unit_quaternion((1.0, 0.0, 0.0, 0.0) if quat is None else quat, "quat")
-    if p.shape != (3,) or not np.isfinite(p).all():
-        raise ValueError(f"pos must be 3 finite numbers (the element origin in frame {frame!r}); got {pos!r}")
-    p_WE, R_WE = p_WF + R_WF @ p, R_WF @ rotation_from_quaternion(q)
-    j = 0 if parent.name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, parent.name)
-    R_WP, p_WP = data.xmat[j].reshape(3, 3), data.xpos[j]
-    p_PE, q_PE = R_WP.T @ (p_WE - p_WP), quaternion_from_rotation(R_WP.T @ R_WE)
-    return p_WE, R_WE, (tuple(p_PE.tolist()), tuple(q_PE.tolist()))
-
-
-def _add_joints(body, element, directions, R_BE, p_BE, attributes):
-    """Slides along the chosen element axes, then a ball (all three rotations) or hinges, at the element origin."""
-    blank = mujoco.MjSpec().worldbody.add_body().add_joint()
-    plan = [(f"{element}/{d}", _SLIDE, R_BE[:, "xyz".index(d)]) for d in directions if d in "xyz"]
-    rotations = [d for d in directions if d.startswith("r")]
-    if len(rotations) == 3:
-        plan.append((f"{element}/ball", _BALL, np.array([0.0, 0.0, 1.0])))
-    else:
-        plan += [(f"{element}/{d}", _HINGE, R_BE[:, "xyz".index(d[1])]) for d in rotations]
-    added = []
-    for name, kind, axis in plan:
-        joint = body.add_joint(name=name, type=kind, axis=axis, pos=p_BE)
-        added.append(joint)
-        for attr in _CLEAN:
-            if hasattr(blank, attr):
-                setattr(joint, attr, getattr(blank, attr))
-        for attr, value in attributes.items():
-            setattr(joint, attr, value)
-    return added
-
-
-def _joint_attributes(attributes):
-    """The user's joint attributes, checked before anything is added: names of ``MjsJoint`` attributes."""
-    attributes = dict(attributes or {})
-    blank = mujoco.MjSpec().worldbody.add_body().add_joint()
-    for attr, value in attributes.items():
-        if attr in ("name", "type", "axis", "pos", "parent", "frame") or not hasattr(blank, attr):
-            raise ValueError(f"joint_attributes: {attr!r} is not a joint attribute make_compliant lets you set "
-                             "(e.g. armature, damping, range with limited)")  # fmt: skip
-        try:
-            setattr(blank, attr, value)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"joint_attributes: {attr}={value!r} is not valid ({exc})") from None
-    return attributes
-
-
-def _pairs(spec, collide):
-    """``collide`` as a set of frozensets of body names ('*' for any body); raises on unknown bodies."""
-    out = set()
-    for item in collide or ():
-        pair = (item, "*") if isinstance(item, str) else tuple(item)
-        if len(pair) != 2:
-            raise ValueError(f"collide: {item!r} is neither a body name nor a pair of body names")
-        for name in pair:
-            if name not in ("*", "world") and spec.body(name) is None:
-                raise ValueError(f"collide: {name!r} is not a body of the spec"
-                                 + naming.spec_hint(spec, name, "body"))  # fmt: skip
-        out.add(frozenset(pair))
-    return out
-
-
-def _kept(pair, wanted):
-    a, b = pair
-    return frozenset((a, b)) in wanted or frozenset((a, "*")) in wanted or frozenset((b, "*")) in wanted
-
-
 def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=None, quat=None, frame=None,
                    directions="all", name=None, method="twist", collide=(), joint_attributes=None, keyframe=None,
                    others="locked", actuator_stiffness=False, constraints="ignore", kind="plugin",
-                   replace_joints=False, equalities="auto", stops=None, strict=False) -> Compliance:  # fmt: skip
+                   replace_joints=False, equalities="auto", stops=None, rest=None,
+                   strict=False) -> Compliance:  # fmt: skip
     """Make a body of ``spec`` compliant relative to its parent, in place: its weld, or its joints with
     ``replace_joints=True``, become a flexure element; returns what was done.
 
@@ -329,16 +156,25 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     keyframe is reported by a warning.
 
     With ``replace_joints=True`` the body's joints (to its parent) are handed to the element
-    instead of refused (:mod:`mjflex.mjcf.joints` has the rules): they lose their joint model
-    (range, spring, damper, armature, friction loss) and stay as the element's coordinates, with
-    their names, axes and anchors, so the actuators, sensors, tendons and keyframes that name them
-    keep their meaning exactly; the body gets joints for the element directions they do not cover
-    (slides, hinges about the element axes). Their ranges become the element's stops
-    (:class:`mjflex.Stops`, with the derived stiffness; also in ``Compliance.replaced.lower`` /
-    ``upper``); an equality that drives a replaced joint is removed (the element determines that
-    motion now), one a replaced joint drives is kept (``equalities``); limit sensors are removed.
-    Without ``site`` or ``pos``, the element frame is the joints' own: the anchor of the first
-    hinge (or ball), axes along the hinge and slide axes. :func:`make_rigid` puts it all back.
+    instead of refused (:mod:`mjflex.mjcf.joints` has the rules): they lose their spring, damper
+    and friction loss and stay as the element's coordinates, with their names, axes, anchors and
+    armature, so the actuators, sensors, tendons and keyframes that name them keep their meaning
+    exactly; the body gets joints for the element directions they do not cover (slides, hinges
+    about the element axes). Their ranges stay MuJoCo's joint limits by default
+    (``stops="limits"``); ``stops="element"`` makes them the element's stops. An equality that
+    drives a replaced joint is removed (the element determines that motion now), one a replaced
+    joint drives is kept (``equalities``). ``replace_joints=["name", ...]`` replaces some of the
+    body's joints and keeps the others as joints (the element leaves their directions alone).
+    Without ``site`` or ``pos``, the element frame is the replaced joints' own: the anchor of the
+    first hinge (or ball); one hinge's axis is the element's z, the compliant axis of
+    :mod:`mjflex.geometry`'s hinges (several hinges: the body's axes where the joints lie along
+    them; :mod:`mjflex.mjcf.coordinates` has the rule), and a ``K`` that is not softest about a
+    lone replaced hinge is warned about. :func:`make_rigid` puts it all back.
+
+    The report gives the closures of the model's equality constraints at the operating pose
+    (``keyframe`` at rest) before and after (``Compliance.closures``), and warns when one opens
+    more than 10 times further: a soft ``solref`` scales with the effective mass at the
+    constraint, which added joints change.
 
     Parameters
     ----------
@@ -384,21 +220,36 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     joint_attributes : dict, optional
         Attributes set on every added joint (e.g. ``{"armature": 1e-4}``).
     keyframe, others, actuator_stiffness, constraints
-        The linearization used for ``damping_ratio`` (:func:`mjflex.damping_from_ratios`).
+        The linearization used for ``damping_ratio`` (:func:`mjflex.damping_from_ratios`);
+        ``keyframe`` is also the operating pose of the closure report (its controls, at rest).
     kind : {"plugin", "record"}
         How the element is written (:func:`mjflex.add_flexure`): an ``mjflex.flexure`` plugin
         instance (default; the model runs in any MuJoCo program) or a text record.
-    replace_joints : bool
-        Replace the body's joints by the element (see above) instead of refusing a body with
-        joints.
+    replace_joints : bool, str or list of str
+        Replace the body's joints by the element (True: all of them; names: those, the others
+        stay joints) instead of refusing a body with joints.
     equalities : {"auto", "remove", "refuse"}
         What happens to joint equality constraints that name a replaced joint (with
         ``replace_joints``): ``"auto"`` removes those that drive a replaced joint (``joint1``)
         and keeps those in which it drives another (``joint2``); ``"remove"`` removes them all;
         ``"refuse"`` refuses (ValueError naming them).
-    stops : Stops or bool, optional
-        The element's end stops (:class:`mjflex.Stops`). Default (None): with ``replace_joints``,
-        the replaced joints' ranges (where they have any), without it none; False: none.
+    stops : {"limits", "element"}, dict, Stops or False, optional
+        What stops the motion. Default (None): with ``replace_joints``, ``"limits"``; without it,
+        none. ``"limits"``: the replaced joints keep MuJoCo's joint limits (range, ``solref``,
+        ``solimp``, margin: constraints, dissipative and stable at the file's time step, exactly
+        as the rigid model stops). ``"element"``: their ranges become the element's stops
+        (:class:`mjflex.Stops` with the derived stiffness, in element coordinates: explicit
+        forces, in the element's energy, which need a short enough step); a dict of
+        :class:`mjflex.Stops`' other arguments (``{"stiffness": 500}``) gives them to those
+        stops. A :class:`mjflex.Stops`: those element stops (the replaced joints' limits go).
+        False: none.
+        ``"limits"`` and ``"element"`` need replaced joints.
+    rest : tuple (pos, quat) or False, optional
+        The element's rest pose: the pose of frame b in frame a at which its energy is zero
+        (:func:`mjflex.add_flexure`; m, w-first unit quaternion). Default (None): with
+        ``replace_joints``, where the replaced joints' springs rested (their ``springref``, for
+        joints with a stiffness), so that the element keeps their preload; else the compiled
+        pose. False: the compiled pose. Element stops made from the ranges count from it.
     strict : bool
         Refuse (ValueError) what is only warned about otherwise: a damping ratio above 1.
 
@@ -413,7 +264,11 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     ValueError
         The world or an unknown body (with close names), a body with joints (without
         ``replace_joints``) or a mocap body, a site of another body, no direction, a ratio <= 0
-        or NaN, both ``B`` and ``damping_ratio``, a name taken; with ``replace_joints``, an
+        or NaN, both ``B`` and ``damping_ratio``, a name taken, an element that already joins the
+        body to its parent (make_rigid it first; :func:`mjflex.add_flexure` adds one in parallel
+        on purpose), a stop kind without replaced joints; with ``replace_joints``, a name that is
+        not a joint of the body, redundant joints that would give the body more than six degrees
+        of freedom (named), a kept joint off the element axes or with stiffness in ``K``, an
         equality under ``equalities="refuse"`` (named, with the choices). The spec is left as it
         was.
 
@@ -442,69 +297,83 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
     >>> mjflex.Flexures(model)
     Flexures(1 elements: tool_compliance)
     """
-    target = _find_body(spec, body)
-    _check_body(spec, target, replace_joints)
+    target = placement.find_body(spec, body)
+    placement.check_body(spec, target, replace_joints)
+    _refuse_second_element(spec, target)
     parent = target.parent
-    dirs = _directions(directions)
     name = name or f"{target.name}_compliance"
-    K6 = _matrix6(K, dirs, "K")
     if B is not None and damping_ratio is not None:
         raise ValueError("give B or damping_ratio, not both")
-    B6 = None if B is None else _matrix6(B, dirs, "B")
-    ratios = None
-    if damping_ratio is not None:
-        given = checked_ratios(damping_ratio, len(dirs) if np.ndim(damping_ratio) else 1, strict=strict, stacklevel=3)
-        ratios = np.full(6, given.mean())
-        ratios[[DIRECTIONS.index(d) for d in dirs]] = given if given.size == len(dirs) else given[0]
-    wanted = _pairs(spec, collide)
-    joint_attributes = _joint_attributes(joint_attributes)
+    wanted = placement.pairs(spec, collide)
+    joint_attributes = placement.joint_attributes(joint_attributes)
     taken = [j for j in (f"{name}/{d}" for d in (*DIRECTIONS, "ball")) if spec.joint(j) is not None]
     if taken:
         raise ValueError(f"joint(s) {taken} exist already: pick another name= for the element")
     rigid = compile_spec(spec, "make a body compliant")
-    plan = (
-        joint_replacement.make_plan(spec, rigid, target, equalities) if replace_joints and len(target.joints) else None
-    )
-    frame = _frame_argument(frame, pos, quat) if site is None else frame
+    replaced, kept = [], []
+    if replace_joints is not False and replace_joints is not None:
+        replaced, kept = coordinates.replaced_and_kept(rigid, target.name, replace_joints)
+    stop_kind, given = _stop_kind(stops, replaced, target.name)
+    plan = None
+    if replaced:
+        plan = joint_replacement.make_plan(spec, rigid, target, replaced, equalities, keep_limits=stop_kind == "limits")
+    frame = placement.frame_argument(frame, pos, quat) if site is None else frame
     if plan is not None and site is None and pos is None and quat is None:
-        p_WE, R_WE = joint_replacement.joint_frame(rigid, target.name)  # the joints' anchor and axes
+        p_WE, R_WE = coordinates.joint_frame(rigid, target.name, [j for _, j in replaced])
         pos, quat, frame = p_WE, quaternion_from_rotation(R_WE), "world"
-    p_WE, R_WE, frame = _element_pose(spec, rigid, target, parent, site, pos, quat, frame)
+    p_WE, R_WE, frame = placement.element_pose(spec, rigid, target, parent, site, pos, quat, frame)
     data = mujoco.MjData(rigid)
     mujoco.mj_kinematics(rigid, data)
     ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, target.name)
     R_WB, p_WB = data.xmat[ib].reshape(3, 3), data.xpos[ib]
     R_BE = R_WB.T @ R_WE
-    ranges = joint_replacement.stops_from_ranges(rigid, plan.joints, R_BE) if plan is not None else None
-    stops = _element_stops(stops, ranges)
-    added = joint_replacement.missing_directions(rigid, target.name, R_BE, dirs) if plan is not None else dirs
+    dirs, K6, B6, ratios = _element_matrices(rigid, target.name, kept, R_BE, directions, K, B, damping_ratio, strict)
+    ranges = coordinates.stops_from_ranges(rigid, replaced, R_BE) if plan is not None else None
+    p_BE = R_WB.T @ (p_WE - p_WB)
+    rest_pose = _rest_pose(rest, rigid, target.name, replaced, R_BE, p_BE, name)
+    element_stops = _element_stops(stop_kind, given, ranges, rest_pose)
+    added = coordinates.missing_directions(rigid, target.name, R_BE, dirs) if plan is not None else dirs
+    if plan is not None:
+        too_many = coordinates.too_many_dofs(rigid, target.name, added)
+        if too_many:
+            raise ValueError(too_many)
+        coordinates.axis_mismatch(rigid, name, replaced, R_BE, K6, dirs, stacklevel=2)
     saved, joints, excludes, element, replacement = keyframes.stash_keys(spec), [], [], None, None
     try:
         if plan is not None:
-            replacement = joint_replacement.apply(spec, plan, rigid, ranges)
-        joints = _add_joints(target, name, added, R_BE, R_WB.T @ (p_WE - p_WB), joint_attributes)
+            limited = any(rigid.jnt_limited[j] for _, j in replaced)
+            kind_done = stop_kind if stop_kind in ("given", "none") or limited else "none"
+            kind_done = "none" if kind_done == "element" and element_stops is None else kind_done
+            notes = ranges[2] if stop_kind == "element" else []
+            carried = rest is None and rest_pose is not None
+            replacement = joint_replacement.apply(spec, plan, rigid, (ranges[0], ranges[1], notes), kind_done,
+                                                  [n for n, _ in kept], springs_carried=carried)  # fmt: skip
+        joints = placement.add_joints(target, name, added, R_BE, p_BE, joint_attributes)
         place = {"site": frame} if isinstance(frame, str) else {"pos": p_WE, "quat": quaternion_from_rotation(R_WE)}
         parent_name = "world" if parent.name in ("", "world") else parent.name
         with joints_checked(False):  # the element replaces the weld (or the joints): not in parallel with them
             add_flexure(spec, name, parent_name, target.name, K=K6, B=B6, method=method, exclude_contact=False,
-                        kind=kind, stops=stops, **place)  # fmt: skip
+                        kind=kind, stops=element_stops, rest=rest_pose, **place)  # fmt: skip
         element = name
         compliant = compile_spec(spec, "make a body compliant")
         exposed = [tuple(contacts.body_name(compliant, b) for b in p) for p in contacts.exposed_pairs(rigid, compliant)]
         for pair in exposed:
             unnamed = [b for b in pair if b.startswith("#")]
-            if unnamed and not _kept(pair, wanted):
+            if unnamed and not placement.kept(pair, wanted):
                 raise ValueError(
                     f"body {unnamed[0]} (an id) has no name, and its contacts with {pair} must be excluded once "
                     f"{target.name!r} has joints; name it in the model, or keep the pair with collide="
                 )
-            if not _kept(pair, wanted):
+            if not placement.kept(pair, wanted):
                 excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
         edits = keyframes.grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
         if ratios is not None:
             B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints)
             write_record(spec, name, dataclasses.replace(element_record(spec, name), B=B6))
         _warn_kept(spec, name)
+        kept_eq = replacement.saved["kept_equalities"] if replacement is not None else list(range(rigid.neq))
+        matched = [(i, k) for k, i in enumerate(kept_eq)]  # (rigid id, compliant id)
+        closed, note = closures(rigid, compile_spec(spec, "make a body compliant"), matched, keyframe, name)
     except BaseException:
         keyframes.stash_keys(spec)  # MjSpec checks the keyframes' sizes when joints go
         for obj in (*excludes, *joints):
@@ -515,23 +384,116 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
             remove_flexure(spec, element)
         keyframes.restore_keys(spec, saved)
         raise
-    kept = tuple(p for p in exposed if _kept(p, wanted))
     return Compliance(name, target.name, parent_name, dirs, tuple(j.name for j in joints), frame, K6, B6, ratios,
-                      tuple((e.bodyname1, e.bodyname2) for e in excludes), kept, edits, replacement)  # fmt: skip
+                      tuple((e.bodyname1, e.bodyname2) for e in excludes), tuple(p for p in exposed
+                      if placement.kept(p, wanted)), edits, replacement, closed, note, rest_pose)  # fmt: skip
 
 
-def _element_stops(stops, ranges):
-    """The ``stops=`` for the element: the user's, none (False), or the replaced joints' ranges (None)."""
-    if stops is False:
-        return None
+def _refuse_second_element(spec, body):
+    """ValueError when an element already joins ``body`` to its parent: make_compliant would add one in parallel."""
+    parent = body.parent.name or "world"
+    for e in spec_elements(spec):
+        sites = [spec.site(s) for s in (e.site_a, e.site_b)]
+        if any(s is None for s in sites) or {s.parent.name or "world" for s in sites} != {body.name, parent}:
+            continue
+        raise ValueError(
+            f"body {body.name!r} and its parent {parent!r} are already joined by flexure {e.name!r}: make_compliant "
+            "would add a second element in parallel with it. To change that element, undo it first "
+            "(mjflex.make_rigid(spec, compliance), or mjflex.remove_flexure) or edit it (mjflex.edit_flexure); to "
+            f"add a second one on purpose, use mjflex.add_flexure(spec, name, {parent!r}, {body.name!r}, ...)"
+        )
+
+
+def _stop_kind(stops, replaced, body):
+    """``(kind, Stops or None)``: what stops the motion (``"limits"``, ``"element"``, ``"given"`` or ``"none"``)."""
     if stops is None:
-        if ranges is None or not (np.isfinite(ranges[0]).any() or np.isfinite(ranges[1]).any()):
-            return None
-        return Stops(lower=ranges[0].tolist(), upper=ranges[1].tolist())
-    if not isinstance(stops, Stops):
-        raise TypeError(f"stops must be a mjflex.Stops, False (none) or None (the replaced joints' ranges); got "
-                        f"{type(stops).__name__}")  # fmt: skip
-    return stops
+        return ("limits" if replaced else "none"), None
+    if stops is False:
+        return "none", None
+    if isinstance(stops, Stops):
+        return "given", stops
+    if isinstance(stops, dict):
+        allowed = {f.name for f in dataclasses.fields(Stops)} - {"lower", "upper"}  # the ranges give the limits
+        unknown = sorted(set(stops) - allowed)
+        if unknown:
+            raise ValueError(
+                f"stops={stops!r}: {unknown} are not arguments of mjflex.Stops that make_compliant lets you give (the "
+                "ranges come from the replaced joints); give the others, or a mjflex.Stops"
+            )
+        if not replaced:
+            raise ValueError(
+                f"stops={stops!r} gives the replaced joints' ranges as element stops, but no joint of body {body!r} is "
+                "replaced (replace_joints=...); give a mjflex.Stops(lower=..., upper=...)"
+            )
+        return "element", stops
+    if isinstance(stops, str) and stops in STOP_KINDS:
+        if not replaced:
+            how = "as MuJoCo's joint limits" if stops == "limits" else "as the element's stops"
+            raise ValueError(
+                f"stops={stops!r} keeps the replaced joints' ranges {how}, but no joint of body {body!r} is replaced "
+                "(replace_joints=...); give the element stops as mjflex.Stops(lower=..., upper=...), or stops=False"
+            )
+        return stops, None
+    raise TypeError(f"stops must be 'limits', 'element', a dict of mjflex.Stops arguments, a mjflex.Stops, False "
+                    f"(none) or None (with replace_joints: 'limits'); got {stops!r}")  # fmt: skip
+
+
+def _element_matrices(rigid, body, kept, R_BE, directions, K, B, damping_ratio, strict):
+    """``(directions, K, B, ratios)`` of the element, checked: the kept joints' directions are the element's none."""
+    owned = coordinates.kept_directions(rigid, kept, R_BE) if kept else ()
+    dirs = placement.directions_named(directions)
+    if owned and isinstance(directions, str) and directions in placement.GROUPS:
+        dirs = tuple(d for d in dirs if d not in owned)
+        if not dirs:
+            raise ValueError(f"the kept joints of body {body!r} move it in every direction of directions="
+                             f"{directions!r}; the element would act on nothing")  # fmt: skip
+    clash = [d for d in dirs if d in owned]
+    if clash:
+        raise ValueError(
+            f"directions {clash} are moved by kept joint(s) {[n for n, _ in kept]} of body {body!r}: the element would "
+            "act in parallel with them; leave them out, or replace those joints too"
+        )
+    K6 = placement.matrix6(K, dirs, "K")
+    B6 = None if B is None else placement.matrix6(B, dirs, "B")
+    idx = [DIRECTIONS.index(d) for d in owned]
+    for what, M in (("K", K6), ("B", B6)):
+        if M is not None and idx and (np.any(M[idx, :]) or np.any(M[:, idx])):
+            raise ValueError(
+                f"{what} is not zero in directions {list(owned)}, which the kept joint(s) {[n for n, _ in kept]} of "
+                f"body {body!r} move: the element would act in parallel with them. Give {what} for the element's "
+                f"directions {list(dirs)} only, or replace those joints too"
+            )
+    ratios = None
+    if damping_ratio is not None:
+        given = checked_ratios(damping_ratio, len(dirs) if np.ndim(damping_ratio) else 1, strict=strict, stacklevel=4)
+        ratios = np.full(6, given.mean())
+        ratios[[DIRECTIONS.index(d) for d in dirs]] = given if given.size == len(dirs) else given[0]
+    return dirs, K6, B6, ratios
+
+
+def _element_stops(kind, given, ranges, rest=None):
+    """The element's :class:`Stops`: the user's, the replaced joints' ranges (``"element"``, with the arguments of
+    ``given``, a dict, if any; counted from the rest pose ``rest``), or None."""
+    if kind == "given":
+        return given
+    if kind != "element" or not (np.isfinite(ranges[0]).any() or np.isfinite(ranges[1]).any()):
+        return None
+    lower, upper = ranges[0].copy(), ranges[1].copy()
+    if rest is not None:  # the ranges count from the compiled pose, the stops from the rest pose: where it is seen
+        eye = np.eye(3)  # from there (exact along one axis, to second order across axes)
+        z0 = stop_coordinates(eye, np.zeros(3), eye, np.zeros(3), rest=rest)
+        lower, upper = lower + z0, upper + z0
+    return Stops(lower=lower.tolist(), upper=upper.tolist(), **(given or {}))
+
+
+def _rest_pose(rest, rigid, body, replaced, R_BE, p_BE, name):
+    """The element's rest pose: given, none (False), or where the replaced joints' springs rest (None)."""
+    if rest is False:
+        return None
+    if rest is None:
+        found = coordinates.rest_from_springs(rigid, body, replaced, R_BE, p_BE) if replaced else None
+        return None if found is None else (tuple(found[0].tolist()), tuple(found[1].tolist()))
+    return checked_rest(rest, f"rest of flexure {name!r}")
 
 
 def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
@@ -560,7 +522,13 @@ def make_rigid(spec, compliance: Compliance) -> None:
     Removes the joints, the element and the ``<exclude>`` elements it added, and the values it
     inserted into the keyframes (at the addresses the joints have now, so keyframes edited or
     added since keep their other values). The compiled model then has the rigid model's sizes,
-    body poses and keyframes.
+    body poses and keyframes, array for array.
+
+    Saving: MuJoCo's MjSpec cannot take back the declaration of the engine plugin
+    ``mjflex.flexure`` that a plugin element brought, so ``spec.to_xml()`` still names it after
+    the last element goes, and a MuJoCo without mjflex refuses that file ("plugin mjflex.flexure
+    not found"). Write the rigid model with :func:`mjflex.spec_xml`, which leaves the unused
+    declaration out. (The compiled model has no plugin either way.)
 
     Parameters
     ----------
@@ -590,9 +558,10 @@ def make_rigid(spec, compliance: Compliance) -> None:
     if not isinstance(compliance, Compliance):
         raise TypeError(f"make_rigid expects the Compliance that make_compliant returned; got {type(compliance)}")
     missing = [j for j in compliance.joints if spec.joint(j) is None]
-    if missing:
-        raise ValueError(f"the spec has no joint(s) {missing} of {compliance.element!r}: is it compliant (the same "
-                         "spec make_compliant edited), or was make_rigid called already?")  # fmt: skip
+    if missing or not any(e.name == compliance.element for e in spec_elements(spec)):
+        what = f"joint(s) {missing} of {compliance.element!r}" if missing else f"element {compliance.element!r}"
+        raise ValueError(f"the spec has no {what}: is it compliant (the same spec make_compliant edited), or was "
+                         "make_rigid called already?")  # fmt: skip
     model = compile_spec(spec, "make a body rigid again")
     qadr, vadr = keyframes.addresses(model, compliance.joints)
     shrunk = [

@@ -13,6 +13,7 @@ fails.
 import mujoco
 import numpy as np
 
+from ..analysis.directions import element_matrices
 from ..core import stiffness_in_frame
 from ..mjcf import schema
 
@@ -27,12 +28,6 @@ def plane_frame(R_WE, n):
     x /= np.linalg.norm(x)
     R_WF = np.column_stack([x, np.cross(n, x), n])
     return R_WE.T @ R_WF
-
-
-def _matrices(rec):
-    K = schema.embed_planar(rec.K) if rec.planar else rec.K
-    B = np.zeros((6, 6)) if rec.B is None else (schema.embed_planar(rec.B) if rec.planar else rec.B)
-    return K, B
 
 
 def _coupled(M):
@@ -89,7 +84,7 @@ def plane_of(model, flex, free_bodies, plane, state=None):
     mujoco.mj_kinematics(model, data)
     for rec, (a, _) in zip(flex.records, flex.site_ids, strict=True):
         R_EF = plane_frame(data.site_xmat[int(a)].reshape(3, 3), n)
-        if any(_coupled(stiffness_in_frame(M, R_EF, np.zeros(3), check=False)) for M in _matrices(rec)):
+        if any(_coupled(stiffness_in_frame(M, R_EF, np.zeros(3), check=False)) for M in element_matrices(rec)):
             return None, f"element {rec.name!r} couples in-plane and out-of-plane motion"
     for b in free_bodies:
         R = data.ximat[b].reshape(3, 3)
@@ -136,6 +131,6 @@ def in_plane_modes(model, modes, n):
 def planar_record(rec, R_EF):
     """The element's record as a planar (3x3) one in frame F (``z`` the normal)."""
     idx = list(schema.PLANAR_INDEX)
-    K, B = (stiffness_in_frame(M, R_EF, np.zeros(3), check=False)[np.ix_(idx, idx)] for M in _matrices(rec))
+    K, B = (stiffness_in_frame(M, R_EF, np.zeros(3), check=False)[np.ix_(idx, idx)] for M in element_matrices(rec))
     return schema.FlexureRecord(rec.name, rec.method, K, B if rec.B is not None else None, rec.enabled, rec.viscous,
                                 rec.strain_per_radian, rec.source)  # fmt: skip

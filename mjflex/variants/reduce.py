@@ -77,7 +77,7 @@ import numpy as np
 
 from ..analysis.advice import SAFETY, mode_limit, step_advice
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
-from ..analysis.linearize import normal_modes
+from ..analysis.linearize import normal_modes, state
 from ..analysis.statics import static_equilibrium
 from ..core import validation
 from ..mjcf.spec import compile_spec
@@ -159,16 +159,13 @@ def _coupling(d, soft):
     return float(c.max()) if len(soft) > 1 else 0.0
 
 
-def _step_choice(model, dirs, freq, modes, reducible, needs, forced, timestep, keep_below_hz, freq_tol):
+def _step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep, keep_below_hz, freq_tol):
     """The target-step selection (:func:`choose_for_step`): rigid directions, band mask, info; ValueError when
     no reduction reaches the step."""
     integrator = _INTEGRATORS.get(int(model.opt.integrator), "Euler")
     omega = step_omega(timestep, integrator)
     band_hz = keep_below_hz if keep_below_hz is not None else omega / (2.0 * np.pi)
     mask = (freq > rigid_floor(freq)) & (freq < band_hz)
-    needed = np.zeros_like(forced)
-    for e, i in needs:
-        needed[e, i] = True
     candidate = reducible[:, None] & ~forced & ~needed
     rigid, info = choose_for_step(dirs, freq, modes, candidate, omega, mask, freq_tol, forced, integrator)
     info.update(timestep=timestep, integrator=integrator, band_hz=float(band_hz))
@@ -200,9 +197,8 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
     normal, plane_line = _plane(model, flex, plane, scene)
     dirs = element_directions(model, flex, normal)
     n_el = len(dirs)
-    forced = np.zeros((n_el, 6), dtype=bool)
-    if normal is not None:
-        forced = out_of_plane(dirs, normal)
+    forced = np.zeros((n_el, 6), dtype=bool) if normal is None else out_of_plane(dirs, normal)
+    in_plane = True if normal is None else in_plane_modes(model, modes, normal)
     kinds = _classify(model, flex, dirs, normal is not None)
     reasons = [reason for _, reason, _ in kinds]
     edges = {e: edge for e, (kind, _, edge) in enumerate(kinds) if kind == "edge"}
@@ -224,17 +220,14 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
     step = None
     restricted = np.zeros(n_el, dtype=bool)
     if step_mode:
-        rigid, mask, step = _step_choice(model, dirs, freq, modes, reducible, needs, forced, timestep, keep_below_hz,
-                                         freq_tol)  # fmt: skip
+        rigid, mask, step = _step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep,
+                                         keep_below_hz, freq_tol)  # fmt: skip
         keep_below_hz = step["band_hz"]
-        if normal is not None:
-            mask &= in_plane_modes(model, modes, normal)
+        mask &= in_plane
         active = reducible.copy()
         predicted = step["band_error"]
     else:
-        mask = (freq > rigid_floor(freq)) & (freq < keep_below_hz)
-        if normal is not None:
-            mask &= in_plane_modes(model, modes, normal)
+        mask = (freq > rigid_floor(freq)) & (freq < keep_below_hz) & in_plane
         shares = energy_shares(dirs, freq, modes, mask)
         rigid, active, predicted = choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, freq_tol,
                                                 limit, needed)  # fmt: skip
@@ -258,9 +251,7 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
     keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(n_el)]
     # damping: judged on every elastic mode the kept directions still carry, not only the resolved band (modes
     # above it stay in the model and would ring undamped; the viscous part costs little to keep)
-    elastic = freq > rigid_floor(freq)
-    if normal is not None:
-        elastic &= in_plane_modes(model, modes, normal)
+    elastic = (freq > rigid_floor(freq)) & in_plane
     ratios = damping_ratios(dirs, freq, modes, elastic, keep)
     drop, dropped = drop_damping(ratios, freq[elastic], duration, viscous_tol)
     drop &= np.array([bool(np.any(d.B_P)) for d in dirs], dtype=bool)  # nothing to drop without damping
@@ -480,11 +471,8 @@ def _warn(variant, plan):
 
 
 def _statics(model, flex, keyframe):
-    data = mujoco.MjData(model)
     qpos = static_equilibrium(model, flex, keyframe=keyframe, tol=1e-8)  # positions to 1e-8 of the load: enough for 1 %
-    if keyframe is not None:
-        mujoco.mj_resetDataKeyframe(model, data, keyframe)
-    data.qpos[:] = qpos
+    data = state(model, keyframe, qpos)
     mujoco.mj_kinematics(model, data)
     return data
 

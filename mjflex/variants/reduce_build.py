@@ -26,6 +26,13 @@ def joints_of(d, soft, keep_damping):
                   float(d.b[i]) if keep_damping else 0.0) for i in soft]  # fmt: skip
 
 
+def springless(joints):
+    """``joints`` without stiffness or damping (the element, in the compliant directions only, holds them)."""
+    for joint in joints:
+        joint.stiffness = joint.damping = 0.0
+    return joints
+
+
 def record_text(rec, K=None, B=None, viscous=None):
     same = K is None  # the element stays whole: its polynomial terms too (restricted ones keep K's part only)
     out = schema.FlexureRecord(rec.name, rec.method, rec.K if K is None else K, rec.B if B is None else B,
@@ -117,8 +124,7 @@ def build(plan, loops, name):
         link = Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites,
                     joints=joints_of(d, soft, not plan.drop[e]))  # fmt: skip
         if plan.restricted[e]:  # joints without springs; the element acts in the compliant directions only
-            for joint in link.joints:
-                joint.stiffness = joint.damping = 0.0
+            springless(link.joints)
             link.info["record"] = restricted_record(plan.flex.records[e], d, soft, not plan.drop[e]).to_text()
         links.append(link)
 
@@ -129,7 +135,7 @@ def build(plan, loops, name):
                 continue
             rec, d = plan.flex.records[e], plan.dirs[e]
             result = edge_result(plan.model, rec, d, edge, plan.keep[e], not plan.drop[e],
-                                 lambda soft, d=d: joints_of(d, soft, False))  # fmt: skip
+                                 lambda soft, d=d: springless(joints_of(d, soft, False)))  # fmt: skip
             lines += result.lines + rejoint(tree, plan.model, rec, edge, result, d.sites)
         return lines
 

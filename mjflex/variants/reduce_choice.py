@@ -18,19 +18,22 @@ def rigid_floor(freq):
     return max(1e-3, 1e-7 * float(np.max(freq, initial=0.0)))
 
 
+def _null_space(rows, n):
+    """Orthonormal basis ``(n, k)`` of the null space of ``rows`` (pivoted QR; ``I`` without rows)."""
+    if not len(rows):
+        return np.eye(n)
+    Q, R, _ = scipy.linalg.qr(rows.T, pivoting=True)
+    d = np.abs(np.diag(R))
+    return Q[:, int(np.sum(d > 1e-10 * d.max(initial=0.0))) :]
+
+
 def constrained_error(lam, rows, target, n_rigid, floor):
     """Largest relative change of the ``target`` frequencies [Hz] when ``rows @ eta = 0`` is imposed.
 
     In mass-normalized modal coordinates ``eta`` (``M -> I``, ``K -> diag(lam)``), so the
     constrained problem is a standard symmetric one on the null space of ``rows``.
     """
-    if len(rows):
-        Q, R, _ = scipy.linalg.qr(rows.T, pivoting=True)
-        d = np.abs(np.diag(R))
-        rank = int(np.sum(d > 1e-10 * d.max(initial=0.0))) if d.size else 0
-        N = Q[:, rank:]
-    else:
-        N = np.eye(len(lam))
+    N = _null_space(rows, len(lam))
     count = min(n_rigid + len(target), N.shape[1])
     w2 = scipy.linalg.eigh((N.T * lam) @ N, eigvals_only=True, subset_by_index=[0, count - 1]) if count else []
     f = np.sqrt(np.maximum(w2, 0.0)) / (2.0 * np.pi)
@@ -185,13 +188,7 @@ def step_omega(timestep, integrator) -> float:
 
 def top_omega2(lam, rows) -> tuple[float, np.ndarray]:
     """Largest ``omega^2`` with ``rows @ eta = 0`` imposed in modal coordinates, and its mode ``eta`` (n,)."""
-    if len(rows):
-        Q, R, _ = scipy.linalg.qr(rows.T, pivoting=True)
-        d = np.abs(np.diag(R))
-        rank = int(np.sum(d > 1e-10 * d.max(initial=0.0))) if d.size else 0
-        N = Q[:, rank:]
-    else:
-        N = np.eye(len(lam))
+    N = _null_space(rows, len(lam))
     if N.shape[1] == 0:
         return 0.0, np.zeros(len(lam))
     w2, v = scipy.linalg.eigh((N.T * lam) @ N, subset_by_index=[N.shape[1] - 1, N.shape[1] - 1])

@@ -27,14 +27,13 @@ joint, ``edge_result`` what an edge becomes, and ``rejoint`` edits the model fil
 """
 
 import dataclasses
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from ..mjcf import schema
-from .tree import WORLD
+from .tree import WORLD, numbers
 
 _J = mujoco.mjtJoint
 #: Relative size below which a joint's motion along a direction counts as none.
@@ -70,14 +69,6 @@ class EdgeResult:
     springs: dict  # kept joint id -> (stiffness, damping)
     record: object  # FlexureRecord of the element in fewer directions, or None (dropped)
     lines: list
-
-
-def _dof_joint(model):
-    out = np.empty(model.nv, dtype=int)
-    for j in range(model.njnt):
-        n = {int(_J.mjJNT_FREE): 6, int(_J.mjJNT_BALL): 3}.get(int(model.jnt_type[j]), 1)
-        out[model.jnt_dofadr[j] : model.jnt_dofadr[j] + n] = j
-    return out
 
 
 def joint_users(model) -> dict[int, list[str]]:
@@ -126,10 +117,9 @@ def edge_of(model, d, users, body_names):
             if any(owner[a] & owner[b] for a in range(len(dofs)) for b in range(a)):
                 return None
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or "" for j in joints]
-        dof_joint = _dof_joint(model)
         needed = {}
         for k, dof in enumerate(dofs):
-            for user in users.get(int(dof_joint[dof]), []):
+            for user in users.get(int(model.dof_jntid[dof]), []):
                 for i in np.nonzero(moved[:, k])[0]:
                     needed.setdefault(int(i), []).append(user)
         return Edge(body_names[child] or f"#{child}", body_names[parent] if parent else WORLD, joints, names,
@@ -170,15 +160,14 @@ def restricted_record(rec, d, soft, keep_damping):
     if stops:
         stops = dataclasses.replace(stops, stiffness=tuple(stops.stiffness_for(rec.K).tolist()))
     B = B if keep_damping and rec.B is not None else None
-    out = schema.FlexureRecord(rec.name, rec.method, K, B, rec.enabled, True if B is None else rec.viscous,
-                               rec.strain_per_radian, rec.source, None, 2, stops=stops, rest=rec.rest)  # fmt: skip
-    return out
+    return schema.FlexureRecord(rec.name, rec.method, K, B, rec.enabled, True if B is None else rec.viscous,
+                                rec.strain_per_radian, rec.source, None, 2, stops=stops, rest=rec.rest)  # fmt: skip
 
 
 def edge_result(model, rec, d, edge, soft, keep_damping, new_joints):
     """What the edge becomes with the principal directions ``soft`` compliant (:class:`EdgeResult`).
 
-    ``new_joints(soft) -> list of Joint``: the joints that replace the body's own when those do
+    ``new_joints(soft) -> list of Joint``: the joints (without springs) that replace the body's own when those do
     not move along exactly the compliant directions.
     """
     soft = sorted(soft)
@@ -227,10 +216,6 @@ def edge_result(model, rec, d, edge, soft, keep_damping, new_joints):
     return EdgeResult(kept, removed, new, springs, record, lines)
 
 
-def _fmt(v):
-    return " ".join(f"{float(x):.17g}" for x in np.atleast_1d(v))
-
-
 def rejoint(tree, model, rec, edge, result, sites):
     """Edit the model file for one edge: remove joints, set springs, write the record or drop it; report lines."""
     body_el = tree.bodies[edge.child]
@@ -247,18 +232,12 @@ def rejoint(tree, model, rec, edge, result, sites):
                 gone.add(el.get("name"))
         elif j in result.springs:
             k, b = result.springs[j]
-            el.set("stiffness", _fmt(k))
-            el.set("damping", _fmt(b + float(model.dof_damping[model.jnt_dofadr[j]])))
+            el.set("stiffness", numbers(k))
+            el.set("damping", numbers(b + float(model.dof_damping[model.jnt_dofadr[j]])))
             el.set(
-                "springref", _fmt(model.qpos0[model.jnt_qposadr[j]])
+                "springref", numbers(model.qpos0[model.jnt_qposadr[j]])
             )  # the element rests where the joint is at qpos0
-    if result.new:
-        R_WC, p_WC = tree.pose(edge.child)
-        for k, jt in enumerate(result.new):
-            attrs = {"name": f"{rec.name}:{jt.label}", "type": jt.kind, "pos": _fmt(R_WC.T @ (jt.point - p_WC)),
-                     "axis": _fmt(R_WC.T @ jt.axis), "stiffness": "0", "damping": "0", "armature": "0",
-                     "frictionloss": "0", "limited": "false"}  # fmt: skip
-            body_el.insert(k, ET.Element("joint", attrs))
+    tree.insert_joints(edge.child, result.new, rec.name)
     for section in tree.root.findall("sensor"):
         for sensor in list(section):
             if sensor.get("joint") in gone:

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from ..mjcf.spec import compile_spec
-from .variant import body_names, reference_poses
+from .variant import body_names, identity_body_map, reference_poses
 
 WORLD = "world"
 
@@ -55,7 +55,8 @@ class Link:
         return self.body_b if body == self.body_a else self.body_a
 
 
-def _fmt(v):
+def numbers(v):
+    """A number or an array as MJCF text, every digit kept."""
     return " ".join(f"{float(x):.17g}" for x in np.atleast_1d(v))
 
 
@@ -185,8 +186,8 @@ class TreeXml:
             i = self.index[name]
             for old in el.findall("inertial"):
                 el.remove(old)
-            attrs = {"pos": _fmt(m.body_ipos[i]), "quat": _fmt(m.body_iquat[i]), "mass": _fmt(m.body_mass[i]),
-                     "diaginertia": _fmt(m.body_inertia[i])}  # fmt: skip
+            attrs = {"pos": numbers(m.body_ipos[i]), "quat": numbers(m.body_iquat[i]), "mass": numbers(m.body_mass[i]),
+                     "diaginertia": numbers(m.body_inertia[i])}  # fmt: skip
             el.insert(0, ET.Element("inertial", attrs))
 
     def pose(self, body):
@@ -219,27 +220,29 @@ class TreeXml:
             el.attrib.pop("sleep", None)  # MuJoCo allows a sleep policy on tree roots only
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, np.ascontiguousarray(R_WP.T @ R_WC).ravel())
-        el.set("pos", _fmt(R_WP.T @ (p_WC - p_WP)))
-        el.set("quat", _fmt(q))
+        el.set("pos", numbers(R_WP.T @ (p_WC - p_WP)))
+        el.set("quat", numbers(q))
+        self.insert_joints(child, joints, prefix)
+
+    def insert_joints(self, body, joints, prefix):
+        """Put ``joints`` (:class:`Joint`, world coordinates) first in ``body``, named ``<prefix>:<label>``."""
+        R_WB, p_WB = self.pose(body)
         for k, j in enumerate(joints):
             attrs = {
-                "name": f"{prefix}:{j.label}", "type": j.kind, "pos": _fmt(R_WC.T @ (j.point - p_WC)),
-                "axis": _fmt(R_WC.T @ j.axis), "stiffness": _fmt(j.stiffness), "damping": _fmt(j.damping),
+                "name": f"{prefix}:{j.label}", "type": j.kind, "pos": numbers(R_WB.T @ (j.point - p_WB)),
+                "axis": numbers(R_WB.T @ j.axis), "stiffness": numbers(j.stiffness), "damping": numbers(j.damping),
                 "springref": "0", "ref": "0", "armature": "0", "frictionloss": "0", "limited": "false",
             }  # fmt: skip
-            el.insert(k, ET.Element("joint", attrs))
+            self.bodies[body].insert(k, ET.Element("joint", attrs))
 
     def planar_root(self, body, n):
         """Replace the free joint of ``body`` by planar joints: two slides normal to ``n``, a hinge about it."""
-        el = self.bodies[body]
-        self._remove_free_joint(el, body)
-        R_WB, _ = self.pose(body)
+        self._remove_free_joint(self.bodies[body], body)
+        p_WB = self.pose(body)[1]
         e1 = np.linalg.svd(np.outer(n, n))[0][:, 1]
         axes = (("x", "slide", e1), ("y", "slide", np.cross(n, e1)), ("rz", "hinge", n))
-        for k, (label, kind, axis) in enumerate(axes):
-            attrs = {"name": f"{body}:plane_{label}", "type": kind, "pos": "0 0 0", "axis": _fmt(R_WB.T @ axis),
-                     "armature": "0", "frictionloss": "0", "limited": "false"}  # fmt: skip
-            el.insert(k, ET.Element("joint", attrs))
+        joints = [Joint(kind, f"plane_{label}", axis, p_WB, 0.0, 0.0) for label, kind, axis in axes]
+        self.insert_joints(body, joints, body)
 
     def element_text(self, element):
         """The current data of an element's record."""
@@ -258,7 +261,7 @@ class TreeXml:
                 if site.get("name") == name:
                     for key in ("quat", "euler", "axisangle", "xyaxes", "zaxis"):
                         site.attrib.pop(key, None)
-                    site.set("quat", _fmt(q))
+                    site.set("quat", numbers(q))
 
     def section(self, tag):
         found = self.root.find(tag)
@@ -305,12 +308,8 @@ class TreeXml:
 
 def merged_body_map(variant_model, source_model):
     """``body_map`` when every named source body survives by name (jointless children included)."""
-    names = set(body_names(variant_model))
-    out = {}
-    for name in body_names(source_model)[1:]:
-        if not name:
-            continue
+    out, names = identity_body_map(source_model), set(body_names(variant_model))
+    for name in out:
         if name not in names:
             raise ValueError(f"source body {name!r} is missing from the variant")
-        out[name] = (name, np.eye(4))
     return out

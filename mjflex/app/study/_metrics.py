@@ -13,6 +13,7 @@ import numpy as np
 
 from ...analysis.advice import first_order
 from ...analysis.linearize import STEP, Options, linearize
+from ...variants.variant import homogeneous
 
 #: Eigenvalues of ``M^-1 K`` below this fraction of the largest count as rigid-body modes. The
 #: finite-difference noise of the linearization is ~1e-16 of the largest eigenvalue (measured on
@@ -27,11 +28,9 @@ ROTATION_FLOOR = 1e-10
 
 def pose_matrix(pos, quat):
     """4x4 homogeneous pose from a position (3,) [m] and a w-first unit quaternion (4,)."""
-    X = np.eye(4)
     R = np.empty(9)
     mujoco.mju_quat2Mat(R, np.asarray(quat, dtype=float))
-    X[:3, :3], X[:3, 3] = R.reshape(3, 3), pos
-    return X
+    return homogeneous(R.reshape(3, 3), pos)
 
 
 @dataclass(frozen=True)

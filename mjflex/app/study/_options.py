@@ -10,21 +10,34 @@ import os
 
 from ...core import validation
 from ..output import folder_problem
-from ._run import INTEGRATOR_ENUMS
+from ..simulate import INTEGRATORS
 from ._scene import StudyError
 
 METHODS = ("twist", "dualquat")
 CLOCKS = ("cpu", "wall")
 
 
+def _sequence(value, name, what, valid=True):
+    """TypeError naming ``name`` unless ``value`` is a non-empty list or tuple of ``what`` (``valid``: items are)."""
+    if not valid or isinstance(value, str) or not isinstance(value, list | tuple) or not value:
+        raise TypeError(f"{name} must be a non-empty list of {what}; got {validation.shorten(value)}")
+
+
 def _names(value, name, allowed):
-    if isinstance(value, str) or not isinstance(value, list | tuple) or not value:
-        raise TypeError(
-            f"{name} must be a non-empty list of names from {list(allowed)}; got {validation.shorten(value)}"
-        )
+    _sequence(value, name, f"names from {list(allowed)}")
     bad = [v for v in value if v not in allowed]
     if bad:
         raise StudyError(f"unknown choice(s) {validation.shorten(bad)} for {name}: choose from {list(allowed)}")
+
+
+def _numbers(values, name, what, suffix, **bounds):
+    """StudyError naming ``name[i]`` for the first of ``values`` (a list of ``what``) out of ``bounds``."""
+    _sequence(values, name, what)
+    for i, v in enumerate(values):
+        try:
+            validation.check_number(v, f"{name}[{i}]", **bounds)
+        except ValueError as exc:
+            raise StudyError(f"{exc}{suffix}") from None
 
 
 def check_options(opts: dict, out=None, spell=lambda name: name) -> None:
@@ -54,43 +67,25 @@ def check_options(opts: dict, out=None, spell=lambda name: name) -> None:
         raise StudyError(
             f"{spell('min_step')} {opts['min_step']:g} s is above {spell('max_step')} {opts['max_step']:g} s; swap them"
         )
-    steps = opts["steps"]
-    if steps is not None:
-        if isinstance(steps, str) or not isinstance(steps, list | tuple) or not steps:
-            raise TypeError(
-                f"{spell('steps')} must be a non-empty list of time steps [s]; got {validation.shorten(steps)}"
-            )
-        for i, h in enumerate(steps):
-            try:
-                validation.check_number(h, f"{spell('steps')}[{i}]", above=0.0)
-            except ValueError as exc:
-                raise StudyError(f"{exc} (time steps are positive numbers of seconds)") from None
+    if opts["steps"] is not None:
+        _numbers(opts["steps"], spell("steps"), "time steps [s]", " (time steps are positive numbers of seconds)",
+                 above=0.0)  # fmt: skip
         given = [spell(k) for k in ("max_step", "min_step") if opts[k] is not None]
         if given:
             raise StudyError(
                 f"{spell('steps')} lists the candidate steps, so {' and '.join(given)} (which set the default "
                 f"range) would be ignored; give one or the other"
             )
-    targets = opts["targets"]
-    if isinstance(targets, str) or not isinstance(targets, list | tuple) or not targets:
-        raise TypeError(
-            f"{spell('targets')} must be a non-empty list of relative errors; got {validation.shorten(targets)}"
-        )
-    for i, t in enumerate(targets):
-        try:
-            validation.check_number(t, f"{spell('targets')}[{i}]", above=0.0, at_most=1.0)
-        except ValueError as exc:
-            raise StudyError(f"{exc}: targets are relative pose errors, 0.01 = 1 %") from None
+    _numbers(opts["targets"], spell("targets"), "relative errors", ": targets are relative pose errors, 0.01 = 1 %",
+             above=0.0, at_most=1.0)  # fmt: skip
     _names(opts["methods"], spell("methods"), METHODS)
-    _names(opts["integrators"], spell("integrators"), sorted(INTEGRATOR_ENUMS))
+    _names(opts["integrators"], spell("integrators"), sorted(INTEGRATORS))
     if opts["clock"] not in CLOCKS:
         raise StudyError(f"{spell('clock')} must be 'cpu' or 'wall'; got {validation.shorten(opts['clock'])}")
     track = opts["track"]
-    if track is not None and (isinstance(track, str) or not isinstance(track, list | tuple) or not track
-                              or not all(isinstance(t, str) and t for t in track)):  # fmt: skip
-        raise TypeError(
-            f"{spell('track')} must be a non-empty list of body or site names; got {validation.shorten(track)}"
-        )
+    if track is not None:
+        names = not isinstance(track, list | tuple) or all(isinstance(t, str) and t for t in track)
+        _sequence(track, spell("track"), "body or site names", names)
     if not isinstance(opts["frame"], str):
         raise TypeError(
             f"{spell('frame')} must be a body name, 'world' or 'auto'; got {validation.shorten(opts['frame'])}"

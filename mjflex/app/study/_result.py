@@ -9,7 +9,7 @@ gives flat dicts, so ``pandas.DataFrame(result.records())`` is one line for thos
 import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
@@ -32,6 +32,15 @@ def _percent(x, floor=0.0):
     if x < floor:
         return f"< {floor * 100:.1g} %"
     return f"{x * 100:.2g} %"
+
+
+#: The JSON report's keys, in order (:meth:`StudyResult.to_dict`), and the attributes of those named otherwise.
+_REPORT_KEYS = ("model", "initial_state", "duration", "sample_interval", "frame", "tracked", "model_setting",
+                "reference", "error_floor", "rows", "limits", "frequencies_hz", "highest_frequency_hz",
+                "fastest_rate_per_s", "clock", "variants", "targets", "recommendation", "needs", "notes", "message",
+                "command", "date", "wall_s")  # fmt: skip
+_ATTRIBUTES = {"frequencies_hz": "frequencies", "highest_frequency_hz": "highest_frequency",
+               "fastest_rate_per_s": "fastest_rate"}  # fmt: skip
 
 
 @dataclass
@@ -255,32 +264,13 @@ class StudyResult:
 
     def to_dict(self):
         """Everything as a dict of plain values: the JSON report (``write``), with the recommendation and needs."""
-        return {
-            "model": self.model,
-            "initial_state": self.initial_state,
-            "duration": self.duration,
-            "sample_interval": self.sample_interval,
-            "frame": self.frame,
-            "tracked": self.tracked,
-            "model_setting": self.model_setting,
-            "reference": None if self.reference is None else asdict(self.reference),
-            "error_floor": self.floor,
-            "rows": [r.to_dict() for r in self.rows],
-            "limits": [lim.to_dict() for lim in self.limits],
-            "frequencies_hz": self.frequencies,
-            "highest_frequency_hz": self.highest_frequency,
-            "fastest_rate_per_s": self.fastest_rate,
-            "clock": self.clock,
-            "variants": self.variants,
-            "targets": list(self.targets),
-            "recommendation": self.recommendation(),
+        computed = {
+            "reference": None if self.reference is None else asdict(self.reference), "error_floor": self.floor,
+            "rows": [r.to_dict() for r in self.rows], "limits": [lim.to_dict() for lim in self.limits],
+            "targets": list(self.targets), "recommendation": self.recommendation(),
             "needs": [dict(zip(self.NEEDS_COLUMNS, row, strict=True)) for row in self.needs()],
-            "notes": self.notes,
-            "message": self.message,
-            "command": self.command,
-            "date": self.date,
-            "wall_s": self.wall_s,
-        }
+        }  # fmt: skip
+        return {k: computed[k] if k in computed else getattr(self, _ATTRIBUTES.get(k, k)) for k in _REPORT_KEYS}
 
     @classmethod
     def from_dict(cls, report) -> "StudyResult":
@@ -306,18 +296,15 @@ class StudyResult:
         def ranged(x):
             return {**x, "wall_range": None if x.get("wall_range") is None else tuple(x["wall_range"])}
 
+        names = {f.name for f in fields(cls)}
+        given = {_ATTRIBUTES.get(k, k): v for k, v in report.items() if _ATTRIBUTES.get(k, k) in names}
         ref = report["reference"]
-        return cls(
-            model=report["model"], initial_state=report["initial_state"], duration=report["duration"],
-            sample_interval=report["sample_interval"], frame=report["frame"], tracked=report["tracked"],
-            model_setting=report["model_setting"], reference=None if ref is None else Reference(**ranged(ref)),
-            rows=[Row(**{**ranged(r), "divergence": divergence(r["divergence"])}) for r in report["rows"]],
-            limits=[Limit(**{**x, "divergence": divergence(x["divergence"])}) for x in report["limits"]],
-            frequencies=report["frequencies_hz"], highest_frequency=report["highest_frequency_hz"],
-            fastest_rate=report["fastest_rate_per_s"], variants=report["variants"],
-            targets=tuple(report.get("targets", cls.targets)), clock=report["clock"], notes=report["notes"],
-            message=report["message"], date=report["date"], wall_s=report["wall_s"], command=report["command"],
-        )  # fmt: skip
+        return cls(**{
+            **given, "reference": None if ref is None else Reference(**ranged(ref)),
+            "targets": tuple(given.get("targets", cls.targets)),
+            "rows": [Row(**{**ranged(r), "divergence": divergence(r["divergence"])}) for r in report["rows"]],
+            "limits": [Limit(**{**x, "divergence": divergence(x["divergence"])}) for x in report["limits"]],
+        })  # fmt: skip
 
     def summary_lines(self) -> list[str]:
         """The report's summary, one line each: model, run, reference, frequencies, wall time, notes."""

@@ -25,16 +25,11 @@ from ...mjcf.convert import copy_spec
 from ...mjcf.elements import edit_elements
 from ...runtime.divergence import step_phrase
 from ...runtime.flexures import Flexures
+from ..simulate import configure
 from ._metrics import PoseReader, Trajectory
 
-INTEGRATOR_ENUMS = {"euler": "mjINT_EULER", "rk4": "mjINT_RK4", "implicit": "mjINT_IMPLICIT",
-                    "implicitfast": "mjINT_IMPLICITFAST", "discrete": "mjINT_DISCRETE"}  # fmt: skip
 _BAD_STATE = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
 _ELEMENT_IN_MESSAGE = re.compile(r"flexure '([^']+)'")
-
-
-def integrator_name(model):
-    return mujoco.mjtIntegrator(model.opt.integrator).name.replace("mjINT_", "").lower()
 
 
 @contextlib.contextmanager
@@ -165,18 +160,21 @@ class Sim:
         """
         plugin = [f for f, k in zip(self.file_methods, self.kinds, strict=True) if k == "plugin"]
         self._use(method if method is not None and any(f != method for f in plugin) else None)
-        self.model.opt.integrator = getattr(mujoco.mjtIntegrator, INTEGRATOR_ENUMS[integrator])
-        self.model.opt.timestep = h
+        configure(self.model, integrator=integrator, timestep=h)
         for name, file_method, kind in zip(self.flex.names, self.file_methods, self.kinds, strict=True):
             if kind == "record":
                 self.flex.set_method(name, method or file_method)
 
-    def reset(self):
+    def reset(self, rest=False):
+        """``self.data`` at the initial state, forwarded; ``rest``: at zero velocity, not forwarded."""
         d = self.data
         mujoco.mj_resetData(self.model, d)
         for key, value in self.state.items():
             getattr(d, key)[:] = value
-        mujoco.mj_forward(self.model, d)
+        if rest:
+            d.qvel[:] = 0.0
+        else:
+            mujoco.mj_forward(self.model, d)
         return d
 
     def sample(self, d):

@@ -66,14 +66,10 @@ def source_spec_of(source, flex):
     """
     if "plugin" not in flex.kinds:
         return None
-    if isinstance(source, mujoco.MjSpec):
-        return copy_spec(source)
-    if isinstance(source, mujoco.MjModel):
-        try:
-            return variant.source_spec(source)
-        except TypeError:
-            return None
-    return mujoco.MjSpec.from_file(os.fspath(source))
+    try:
+        return variant.source_spec(source)
+    except TypeError:  # an MjModel whose file MuJoCo no longer keeps
+        return None
 
 
 def flexures_of(model, name):

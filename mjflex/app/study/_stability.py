@@ -28,7 +28,7 @@ import numpy as np
 from ...analysis.advice import advise
 from ...analysis.advice import integrator_name as advice_name
 from ...analysis.directions import element_directions
-from ...analysis.linearize import NotAtRestWarning, Options, linearize, modes_of
+from ...analysis.linearize import NotAtRestWarning, Options, linearize, mass_at, modes_of
 
 #: Relative velocity amplitude of the perturbed runs (kinetic energy PERTURBATION**2 of the scene's).
 PERTURBATION = 1e-6
@@ -41,15 +41,6 @@ MAX_HALVINGS = 3
 EVERYTHING = Options(True, "spring", True, True)
 
 
-def _rest(sim):
-    d = sim.data
-    mujoco.mj_resetData(sim.model, d)
-    for key, value in sim.state.items():
-        getattr(d, key)[:] = value
-    d.qvel[:] = 0.0
-    return d
-
-
 def advised_limit(sim, integrator, method, guess, rtol, duration):
     """``(StepAdvice or None, last step tried, why none)``: :func:`mjflex.step_advice` for ``integrator`` at the
     scene's initial pose at rest (its controls, activations and mocap poses), the elements' ``method`` configured,
@@ -58,14 +49,14 @@ def advised_limit(sim, integrator, method, guess, rtol, duration):
     sim.configure(integrator, method, guess)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NotAtRestWarning)
-        return advise(sim.model, sim.flex, _rest(sim), advice_name(integrator, sim.model), EVERYTHING, rtol=rtol,
-                      horizon=duration, guess=guess, expand=12, warn=False, margin=False)  # fmt: skip
+        return advise(sim.model, sim.flex, sim.reset(rest=True), advice_name(integrator, sim.model), EVERYTHING,
+                      rtol=rtol, horizon=duration, guess=guess, expand=12, warn=False, margin=False)  # fmt: skip
 
 
 def _scene_share(sim, k, w2, phi, M):
     """Share of the scene's initial energy (kinetic, and elastic from the initial forces) in mode ``k`` (``w2``,
     ``phi``: the undamped modes, ``M`` the inertia)."""
-    d = _rest(sim)
+    d = sim.reset(rest=True)
     with sim.flex:
         mujoco.mj_forward(sim.model, d)
         force = M @ d.qacc  # generalized force at the initial pose at rest
@@ -89,7 +80,7 @@ def limiting_mode(sim, advice):
     the largest part of its kinetic energy (``kind`` ``"kinetic"``); ``scene_share``: the part
     of the scene's initial energy in the natural mode closest to it.
     """
-    m, nv = sim.model, sim.model.nv
+    m = sim.model
     lam, mode = advice.eigenvalue, advice.mode
     lin = linearization(sim)
     M, K = lin.M, lin.K
@@ -107,14 +98,10 @@ def limiting_mode(sim, advice):
         where, kind = max(parts, key=parts.get), "strain"
         share = parts[where] / sum(parts.values())
     else:
-        kinetic = np.abs(mode * (M @ mode))
-        bodies = {}
-        for dof in range(nv):
-            b = int(m.dof_bodyid[dof])
-            bodies[b] = bodies.get(b, 0.0) + float(kinetic[dof])
-        b = max(bodies, key=bodies.get)
+        bodies = np.bincount(m.dof_bodyid, np.abs(mode * (M @ mode)), minlength=m.nbody)  # kinetic, per body
+        b = int(np.argmax(bodies))
         where, kind = f"body '{mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)}'", "kinetic"
-        share = bodies[b] / max(sum(bodies.values()), 1e-300)
+        share = float(bodies[b] / max(bodies.sum(), 1e-300))
     w2, phi = modes_of(lin)
     k = int(np.argmax(np.abs(phi.T @ M @ mode)))
     return {"frequency_hz": float(abs(lam) / (2.0 * np.pi)), "oscillating": bool(abs(lam.imag) >= abs(lam.real)),
@@ -125,16 +112,12 @@ def limiting_mode(sim, advice):
 def linearization(sim):
     """The model linearized at the initial pose at rest with everything its step counts (the element methods as
     configured): :class:`mjflex.analysis.linearize.Linearization`."""
-    return linearize(sim.model, sim.flex, _rest(sim), EVERYTHING, dynamics=True)
+    return linearize(sim.model, sim.flex, sim.reset(rest=True), EVERYTHING, dynamics=True)
 
 
 def perturbation(sim, energy, seed=0):
     """A random velocity (nv,) with kinetic energy ``PERTURBATION**2 * energy`` at the initial pose."""
-    m = sim.model
-    d = _rest(sim)
-    mujoco.mj_forward(m, d)
-    M = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, d, M)
-    v = np.random.default_rng(seed).normal(size=m.nv)
+    M = mass_at(sim.model, sim.reset(rest=True))
+    v = np.random.default_rng(seed).normal(size=sim.model.nv)
     kinetic = 0.5 * float(v @ M @ v)
     return v * math.sqrt(PERTURBATION**2 * energy / kinetic) if kinetic > 0 else v * 0.0

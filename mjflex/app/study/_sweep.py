@@ -11,11 +11,12 @@ from tqdm.auto import tqdm
 
 from ...core import validation
 from ...variants.variant import VariantNotApplicableError
+from ..simulate import integrator_label
 from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._options import METHODS, check_options
 from ._result import StudyResult
 from ._rows import Limit, Reference, Row
-from ._run import Sim, integrator_name, quiet_mujoco_warnings, run_sampled, time_steps
+from ._run import Sim, quiet_mujoco_warnings, run_sampled, time_steps
 from ._scene import (
     StudyError,
     build_variant,
@@ -66,12 +67,8 @@ def _plan(h_model, freq, rate, *, duration, samples, steps, step_count, max_step
     if duration is None:
         duration = 1.0 / freq[0] if len(freq) else 1000 * h_model  # one period of the lowest elastic mode
         duration = min(max(duration, 200 * h_model), 20000 * h_model)
-    if not (duration > 0 and samples >= 1 and step_count >= 1):
-        raise StudyError("duration, samples and step_count must be positive")
-    if steps:
+    if steps:  # checked by check_options
         targets = np.asarray(sorted(steps, reverse=True), dtype=float)
-        if not (np.isfinite(targets).all() and targets.min() > 0):
-            raise StudyError(f"steps must be positive numbers of seconds; got {list(steps)}")
     else:
         hi = max_step or (2.0 * RK4_LIMIT / rate if rate > 0 else 4.0 * h_model)
         lo = min_step or hi / 2.0 ** (step_count - 1)
@@ -101,6 +98,19 @@ class _Study:
         self._freq = {}
         self._timed = []  # (row or reference, sim, integrator, method, h, sampled outcome) to time
 
+    def _run(self, sim, method, integrator, h, what, every=None):
+        """The scene at step ``h``, sampled every ``every`` steps (default: any step, sampled at the steps nearest the
+        sample interval), shown on the progress bar as ``what``."""
+        self.bar.set_description(f"{sim.name} {integrator} {sim.methods_label(method)} {what}h={h:.3g}")
+        samples = self.plan.samples
+        if every is None:
+            every = max(1, round(self.plan.interval / h))
+            samples = math.ceil(self.plan.duration / (every * h))
+        out = run_sampled(sim, integrator, method, h, samples=samples, every=every, energy_limit=self.energy_limit,
+                          max_wall=self.max_run_wall)  # fmt: skip
+        self.bar.update()
+        return out
+
     # ---------------------------------------------------------------- reference
 
     def reference(self, *, tol, max_refinements, start_step):
@@ -111,9 +121,7 @@ class _Study:
         previous, agreements = None, []
         for _ in range(max_refinements + 1):
             h = plan.h(n)
-            self.bar.set_description(f"reference RK4 h={h:.2g}")
-            out = run_sampled(full, "rk4", None, h, samples=plan.samples, every=n, max_wall=self.max_run_wall)
-            self.bar.update()
+            out = self._run(full, None, "rk4", h, "reference ", every=n)  # no energy limit yet: it is the reference's
             attempt = {"timestep": h, "status": "ok" if out.ok else (out.skipped or out.divergence.text())}
             ref.attempts.append(attempt)
             if out.skipped:
@@ -198,10 +206,7 @@ class _Study:
 
     def candidate(self, sim, method, integrator, n, source="grid"):
         h = self.plan.h(n)
-        self.bar.set_description(f"{sim.name} {integrator} {sim.methods_label(method)} h={h:.2g}")
-        out = run_sampled(sim, integrator, method, h, samples=self.plan.samples, every=n,
-                          energy_limit=self.energy_limit, max_wall=self.max_run_wall)  # fmt: skip
-        self.bar.update()
+        out = self._run(sim, method, integrator, h, "", every=n)
         row = Row(sim.name, sim.methods_label(method), integrator, h, "ok", source=source)
         if out.divergence:
             row.status, row.divergence = "diverged", out.divergence
@@ -297,16 +302,12 @@ class _Study:
 
     def _perturbed_run(self, sim, method, integrator, h, dv, limit):
         """The scene at step ``h`` with the velocity perturbation ``dv`` added; recorded in ``limit.checks``."""
-        self.bar.set_description(f"{sim.name} {integrator} {sim.methods_label(method)} perturbed h={h:.3g}")
-        every = max(1, round(self.plan.interval / h))
         saved = sim.state["qvel"]
         sim.state["qvel"] = saved + dv
         try:
-            out = run_sampled(sim, integrator, method, h, samples=math.ceil(self.plan.duration / (every * h)),
-                              every=every, energy_limit=self.energy_limit, max_wall=self.max_run_wall)  # fmt: skip
+            out = self._run(sim, method, integrator, h, "perturbed ")
         finally:
             sim.state["qvel"] = saved
-        self.bar.update()
         status = "diverged" if out.divergence else ("skipped" if out.skipped else "ok")
         limit.checks.append({"timestep": h, "status": status, "time": out.divergence.time if out.divergence else None,
                              "divergence": out.divergence.text() if out.divergence else out.skipped})  # fmt: skip
@@ -317,11 +318,7 @@ class _Study:
         while left and limit.smallest_unstable / limit.largest_stable > 1.0 + rtol:
             left -= 1
             h = math.sqrt(limit.largest_stable * limit.smallest_unstable)
-            every = max(1, round(self.plan.interval / h))
-            self.bar.set_description(f"{sim.name} {integrator} {sim.methods_label(method)} limit h={h:.3g}")
-            out = run_sampled(sim, integrator, method, h, samples=math.ceil(self.plan.duration / (every * h)),
-                              every=every, energy_limit=self.energy_limit, max_wall=self.max_run_wall)  # fmt: skip
-            self.bar.update()
+            out = self._run(sim, method, integrator, h, "limit ")
             if out.skipped:
                 return
             if out.divergence:
@@ -428,7 +425,7 @@ def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps
     problem = full.method_switch_problem(methods)
     if problem:
         raise StudyError(problem)
-    result.model_setting = {"integrator": integrator_name(src), "timestep": float(src.opt.timestep),
+    result.model_setting = {"integrator": integrator_label(src), "timestep": float(src.opt.timestep),
                             "method": full.methods_label(None)}  # fmt: skip
     lin = linearized_frequencies(full.model, full.flex, state["qpos"], ctrl=state["ctrl"], act=state["act"])
     freq, result.highest_frequency, result.fastest_rate = lin

@@ -22,6 +22,11 @@ from ...variants.variant import VariantNotApplicableError
 REDUCE_KEEP_BELOW_HZ = 2000.0
 
 
+def _unchanged(variant):
+    """Whether a reduction kept every element whole, damping included (its rows would repeat the full model's)."""
+    return all(e["kept"] and not e["damping_dropped"] for e in variant.details["elements"].values())
+
+
 def reduced_variant(source):
     """:func:`mjflex.reduce` of the source, keeping its modes below :data:`REDUCE_KEEP_BELOW_HZ`.
 
@@ -29,9 +34,8 @@ def reduced_variant(source):
     full model's rows).
     """
     variant = reduce(source, REDUCE_KEEP_BELOW_HZ)  # the band: what the band needs, whatever the step
-    elements = variant.details["elements"]
-    if all(e["kept"] and not e["damping_dropped"] for e in elements.values()):
-        reasons = sorted({e["reason"] for e in elements.values()})
+    if _unchanged(variant):
+        reasons = sorted({e["reason"] for e in variant.details["elements"].values()})
         raise VariantNotApplicableError(f"nothing to reduce below {REDUCE_KEEP_BELOW_HZ:g} Hz ({'; '.join(reasons)})")
     return variant
 
@@ -48,8 +52,7 @@ def reduced_at_file_step(source):
             variant = reduce(source)
     except ValueError as exc:
         raise VariantNotApplicableError(str(exc)) from None
-    elements = variant.details["elements"]
-    if all(e["kept"] and not e["damping_dropped"] for e in elements.values()):
+    if _unchanged(variant):
         raise VariantNotApplicableError(
             f"the file's step {variant.details['step']['timestep']:g} s holds nothing rigid"
         )

@@ -33,16 +33,11 @@ def _probe(plan, grid):
             exc.add_note(f"mjflex.sweep: while building variant {index} {params}")
             first = first or exc
             continue
-        data = mujoco.MjData(sim.model)
-        if sim.key >= 0:
-            mujoco.mj_resetDataKeyframe(sim.model, data, sim.key)
+        data = sim.initial_data()
         with engine.installed([sim.flex]):
             mujoco.mj_forward(sim.model, data)
             try:
-                values = plan.observe(sim.model, sim.flex, data)
-                if not hasattr(values, "items"):
-                    raise TypeError(f"observe must return a dict of named values; got {type(values).__name__}")
-                values = {name: engine._plain(name, v) for name, v in values.items()}
+                values = sim.values(plan.observe, data)
             except Exception as exc:
                 exc.add_note(f"mjflex.sweep: while observing variant {index} {params} at its initial state")
                 raise
@@ -263,7 +258,8 @@ def sweep(
             if on_warp:
                 from . import warp  # late: imports warp (the warp extra), for its executor only
 
-                outcomes, stats = warp.run_chunk(plan, list(enumerate(g.rows)), tick, chunk_size or warp.PART_SIZE)
+                outcomes, stats = engine.run_chunk(plan, list(enumerate(g.rows)), tick, run_part=warp.run_part,
+                                                   part_size=chunk_size or warp.PART_SIZE)  # fmt: skip
             else:
                 outcomes, stats = engine.run_chunk(plan, list(enumerate(g.rows)), tick)
             chunks = 1

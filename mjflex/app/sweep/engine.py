@@ -156,14 +156,25 @@ class _Sim:
     def layout(self):
         return (self.blocks, self.block, *(getattr(self.model, n) for n in _LAYOUT))
 
+    def initial_data(self):
+        """A new ``MjData`` at the variant's initial state (its keyframe, or ``qpos0`` at rest), not forwarded."""
+        data = mujoco.MjData(self.model)
+        if self.key >= 0:
+            mujoco.mj_resetDataKeyframe(self.model, data, self.key)
+        return data
+
+    def values(self, observe, data):
+        """``observe``'s values at ``data`` (forwarded): ``{name: (dims or None, ndarray)}``; raises as it raises."""
+        values = observe(self.model, self.flex, data)
+        if not hasattr(values, "items"):
+            raise TypeError(f"observe must return a dict of named values; got {type(values).__name__}")
+        return {name: _plain(name, v) for name, v in values.items()}
+
     def observe(self, observe, data):
         """Run ``observe`` on ``data`` (state loaded, not yet forwarded); a raise marks the variant failed."""
         try:
             mujoco.mj_forward(self.model, data)
-            values = observe(self.model, self.flex, data)
-            if not hasattr(values, "items"):
-                raise TypeError(f"observe must return a dict of named values; got {type(values).__name__}")
-            self.outcome.values.append({name: _plain(name, v) for name, v in values.items()})
+            self.outcome.values.append(self.values(observe, data))
         except Exception as exc:
             self.fail(f"observe raised at t = {data.time:.6g} s: {_exc_text(exc)}")
 
@@ -326,10 +337,8 @@ def _steps_ok(sim, data, nstep):
 def _run_loop(plan, sims, progress):
     """The fallback when ``Batch`` cannot run (a Python physics callback is installed)."""
     for sim in sims:
-        m, d = sim.model, mujoco.MjData(sim.model)
+        m, d = sim.model, sim.initial_data()
         scratch, row = mujoco.MjData(m), np.empty(mujoco.mj_stateSize(m, _STATE))
-        if sim.key >= 0:
-            mujoco.mj_resetDataKeyframe(m, d, sim.key)
         mujoco.mj_forward(m, d)
         if plan.samples is not None:
             _observe_copy(plan, sim, d, scratch, row)
@@ -357,7 +366,7 @@ def _build(plan, rows):
     return sims
 
 
-def _run_part(plan, rows, progress, stepping):
+def _run_part(plan, rows, progress, stats):
     built = _build(plan, rows)
     sims = [s for s in built if isinstance(s, _Sim)]
     groups = {}
@@ -369,43 +378,42 @@ def _run_part(plan, rows, progress, stepping):
                 _observe_initial(plan, group, progress)
             elif _batch_usable():
                 _run_batch(plan, group, progress)
-                stepping.add(BATCH)
+                stats["stepping"].add(BATCH)
             else:
                 _run_loop(plan, group, progress)
-                stepping.add(LOOP)
+                stats["stepping"].add(LOOP)
     return [s.outcome if isinstance(s, _Sim) else s for s in built]
 
 
 def _observe_initial(plan, sims, progress):
     for s in sims:
-        d = mujoco.MjData(s.model)
-        if s.key >= 0:
-            mujoco.mj_resetDataKeyframe(s.model, d, s.key)
-        s.observe(plan.observe, d)
+        s.observe(plan.observe, s.initial_data())
     if progress:
         progress(len(sims))
 
 
-def run_chunk(plan: Plan, rows, progress=None):
+def run_chunk(plan: Plan, rows, progress=None, *, run_part=None, part_size=None):
     """Run variants ``rows`` (a list of ``(index, params)``) in this process.
 
     Returns ``(outcomes, stats)``: one :class:`Outcome` per row, in order, and
-    ``{"parts": number of parts the chunk was run in (see :data:`PART_SIZE`),
-    "stepping": set of BATCH / LOOP}``. ``progress(n)``, if given, is called as blocks of
-    simulation finish (``n`` variants advanced by one block).
+    ``{"parts": number of parts the chunk was run in, "stepping": set of BATCH / LOOP (or
+    :data:`.warp.WARP`), "warp_batches": MuJoCo Warp batches}``. ``progress(n)``, if given, is
+    called as blocks of simulation finish (``n`` variants advanced by one block). A part is
+    ``run_part(plan, rows, progress, stats)`` (default: ``Batch`` or a loop; :func:`.warp.run_part`)
+    of ``part_size`` variants (default: :data:`PART_SIZE`, fewer when the registry has less room).
     """
-    outcomes, parts, start, stepping = [], 0, 0, set()
+    outcomes, parts, start, stats = [], 0, 0, {"stepping": set(), "warp_batches": 0}
     while start < len(rows):
-        part = rows[start : start + max(1, min(PART_SIZE, registry_room()))]
+        part = rows[start : start + (part_size or max(1, min(PART_SIZE, registry_room())))]
         ticks = [0.0]
 
         def tick(n, ticks=ticks):
             ticks[0] += n
             progress(n)
 
-        outcomes += _run_part(plan, part, tick if progress else None, stepping)
+        outcomes += (run_part or _run_part)(plan, part, tick if progress else None, stats)
         if progress:  # variants that diverged or failed early: their remaining blocks
             progress(len(part) * (1 if plan.samples is None else plan.samples - 1) - ticks[0])
         start += len(part)
         parts += 1
-    return outcomes, {"parts": parts, "stepping": stepping}
+    return outcomes, {"parts": parts, **stats}

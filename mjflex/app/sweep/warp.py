@@ -49,10 +49,6 @@ def _options(model):
     return tuple(np.asarray(getattr(o, a)).tobytes() for a in names)
 
 
-def _group_key(sim):
-    return (*sim.layout(), _options(sim.model))
-
-
 def _element_structure(table):
     return (table.names, table.ints.tobytes(), np.float32(table.qa).tobytes(), np.float32(table.qb).tobytes(),
             np.float32(table.p0).tobytes(), table.exps.tobytes(), table.coefs.tobytes(), table.start.tobytes(),
@@ -102,13 +98,6 @@ def _taken_as_is(field, value) -> bool:
     return want is not None and np.array_equal(got, want)
 
 
-def _initial_state(sim):
-    data = mujoco.MjData(sim.model)
-    if sim.key >= 0:
-        mujoco.mj_resetDataKeyframe(sim.model, data, sim.key)
-    return data
-
-
 def _run_group(plan, group, progress, wp, mjw, mw):
     sims = group.sims
     n = len(sims)
@@ -123,7 +112,7 @@ def _run_group(plan, group, progress, wp, mjw, mw):
                       stop_lower=np.stack([x.stop_lower for x in t]), stop_upper=np.stack([x.stop_upper for x in t]),
                       stop_stiffness=np.stack([x.stop_stiffness for x in t]))  # fmt: skip
     d = mjw.make_data(group.ref.model, nworld=n)
-    starts = [_initial_state(s) for s in sims]
+    starts = [s.initial_data() for s in sims]
     for name in ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "time"):
         if getattr(d, name).size:
             getattr(d, name).assign(np.stack([np.asarray(getattr(x, name), dtype=float) for x in starts]))
@@ -169,10 +158,9 @@ def _flag_diverged(sims, alive, divergences, d, h):
 
 def _groups(sims, mw):
     """Variants grouped so that each group can share one MuJoCo Warp model; incompatible ones get their own."""
-    pending, out = list(sims), []
-    by_key = {}
-    for s in pending:
-        by_key.setdefault(_group_key(s), []).append(s)
+    out, by_key = [], {}
+    for s in sims:
+        by_key.setdefault((*s.layout(), _options(s.model)), []).append(s)
     for members in by_key.values():
         while members:
             group = _Group(members, mw)
@@ -188,7 +176,7 @@ def _groups(sims, mw):
     return out
 
 
-def run_part(plan, rows, progress, stepping, stats):
+def run_part(plan, rows, progress, stats):
     """Build, group, step and observe the variants ``rows`` (a list of ``(index, params)``); their outcomes."""
     import mujoco_warp as mjw  # late: the warp extra, for the warp executor only
     import warp as wp  # late: the warp extra, for the warp executor only
@@ -204,29 +192,11 @@ def run_part(plan, rows, progress, stepping, stats):
         for group in _groups(stepped, mw):
             try:
                 _run_group(plan, group, progress, wp, mjw, mw)
-                stepping.add(WARP)
-                stats["batches"] += 1
+                stats["stepping"].add(WARP)
+                stats["warp_batches"] += 1
             except Exception as exc:  # MuJoCo Warp refused the model: every variant of the group failed
                 message = f"MuJoCo Warp could not run the variant: {engine._exc_text(exc)}"
                 for s in group.sims:
                     if s.alive:
                         s.fail(message)
     return [s.outcome if isinstance(s, engine._Sim) else s for s in built]
-
-
-def run_chunk(plan, rows, progress=None, part_size=PART_SIZE):
-    """All variants ``rows`` on MuJoCo Warp, in parts of ``part_size`` (see :func:`engine.run_chunk`)."""
-    outcomes, parts, stepping, stats = [], 0, set(), {"batches": 0}
-    for start in range(0, len(rows), part_size):
-        part = rows[start : start + part_size]
-        ticks = [0.0]
-
-        def tick(n, ticks=ticks):
-            ticks[0] += n
-            progress(n)
-
-        outcomes += run_part(plan, part, tick if progress else None, stepping, stats)
-        if progress:
-            progress(len(part) * (1 if plan.samples is None else plan.samples - 1) - ticks[0])
-        parts += 1
-    return outcomes, {"parts": parts, "stepping": stepping, "warp_batches": stats["batches"]}
