@@ -136,5 +136,10 @@ def test_clear_divergences_starts_every_world_anew(two_body):
     d.qvel.assign(qvel)
     m.callback.passive(m, d)
     np.testing.assert_array_equal(mw.diverged(m, d), [False, True, False])
+    (found,) = mw.divergences(m, d)  # issue 33 item 7: the message points at the step advice
+    assert (
+        "mjflex.step_advice(mjmodel) gives the largest stable one" in found.message
+        and "normal_modes" not in found.message
+    )
     mw.clear_divergences(m, d)
     assert not mw.diverged(m, d).any() and not mw.divergences(m, d)
