@@ -141,7 +141,27 @@ def hostile_value(rng, key, method):
         return _json(rng)
     if key in ("site_a", "site_b", "site"):
         return _site(rng)
+    if key == "rest_pos":
+        return _numbers(rng, int(rng.choice([3, 3, 3, 2, 4])))
+    if key == "rest_quat":
+        return _quaternion(rng)
+    if key == "stop_damping":
+        return _numbers(rng, int(rng.choice([0, 1, 1, 3, 6, 6, 7])))
     return _numbers(rng)
+
+
+def _quaternion(rng):
+    """A rest quaternion: a rotation (to the last bit, or within the tolerance 1e-6), just not one, or junk."""
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    choice = rng.integers(5)
+    if choice == 1:
+        q *= 1.0 + 5e-7 * rng.choice([-1, 1])  # within the tolerance
+    elif choice == 2:
+        q *= 1.0 + 2e-6 * rng.choice([-1, 1])  # not a rotation
+    elif choice == 3:
+        return _numbers(rng, int(rng.choice([0, 3, 4, 5])))
+    return " ".join(repr(float(v)) for v in q)
 
 
 # ------------------------------------------------------------------ cases
@@ -183,8 +203,13 @@ def config_case(seed, index):
     changes = {}
     for plugin in spec.plugins:
         config = dict(plugin.config)
-        for key in rng.choice(keys, size=int(rng.integers(1, 4)), replace=False):
-            config[str(key)] = changes.setdefault(f"{plugin.name}.{key}", hostile_value(rng, str(key), method))
+        picked = [str(k) for k in rng.choice(keys, size=int(rng.integers(1, 4)), replace=False)]
+        for key in picked:
+            config[key] = changes.setdefault(f"{plugin.name}.{key}", hostile_value(rng, key, method))
+        if "stop_damping" in picked and not {"stop_lower", "stop_upper"} & set(picked) and rng.random() < 0.7:
+            for key, sign in (("stop_lower", -1), ("stop_upper", 1)):  # tight limits: the damped stops engage
+                tight = " ".join(f"{sign * v:g}" for v in [1e-4] * 3 + [1e-5] * 3)
+                config[key] = changes[f"{plugin.name}.{key}"] = tight
         plugin.config = config
         if rng.random() < 0.5:
             break

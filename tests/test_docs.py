@@ -389,6 +389,10 @@ PROSE_CONSTANTS = {
         "20 rad/s": "two_body's keyframe",
     },
     "docs/howto/add_flexures_to_a_robot.md": {"10 %": "a bound the tests assert"},
+    "docs/reference/mjcf_schema.md": {
+        "1e-5 rad": "the sites' coincidence angle, a tolerance (the schema table's text of MJFX_COINCIDENCE_ANGLE)",
+        "0.1 rad": "the default full scale of the strain colours without strain_per_radian (the schema table)",
+    },
     "docs/howto/choose_method_integrator_step.md": {"90°": "where a sin(θ/2) law's moment peaks (mathematics)"},
     "docs/howto/plugin_models.md": {
         "2 ms": "MuJoCo's default time step",

@@ -8,12 +8,14 @@ module may import its own package and any package of a lower rank, never one of 
 
 The imports are read from the sources (``ast``), those inside functions too. A circle is refused unless an import
 that closes it is inside a function and says on its line why it is late (a comment: a heavy or optional dependency
-kept out of ``import mjflex``). Each check runs on the package, and on a small package with one planted violation
-that it must find.
+kept out of ``import mjflex``). The C library (``mjflex/native``) is held to the same: no include circles between
+its modules (a ``.c`` and its ``.h`` are one module, and a header alone is one) and the same length limit. Each
+check runs on the package, and on a small package with one planted violation that it must find.
 """
 
 import ast
 import os
+import re
 import textwrap
 
 import pytest
@@ -114,6 +116,46 @@ def circles(root):
         if importer == module or (lazy and "#" in line):
             continue
         graph.setdefault(importer, set()).add(module)
+    return _components(graph)
+
+
+_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.DOTALL)
+_PROTOTYPE = re.compile(r"^[A-Za-z_][^#;{}()]*?\b(mjfx_\w+)\s*\([^;{}]*\)\s*;", re.MULTILINE)
+_DEFINITION = re.compile(r"^[A-Za-z_][^#;{}()]*?\b(mjfx_\w+)\s*\([^;{}]*\)\s*\{", re.MULTILINE)
+
+
+def c_includes(native):
+    """``{module: modules it needs}`` of the C sources in ``native`` (``x.c`` and ``x.h`` are module ``x``): the
+    modules of the headers it includes, and those whose ``.c`` defines a function its header declares (a header
+    declares its own module's functions; another's make the module depend on that one)."""
+    texts = {}
+    for f in sorted(os.listdir(native)):
+        if f.endswith((".c", ".h")):
+            with open(os.path.join(native, f), encoding="utf-8") as source:
+                texts[f] = _COMMENT.sub("", source.read())
+    defined = {name: f[:-2] for f, text in texts.items() if f.endswith(".c") for name in _DEFINITION.findall(text)}
+    graph = {}
+    for f, text in texts.items():
+        needs = set(re.findall(r'^\s*#\s*include\s+"([^"]+)\.h"', text, flags=re.MULTILINE))
+        if f.endswith(".h"):
+            needs |= {defined[name] for name in _PROTOTYPE.findall(text) if name in defined}
+        graph.setdefault(f[:-2], set()).update(m for m in needs if m != f[:-2])
+    return graph
+
+
+def c_circles(native):
+    """The include circles between the C library's modules."""
+    return _components(c_includes(native))
+
+
+def long_c_files(native, limit=MAX_LINES):
+    files = sorted(f for f in os.listdir(native) if f.endswith((".c", ".h")))
+    with_lines = {f: sum(1 for _ in open(os.path.join(native, f), encoding="utf-8")) for f in files}
+    return [f"{f}: {n} lines" for f, n in with_lines.items() if n > limit]
+
+
+def _components(graph):
+    """The strongly connected components of more than one node of ``graph`` (Tarjan), each sorted."""
     index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
 
     def visit(v):
@@ -201,6 +243,15 @@ def test_every_late_import_says_why_on_its_line():
     assert late_imports_without_reason(ROOT) == []
 
 
+def test_the_c_library_has_no_include_circles_and_short_files():
+    native = os.path.join(ROOT, "native")
+    if not any(f.endswith(".c") for f in os.listdir(native)):  # an installed wheel: the library, not its sources
+        return
+    assert {"schema", "config", "instances", "plugin", "flexure_kernel"} <= set(c_includes(native))
+    assert c_circles(native) == []
+    assert long_c_files(native) == []
+
+
 def test_every_package_module_is_in_a_layer_and_short():
     assert {"mjflex.core.elements", "mjflex.runtime.flexures", "mjflex.app.cli"} <= set(modules(ROOT)), ROOT
     unplaced = [m for m in modules(ROOT) if _layer(m) is None]
@@ -246,6 +297,26 @@ def test_a_planted_violation_is_found(tmp_path, files, check, expected):
         assert expected in found
     else:
         assert any(expected in f for f in found), found
+
+
+@pytest.mark.parametrize(
+    "files, check, expected",
+    [
+        ({"a.c": '#include "a.h"\n#include "b.h"\n', "a.h": "", "b.c": '#include "a.h"\n', "b.h": ""}, c_circles,
+         ["a", "b"]),
+        ({"k.h": '#include "m.h"\n', "m.c": '#include "k.h"\n', "m.h": ""}, c_circles, ["k", "m"]),
+        ({"i.h": "int mjfx_slot(void);\n", "i.c": '#include "i.h"\n',
+          "p.c": '#include "i.h"\nint mjfx_slot(void) {}\n'}, c_circles, ["i", "p"]),
+        ({"a.c": "int x;\n" * (MAX_LINES + 1)}, long_c_files, f"a.c: {MAX_LINES + 1} lines"),
+    ],
+    ids=["c circle", "a header and a source above and below it", "a function declared here, defined there",
+         "long c file"],
+)  # fmt: skip
+def test_a_planted_c_violation_is_found(tmp_path, files, check, expected):
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    found = check(str(tmp_path))
+    assert expected in found if isinstance(expected, list) else any(expected in f for f in found), found
 
 
 def test_a_late_import_that_says_why_closes_no_circle(tmp_path):

@@ -80,14 +80,12 @@ def test_frames_not_aligned_at_qpos0():
 def test_non_symmetric_K():
     K = np.diag(K6)
     K[0, 4] = 2.0
-    with pytest.raises(
-        mjflex.ModelError, match=r"flexure 'e': .*K is not symmetric: K\[0, 4\] = 2.*Fix its text record"
-    ):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': .*K is not symmetric: K\[0, 4\] = 2.*Fix K"):
         mjflex.Flexures(_model(K=K.tolist()))
 
 
 def test_indefinite_K():
-    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': .*K is not positive semi-definite: .*eigenvalue is -1"):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': K is not positive semi-definite: .*eigenvalue .* is -1"):
         mjflex.Flexures(_model(K=[1.0, -1.0, 1.0, 1.0, 1.0, 1.0]))
 
 
@@ -97,12 +95,12 @@ def test_indefinite_B():
 
 
 def test_K_with_wrong_shape():
-    with pytest.raises(mjflex.ModelError, match=r"\"K\" must be 6x6 .* got shape \(4,\)"):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': K has 4 numbers. Give 6 numbers \(the diagonal\) or 36"):
         mjflex.Flexures(_model(K=[1.0, 2.0, 3.0, 4.0]))
 
 
 def test_B_shape_must_match_K():
-    with pytest.raises(mjflex.ModelError, match=r"\"B\" must be .*got shape \(3, 3\)"):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': B has 9 numbers. Give 6 or 36 numbers, as K"):
         mjflex.Flexures(_model(B=np.eye(3).tolist()))
 
 
@@ -113,7 +111,7 @@ def test_non_finite_K():
 
 def test_unknown_method():
     with pytest.raises(
-        mjflex.ModelError, match=r"flexure 'e': .*unknown method 'quaternion'; use \"twist\" or \"dualquat\""
+        mjflex.ModelError, match=r"flexure 'e': .*unknown method 'quaternion'. Use method \"twist\" or \"dualquat\""
     ):
         mjflex.Flexures(_model(method="quaternion"))
 
@@ -129,7 +127,7 @@ def test_unknown_key():
 
 
 def test_missing_K():
-    with pytest.raises(mjflex.ModelError, match=r"the stiffness \"K\" is missing"):
+    with pytest.raises(mjflex.ModelError, match=r"flexure 'e': K is missing"):
         mjflex.Flexures(_model(data='{"mjflex": 1, "method": "twist"}'))
 
 
@@ -153,11 +151,11 @@ def test_add_flexure_argument_errors():
         mjflex.add_flexure(spec, "e", "A", "C", pos=[0, 0, 0], K=K6)
     with pytest.raises(ValueError, match=r"body_a and body_b are the same body"):
         mjflex.add_flexure(spec, "e", "A", "A", pos=[0, 0, 0], K=K6)
-    with pytest.raises(ValueError, match=r"K of flexure 'e' is not positive semi-definite"):
+    with pytest.raises(ValueError, match=r"flexure 'e': K is not positive semi-definite"):
         mjflex.add_flexure(spec, "e", "A", "B", pos=[0, 0, 0], K=[1, 1, 1, 1, 1, -1])
     with pytest.raises(ValueError, match=r"quat = \[0.0, 0.0, 0.0, 0.0\] is not a rotation"):
         mjflex.add_flexure(spec, "e", "A", "B", pos=[0, 0, 0], quat=[0, 0, 0, 0], K=K6)
-    with pytest.raises(ValueError, match=r"method must be 'twist' or 'dualquat'"):
+    with pytest.raises(ValueError, match=r"flexure 'e': unknown method 'screw'. Use method \"twist\" or \"dualquat\""):
         mjflex.add_flexure(spec, "e", "A", "B", pos=[0, 0, 0], K=K6, method="screw")
     mjflex.add_flexure(spec, "e", "A", "B", pos=[0, 0, 0], K=K6)
     with pytest.raises(ValueError, match=r"flexure 'e' already exists"):

@@ -18,17 +18,16 @@ PAIRS = {  # C name -> Python's value
     "MAX_MATRIX_ENTRY": validation.MAX_MATRIX_ENTRY,
     "SYMMETRY_RTOL": validation.SYMMETRY_RTOL,
     "PSD_RTOL": validation.PSD_RTOL,
-    "COINCIDENCE_RTOL": schema.COINCIDENCE_RTOL,
-    "COINCIDENCE_ANGLE": schema.COINCIDENCE_ANGLE,
     "REST_STRESS_RTOL": polynomial.REST_STRESS_RTOL,
     "REST_QUAT_TOLERANCE": rest.REST_QUAT_TOLERANCE,
     "MAX_EXPONENT": polynomial.MAX_EXPONENT,
     "TERM_COLUMNS": _native.TERM_COLUMNS,
     "STOP_STIFFNESS_FACTOR": stops.STIFFNESS_FACTOR,
     "MAX_ROTATION_LIMIT": record_stops.MAX_ROTATION_LIMIT,
-    "DEFAULT_STRAIN_SCALE": schema.DEFAULT_STRAIN_SCALE,
-    "DEFAULT_ROTATION_SCALE": schema.DEFAULT_ROTATION_SCALE,
-    "NATTRIBUTE": len(config.PLUGIN_ATTRIBUTES),
+    "MAX_STIFFNESS": record_stops.MAX_STIFFNESS,
+    "NATTRIBUTE": len(schema.attributes()),
+    "FORM_PLUGIN": 0,  # library.parse_values passes the form by its name, looked up here
+    "FORM_RECORD": 1,
     "TWIST": validation.METHOD_CODES["twist"],
     "DUALQUAT": validation.METHOD_CODES["dualquat"],
     "FULL": _native.FULL,
@@ -49,7 +48,7 @@ def test_a_constant_of_both_sides_is_equal(name):
 
 def test_the_lists_and_sizes_are_equal_too():
     assert math.isnan(_native.constant("NO_SUCH_CONSTANT"))
-    assert _native.plugin_attributes() == config.PLUGIN_ATTRIBUTES
+    assert _native.plugin_attributes() == config.PLUGIN_ATTRIBUTES == tuple(a.key for a in schema.attributes())
     assert _native.lib().mjfx_registry_capacity() == _callback.CAPACITY
     assert _native.lib().mjfx_element_field(None) == _native.ELEMENT_DTYPE.itemsize
 

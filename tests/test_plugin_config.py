@@ -59,11 +59,11 @@ def _flat(M):
 
 # (config changes, the problem the message states, the fix it names)
 CASES = {
-    "K missing": ({"K": None}, r"the stiffness K is missing", r'Add <config key="K"'),
+    "K missing": ({"K": None}, r"K is missing", r"give 6 numbers \(the diagonal\) or 36"),
     "K not a number": ({"K": "1 2 x 4 5 6"}, r"K has 'x', which is not a number", r"numbers separated by spaces"),
     "K of 5 numbers": ({"K": "1 2 3 4 5"}, r"K has 5 numbers", r"Give 6 numbers \(the diagonal\) or 36"),
-    "K NaN": ({"K": "nan 2 3 4 5 6"}, r"K\[0, 0\] = nan is not finite", r"Fix its K attribute"),
-    "K infinite": ({"K": "1 2 3 inf 5 6"}, r"K\[3, 3\] = inf is not finite", r"Fix its K attribute"),
+    "K NaN": ({"K": "nan 2 3 4 5 6"}, r"K\[0, 0\] = nan is not finite", r"Fix K"),
+    "K infinite": ({"K": "1 2 3 inf 5 6"}, r"K\[3, 3\] = inf is not finite", r"Fix K"),
     "K beyond 1e280": ({"K": "1 2 3 1e300 5 6"}, r"K\[3, 3\] = 1e\+300 is beyond 1e\+280", r"check its units"),
     "K not symmetric": (
         {"K": _flat(ASYMMETRIC)},
@@ -73,12 +73,12 @@ CASES = {
     "K indefinite": ({"K": _flat(INDEFINITE)}, r"K is not positive semi-definite", r"coupling block K_c"),
     "B of another size": ({"B": "1 2 3"}, r"B has 3 numbers", r"Give 6 or 36 numbers, as K"),
     "B indefinite": ({"B": "1 -2 3 4 5 6"}, r"B is not positive semi-definite", r"generates energy"),
-    "method misspelt": ({"method": "twst"}, r"unknown method 'twst'", r'Use method="twist" or "dualquat"'),
+    "method misspelt": ({"method": "twst"}, r"unknown method 'twst'", r'Use method "twist" or "dualquat"'),
     "switch not a boolean": ({"enabled": "yes"}, r"enabled must be true or false; got 'yes'", r"true or false"),
     "odd dualquat order": (
         {"method": "dualquat", "order": "3", "exponents": "0 0 0 0 0 2 0 0", "coefficients": "1"},
         r"order must be an integer >= 2 and even",
-        r"order attribute",
+        r"Fix order",
     ),
     "exponents not in rows": (
         {"order": "3", "exponents": "0 0 3 0 0", "coefficients": "1"},
@@ -91,17 +91,17 @@ CASES = {
         r"one coefficient per term",
     ),
     "a linear term": ({"order": "3", "exponents": "0 0 1 0 0 0", "coefficients": "1"}, r"is a linear term", r"drop it"),
-    "terms without order": (
+    "terms above the default order": (
         {"exponents": "0 0 3 0 0 0", "coefficients": "1"},
-        r"terms need the order",
-        r"add the order attribute",
+        r"exponents row 0 has degree 3, above order 2",
+        r"raise order",
     ),
     "negative strain": (
         {"strain_per_radian": "-1"},
-        r"strain_per_radian must be one finite non-negative number",
+        r"strain_per_radian must be a finite number >= 0",
         r"got '-1'",
     ),
-    "source not JSON": ({"source": "{formula: 1}"}, r"source must be a JSON object", r"standard JSON"),
+    "source not JSON": ({"source": "{formula: 1}"}, r"source must be one JSON object", r"standard JSON"),
     "site_a missing": ({"site_a": None}, r"site_a is missing", r'value="SITE"'),
     "site_b unknown": ({"site_b": "e/c"}, r"site_b 'e/c' is not a site of the model", r'Add <site name="e/c"/>'),
 }

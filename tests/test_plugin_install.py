@@ -165,8 +165,9 @@ def test_the_element_struct_is_mirrored_exactly():
 
 
 def test_without_the_library_import_mjflex_works_and_the_first_use_says_how_to_install_it(tmp_path):
-    """One runtime: no Python fallback. The core needs no library; Flexures raises NativeLibraryError naming the
-    wheel and the compiler (MJFLEX_NATIVE_DIR points mjflex_plugin at an empty folder: a broken install)."""
+    """One runtime: no Python fallback. The core needs no library; an element's first use (add_flexure, which has
+    the library check it, in either form) raises NativeLibraryError naming the element, the wheel and the compiler
+    (MJFLEX_NATIVE_DIR points mjflex_plugin at an empty folder: a broken install)."""
     code = """
 import mujoco, mjflex, mjflex_plugin
 from tests.models import two_body_spec
@@ -180,6 +181,6 @@ except mjflex_plugin.NativeLibraryError as exc:
     result = _run(code, MJFLEX_NATIVE_DIR=str(tmp_path))
     assert result.returncode == 0, result.stderr
     assert "core 0.005" in result.stdout  # K_z (0.1 m)^2 / 2
-    assert "refused: mjflex's native library" in result.stdout
+    assert "refused: flexure 'link': flexure elements need mjflex's native library" in result.stdout
     assert "Install mjflex's binary wheel, which needs no compiler" in result.stdout
     assert "Install gcc, then pip install" in result.stdout

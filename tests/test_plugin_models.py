@@ -70,18 +70,20 @@ def test_add_flexure_writes_plugin_elements_by_default():
 
 
 def test_without_the_native_library_plugin_elements_are_refused_by_name(monkeypatch):
-    """A broken install (no library): add_flexure's default refuses, naming the element and how to install it."""
+    """A broken install (no library): add_flexure refuses either form (the library checks a record too), naming the
+    element and how to install it."""
 
     def missing():
         raise mjflex_plugin.NativeLibraryError("mjflex's native library is not built here (no C compiler)")
 
+    spec = two_body_spec(B=B_DEMO)
     monkeypatch.setattr(_native, "_STATE", {})
     monkeypatch.setattr(mjflex_plugin, "library", missing)
-    spec = two_body_spec(B=B_DEMO)  # a text record still builds
     before = spec.to_xml()
-    with pytest.raises(RuntimeError, match=r"flexure 'x': flexure elements need mjflex's native library, the engine "
-                       r"plugin mjflex.flexure: .*no C compiler"):  # fmt: skip
-        mjflex.add_flexure(spec, "x", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO)
+    for kind in ("plugin", "record"):
+        with pytest.raises(RuntimeError, match=r"flexure 'x': flexure elements need mjflex's native library, the "
+                           r"engine plugin mjflex.flexure: .*no C compiler"):  # fmt: skip
+            mjflex.add_flexure(spec, "x", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO, kind=kind)
     assert spec.to_xml() == before  # refused before anything was added
     with pytest.raises(RuntimeError, match=r"native library is not built here"):
         mjflex.Flexures(spec.compile())  # a text record's forces come from the same library

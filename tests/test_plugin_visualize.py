@@ -18,7 +18,7 @@ import mjflex
 from mjflex.app import render
 from mjflex.app.arcade import STRAIN_SCALE
 from mjflex.app.simulate import simulate
-from mjflex.mjcf import schema
+from mjflex.native import library
 from tests.models import K_DEMO, two_body_spec
 from tests.plugin_models import MODELS, as_records
 
@@ -103,14 +103,14 @@ def test_without_strain_per_radian_the_rotation_is_shown_and_strain_scale_sets_t
     with mujoco.Renderer(model, 60, 80) as renderer:
         renderer.update_scene(data)
         rgba = {g.objid: g.rgba.copy() for g in _plugin_geoms(renderer)}
-    scales = (schema.DEFAULT_ROTATION_SCALE, 0.006 / 0.2)  # rotation over 0.1 rad; strain over the element's own
+    scales = (library.constant("DEFAULT_ROTATION_SCALE"), 0.006 / 0.2)  # rotation over 0.1 rad; strain: its own
     for e, scale in enumerate(scales):
         assert 0.05 < bending[e] / scale < 0.95  # within the colour range: the scale shows
         np.testing.assert_allclose(rgba[e], render.strain_colors(bending[e] / scale, 1.0), atol=2e-6)
     with pytest.raises(ValueError, match="strain_scale must be"):
         mjflex.add_flexure(spec, "bad", "A", "B", pos=[0.1, 0.02, 0.5], K=K_DEMO, strain_scale=0.0)
     spec.plugins[1].config = {**dict(spec.plugins[1].config), "strain_scale": "-1"}
-    with pytest.raises(ValueError, match=r"flexure 'scaled'.*strain_scale must be one finite positive number"):
+    with pytest.raises(ValueError, match=r"flexure 'scaled'.*strain_scale must be a finite number > 0"):
         spec.compile()
 
 

@@ -81,7 +81,10 @@ def test_core_refuses_a_rest_pose_that_is_not_one(rest, match):
 # ------------------------------------------------------------------ the C engine of both forms
 
 
-RESTS = {"grounded": ([0.003, -0.002, 0.001], _quat([0.3, -0.1, 0.2])), "joint": ([0.0, 0.0, 0.0], _quat([0, 0, 0.4]))}
+#: the joint's quaternion written with 7 significant digits: norm 1 within the tolerance, not to the last bit (the C
+#: library normalizes it, as the core does)
+RESTS = {"grounded": ([0.003, -0.002, 0.001], _quat([0.3, -0.1, 0.2])),
+         "joint": ([0.0, 0.0, 0.0], [float(f"{v:.7g}") for v in _quat([0, 0, 0.4])])}  # fmt: skip
 
 
 def residual_spec(kind):
@@ -200,18 +203,19 @@ def _one(kind="plugin", **kwargs):
     body = spec.worldbody.add_body(name="b0", pos=[0.1, 0, 0], mass=0.2, inertia=[2e-4] * 3)
     body.explicitinertial = True
     body.add_freejoint()
-    handle = mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], K=[1.0] * 6, kind=kind, **kwargs)
+    handle = mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], kind=kind, **{"K": [1.0] * 6, **kwargs})
     return spec, handle
 
 
 @pytest.mark.parametrize(
     ("rest", "match"),
     [
-        (([0, 0, 0], [1.0, 1.0, 0, 0]), r"rest of flexure 'disc2' quat has norm 1.41421356, so it is not a rotation"),
-        (([0, 0, 0], [0.7071, 0, 0, 0.7071]), r"quat has norm 0.99999\d*, so it is not a rotation"),
-        (([0, 0, np.nan], [1.0, 0, 0, 0]), r"rest of flexure 'disc2' pos is not finite"),
-        (([0, 0, 0, 0], [1.0, 0, 0, 0]), r"rest of flexure 'disc2' pos must have 3 numbers"),
-        ({"pos": [0, 0, 0]}, r"rest of flexure 'disc2' must be a pose \(pos, quat\)"),
+        (([0, 0, 0], [1.0, 1.0, 0, 0]), r"flexure 'disc2': rest.quat \(1 1 0 0\) has norm 1.41421356, so it is not a"),
+        (([0, 0, 0], [0.7071, 0, 0, 0.7071]), r"rest.quat \(0.7071 0 0 0.7071\) has norm 0.99999\d*, so it is not a"),
+        (([0, 0, np.nan], [1.0, 0, 0, 0]), r"flexure 'disc2': rest.pos has nan \(number 2\); give finite numbers"),
+        (([0, 0, 0, 0], [1.0, 0, 0, 0]), r"flexure 'disc2': rest.pos has 4 numbers; give 3"),
+        (([0, 0, 0], [1.0, 0, 0]), r"flexure 'disc2': rest.quat has 3 numbers; give 4"),
+        ({"pos": [0, 0, 0]}, r"flexure 'disc2': rest must be a pose \(pos, quat\)"),
     ],
 )
 def test_add_flexure_refuses_a_bad_rest_pose_naming_the_element(rest, match):
@@ -226,7 +230,7 @@ def test_add_flexure_refuses_a_bad_rest_pose_naming_the_element(rest, match):
     ("config", "match"),
     [
         ({"rest_quat": "1 1 0 0"}, r"rest_quat \(1 1 0 0\) has norm 1.41421356, so it is not a rotation"),
-        ({"rest_quat": "nan 0 0 0"}, "rest_quat has nan; give finite numbers"),
+        ({"rest_quat": "nan 0 0 0"}, r"rest_quat has nan \(number 0\); give finite numbers"),
         ({"rest_quat": "1 0 0"}, "rest_quat has 3 numbers; give 4"),
         ({"rest_pos": "0 0"}, "rest_pos has 2 numbers; give 3"),
         ({"rest_pos": "0 x 0"}, "rest_pos has 'x', which is not a number"),
@@ -243,8 +247,8 @@ def test_a_plugin_instance_with_a_bad_rest_pose_fails_to_compile_naming_the_elem
     ("rest_json", "match"),
     [
         ('{"pos": [0, 0, 0], "quat": [1, 1, 0, 0]}', "not a rotation"),
-        ('{"pos": [0, 0]}', '"rest" "pos" must be a list of 3 numbers'),
-        ('{"angle": 1}', '"rest" must be an object with the keys "pos"'),
+        ('{"pos": [0, 0]}', "rest.pos has 2 numbers; give 3"),
+        ('{"angle": 1}', r'"rest" has unknown key\(s\) \[\'angle\'\]; the allowed keys are \[\'pos\', \'quat\'\]'),
         ("[0, 0, 0]", '"rest" must be an object'),
     ],
 )
@@ -252,8 +256,48 @@ def test_a_record_with_a_bad_rest_pose_is_a_model_error_naming_the_element(rest_
     spec, _ = _one("record")
     text = spec.text("mjflex:disc")
     text.data = text.data[:-1] + f', "rest": {rest_json}}}'
-    with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': text record 'mjflex:disc' is malformed: .*{match}"):
+    with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*{match}"):  # the C library's, or JSON's
         mjflex.Flexures(spec.compile())
+
+
+@pytest.mark.parametrize("kind", ["plugin", "record"])
+@pytest.mark.parametrize("part", ["pos", "quat"])
+def test_a_rest_pose_given_in_part_is_the_identity_elsewhere_in_python_as_in_c(kind, part):
+    """Only the rest position (or only the quaternion) given: the record's rest pose holds the identity's other part,
+    the one the C library composes, so the core with the record's rest pose gives C's wrench."""
+    given = {"pos": [0.002, -0.001, 0.003], "quat": [float(v) for v in _quat([0.1, 0.2, -0.1])]}[part]
+    spec, handle = _one(kind)
+    if kind == "plugin":
+        handle.plugin.config = {**dict(handle.plugin.config), f"rest_{part}": " ".join(map(repr, given))}
+    else:
+        text = spec.text("mjflex:disc")
+        text.data = text.data[:-1] + f', "rest": {{"{part}": {given}}}}}'
+    model = spec.compile()
+    flex, data = mjflex.Flexures(model), mujoco.MjData(model)
+    identity = {"pos": (0.0, 0.0, 0.0), "quat": (1.0, 0.0, 0.0, 0.0)}
+    assert flex.records[0].rest == tuple(tuple(given) if p == part else identity[p] for p in ("pos", "quat"))
+    data.qpos[:3] += [0.01, -0.02, 0.005]
+    mujoco.mj_forward(model, data)
+    We, _ = core_element(model, flex, data, 0)
+    assert np.abs(flex.wrenches(data)[0] - We).max() <= 1e-12 * np.abs(We).max()
+
+
+@pytest.mark.parametrize("method", ["twist", "dualquat"])
+def test_the_largest_rest_position_and_stiffness_give_finite_forces(method):
+    """At the table's bounds, a rest position of 1e10 m (MuJoCo's largest position, mjMAXVAL) and K of 1e280, the
+    forces, wrenches and energy are finite at the compiled pose and at MuJoCo's largest position, turned half a
+    turn (the native fuzzer, seed 33, config:852, found a rest position of -1e280 accepted and its forces
+    infinite)."""
+    for quat in ([1.0, 0, 0, 0], [0, 0, 0, 1.0]):
+        spec, _ = _one(K=[1e280] * 6, method=method, rest=([1e10, -1e10, 1e10], quat))
+        model = spec.compile()
+        data, flex = mujoco.MjData(model), mjflex.Flexures(model)
+        for q in (0.0, 1e10):
+            data.qpos[:3] = [q, -q, q]
+            data.qpos[3:7] = [0, 1, 0, 0] if q else [1, 0, 0, 0]
+            mujoco.mj_forward(model, data)
+            assert np.abs(data.qfrc_passive).max() > 1e289 and np.isfinite(data.qfrc_passive).all()
+            assert np.isfinite(flex.wrenches(data)).all() and 1e299 < flex.potential_energy(data) < np.inf
 
 
 def test_variants_say_what_becomes_of_a_rest_pose():

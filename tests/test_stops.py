@@ -396,13 +396,13 @@ def test_stops_keep_what_was_given_and_derive_the_rest():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"lower": [0.2] + [None] * 5, "upper": [0.1] + [None] * 5}, r"lower of rx \(0.2\) is above upper"),
+        ({"lower": [0.2] + [None] * 5, "upper": [0.1] + [None] * 5}, r"lower of rx \(0.2\) is above its stops.upper"),
         ({"upper": [np.nan] * 6}, "upper of rx is NaN"),
         ({"lower": [INF] * 6}, r"lower of rx is inf, a stop that would push at every pose"),
         ({"upper": [None, None, 20.0, None, None, None]}, r"upper of rz is 20 rad, beyond pi.*not degrees"),
         ({"upper": [None, None, 0.1]}, None),  # planar: fine
-        ({"upper": [0.1] * 4}, "one limit per coordinate: 6"),
-        ({"lower": [-0.1] * 6, "upper": [0.1] * 3}, "different lengths"),
+        ({"upper": [0.1] * 4}, r"stops.upper has 4 limits: give one per coordinate, 6"),
+        ({"lower": [-0.1] * 6, "upper": [0.1] * 3}, "stops.lower has 6 limits but stops.upper 3"),
         ({"upper": [0.1] * 6, "stiffness": -1.0}, ">= 0"),
         ({"upper": [0.1] * 6, "stiffness": [1.0] * 5}, "one per coordinate"),
         ({"upper": [0.1] * 6, "stiffness": np.inf}, "finite"),
@@ -422,7 +422,7 @@ def test_bad_stops_are_refused_saying_what_to_fix(kwargs, match):
 def test_add_flexure_checks_the_stops_against_the_element_before_changing_the_spec():
     spec = _bodies(mujoco.MjSpec(), 1)
     before = spec.to_xml()
-    with pytest.raises(ValueError, match=r"flexure 'x': the stops give 6 limits but the element is planar"):
+    with pytest.raises(ValueError, match=r"flexure 'x': stops.upper has 6 limits but the element is planar"):
         mjflex.add_flexure(
             spec, "x", "world", "b0", pos=[0.1, 0, 0], K=[1.0, 1e3, 1e3], stops=mjflex.Stops(upper=[0.1] * 6)
         )
@@ -448,8 +448,8 @@ def _record_model(stops_json):
 @pytest.mark.parametrize(
     ("stops_json", "match"),
     [
-        ('{"lower": [0.1, null, null, null, null, null], "upper": [0.0, null, null, null, null, null]}', "above upper"),
-        ('{"upper": [0.1, 0.1, 0.1]}', "the stops give 3 limits but the element is spatial"),
+        ('{"lower": [0.1, null, null, null, null, null], "upper": [0.0, null, null, null, null, null]}', "above its"),
+        ('{"upper": [0.1, 0.1, 0.1]}', "stops.upper has 3 limits but the element is spatial"),
         ('{"upper": [0.1, 0.1, 0.1, 0.1, 0.1, 0.1], "stiffness": -2}', ">= 0"),
         ('{"upper": [0.1, 0.1, 0.1, 0.1, 0.1, 0.1], "range": 1}', r"unknown key\(s\) \['range'\]"),
         ('{"upper": [90, null, null, null, null, null]}', "beyond pi"),
@@ -458,7 +458,7 @@ def _record_model(stops_json):
 )
 def test_a_record_with_bad_stops_is_a_model_error_naming_the_element(stops_json, match):
     model = _record_model(stops_json)
-    with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': text record 'mjflex:disc' is malformed: .*{match}"):
+    with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*{match}"):
         mjflex.Flexures(model)
 
 
@@ -469,9 +469,9 @@ def test_a_record_with_bad_stops_is_a_model_error_naming_the_element(stops_json,
             {"stop_lower": "0.1 0 0 0 0 0", "stop_upper": "0 0 0 0 0 0"},
             r"stop_lower of rx \(0.1\) is above its stop_upper",
         ),
-        ({"stop_upper": "0.1 0.1 0.1"}, "stop_upper has 3 numbers; give 6"),
+        ({"stop_upper": "0.1 0.1 0.1"}, "stop_upper has 3 limits but the element is spatial: give 6"),
         ({"stop_upper": "nan inf inf inf inf inf"}, "stop_upper of rx is NaN"),
-        ({"stop_upper": "0.1 inf inf inf inf inf", "stop_stiffness": "-1"}, "stop_stiffness of rx is -1"),
+        ({"stop_upper": "0.1 inf inf inf inf inf", "stop_stiffness": "-1"}, "stop_stiffness of every coordinate is -1"),
         ({"stop_upper": "0.1 inf inf inf inf inf", "stop_stiffness": "1 2"}, "stop_stiffness has 2 numbers"),
         ({"stop_stiffness": "3"}, "stop_stiffness is given but there is no stop"),
         ({"stop_lower": "-200 -inf -inf -inf -inf -inf"}, "stop_lower of rx is -200 rad, beyond pi"),

@@ -139,6 +139,16 @@ class PolynomialTerms:
         if self.method == "dualquat":
             _check_rest_stress(e, c)
 
+    @classmethod
+    def checked(cls, method, exponents, coefficients) -> "PolynomialTerms":
+        """Terms whose rules were checked elsewhere (an element's, by the C library): not checked again."""
+        terms = object.__new__(cls)
+        e, c = np.array(exponents, dtype=np.int64), np.array(coefficients, dtype=np.float64)
+        e.flags.writeable = c.flags.writeable = False
+        for name, value in (("method", method), ("exponents", e), ("coefficients", c)):
+            object.__setattr__(terms, name, value)
+        return terms
+
     def __len__(self):
         return len(self.coefficients)
 

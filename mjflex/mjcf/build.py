@@ -10,7 +10,6 @@ from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
 from . import schema
-from . import stops as _stops
 from .elements import add_plugin_element, detach_instance, find_element, require_native_library
 from .notices import warn_likely_mistake
 from .schema import PLUGIN
@@ -26,6 +25,7 @@ from .spec import (
     site_pose,
     unit_quaternion,
 )
+from .stops import Stops, coordinate_masses, resolved
 
 SITE_SIZE = 0.002  # m, radius of the element's sites (visual only; round ellipsoids, see add_flexure)
 #: Site groups (the one definition): ``add_flexure`` puts both sites of an element in
@@ -78,7 +78,7 @@ class FlexureHandle:
 def add_flexure(
     spec, name, body_a, body_b, *, pos=None, quat=None, site=None, frame="world", K, B=None, method="twist",
     terms=None, stiffness_frame=None, enabled=True, viscous=True, strain_per_radian=None, source=None, poses=None,
-    exclude_contact=True, kind="plugin", strain_scale=None, stops=None, rest=None,
+    exclude_contact=True, kind="plugin", stops=None, rest=None, **attributes,
 ):  # fmt: skip
     """Add a flexure element between two bodies of ``spec``.
 
@@ -128,9 +128,6 @@ def add_flexure(
         Initial run-time switches stored in the model.
     strain_per_radian : float, optional
         Peak bending strain per radian about the frame's z axis, stored for reports and colours.
-    strain_scale : float, optional
-        Full scale of the element's strain colour in MuJoCo's viewer: the strain (the rotation
-        about z [rad] without ``strain_per_radian``) drawn red; default 1 % strain (0.1 rad).
     source : dict, optional
         JSON-serializable description of where K and B come from, stored in the model file.
     poses : tuple, optional
@@ -154,7 +151,7 @@ def add_flexure(
         ``pos`` [x, y, z] [m] and ``quat`` [w, x, y, z] (a unit quaternion), in the element frame.
         Its energy, wrench and stop coordinates count from it; a rest pose away from the compiled
         one preloads the element (as MuJoCo's ``springref`` does a joint spring). Default: the
-        compiled pose (the frames coincide).
+        compiled pose (the frames coincide). Stored as written; the C library checks it.
     kind : {"plugin", "record"}
         How the element is written (:mod:`mjflex.mjcf.schema`). ``"plugin"`` (default): an
         instance of the engine plugin ``mjflex.flexure`` named ``name``, whose forces belong to
@@ -164,9 +161,12 @@ def add_flexure(
         native library (built by ``pip install``; RuntimeError saying how otherwise).
         ``"record"``: a text record, whose forces :class:`mjflex.Flexures` adds through
         MuJoCo's process-wide ``mjcb_passive`` while installed (``with flex:``); it has run-time
-        switches (``set_method`` & co.); writing it needs no native library, but its forces
-        do, as every force (:class:`mjflex.Flexures` computes them in C). Both carry the same
-        parameters, and ``python -m mjflex convert`` turns one into the other losslessly.
+        switches (``set_method`` & co.). Both carry the same parameters, and ``python -m mjflex
+        convert`` turns one into the other losslessly. Either needs mjflex's native library (built
+        by ``pip install``), which checks the element's parameters.
+    **attributes
+        Any other attribute of the record (:class:`mjflex.FlexureRecord`; the table of
+        ``docs/reference/mjcf_schema.md``), e.g. the display-only ones, stored as given.
 
     Returns
     -------
@@ -188,10 +188,7 @@ def add_flexure(
     >>> mjflex.Flexures(spec.compile())
     Flexures(1 elements: leaf)
     """
-    _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact)
-    if strain_scale is not None:
-        validation.check_number(strain_scale, "strain_scale", above=0.0)
-    validation.method_code(method)
+    _check_arguments(spec, name, enabled, viscous, source, exclude_contact)
     if kind not in ("plugin", "record"):
         raise ValueError(f'kind must be "plugin" or "record"; got {validation.shorten(kind)}')
     site_names = schema.site_names(name)
@@ -204,12 +201,9 @@ def add_flexure(
             f"flexure {name!r} already exists in the spec (its sites, text record or plugin instance); pick another "
             "name"
         )
-    if kind == "plugin":
-        require_native_library(name)  # before anything is added: a refusal leaves the spec as it was
-    K = schema.element_matrix(K, f"K of flexure {name!r}")
-    B = None if B is None else schema.element_matrix(B, f"B of flexure {name!r}")
-    if B is not None and B.shape != K.shape:
-        raise ValueError(f"flexure {name!r}: B has shape {B.shape} but K has {K.shape}; both 6x6 or both 3x3")
+    require_native_library(name)  # before anything is added: a refusal leaves the spec as it was
+    K = schema.matrix_value(K, f"K of flexure {name!r}")
+    B = None if B is None else schema.matrix_value(B, f"B of flexure {name!r}")
     bodies = find_body(spec, body_a, "body_a"), find_body(spec, body_b, "body_b")
     if bodies[0] is bodies[1]:
         raise ValueError(f"flexure {name!r}: body_a and body_b are the same body; an element joins two bodies")
@@ -223,18 +217,21 @@ def add_flexure(
         p_WF = validation.as_array(stiffness_frame[0], "stiffness_frame pos", (3,))
         R_WF = rotation_from_quaternion(unit_quaternion(stiffness_frame[1], "stiffness_frame quat"))
         R_FE, p_FE = R_WF.T @ R_WE, R_WF.T @ (p_WE - p_WF)
-        B = None if B is None else stiffness_in_frame(B, R_FE, p_FE)
+        B = None if B is None else stiffness_in_frame(B, R_FE, p_FE, check=False)  # checked once, below, by C
         if terms is not None and len(terms):
             K, terms = potential_in_frame(K, terms, R_FE, p_FE)
         else:
-            K = stiffness_in_frame(K, R_FE, p_FE)
-    rest = schema.checked_rest(rest, f"rest of flexure {name!r}")
-    stops = _stops.checked(stops, K, name)
-    if stops is not None and stops.needs_model:
+            K = stiffness_in_frame(K, R_FE, p_FE, check=False)
+    if stops is not None and not isinstance(stops, Stops):
+        raise TypeError(f"flexure {name!r}: stops must be a mjflex.Stops (or None); got {type(stops).__name__}")
+    if stops and stops.needs_model:
         stops = _resolved_stops(spec, name, stops, K, bodies, p_WE, R_WE)
-    record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
-                                  *_checked_terms(terms, method, K, name), site=frame_site,
-                                  strain_scale=strain_scale, stops=stops, rest=rest)  # fmt: skip
+    try:
+        record = schema.FlexureRecord(name, method, K, B, enabled, viscous, strain_per_radian, source,
+                                      *_checked_terms(terms, method, name), site=frame_site, stops=stops or None,
+                                      rest=_rest_pose(rest, name), **attributes)  # fmt: skip
+    except TypeError as exc:
+        raise TypeError(f"add_flexure: {exc}") from None
     text_data = _record_text(record)
     sites = []
     for b, site_name in zip(bodies, site_names, strict=True):
@@ -263,8 +260,7 @@ def _resolved_stops(spec, name, stops, K, bodies, p_WE, R_WE):
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     ids = [0 if b is spec.worldbody else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in bodies]
-    masses = _stops.coordinate_masses(model, data, *ids, p_WE, R_WE, K.shape[0])
-    return _stops.resolved(stops, K, masses, name)
+    return resolved(stops, K, coordinate_masses(model, data, *ids, p_WE, R_WE, K.shape[0]), name)
 
 
 def _element_frame(spec, name, bodies, pos, quat, site, poses, frame="world"):
@@ -397,8 +393,8 @@ def remove_flexure(spec, name) -> None:
         spec.delete(part)
 
 
-def _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, exclude_contact):
-    """The types of :func:`add_flexure`'s scalar arguments (the record's rules follow in :func:`_record_text`)."""
+def _check_arguments(spec, name, enabled, viscous, source, exclude_contact):
+    """The types of :func:`add_flexure`'s Python arguments (the record's rules follow in :func:`_record_text`)."""
     if not isinstance(spec, mujoco.MjSpec):
         raise TypeError(f"spec must be a mujoco.MjSpec; got {type(spec).__name__}")
     if not isinstance(name, str) or not name:
@@ -406,26 +402,33 @@ def _check_arguments(spec, name, enabled, viscous, strain_per_radian, source, ex
     validation.check_flag(enabled, "enabled")
     validation.check_flag(viscous, "viscous")
     validation.check_flag(exclude_contact, "exclude_contact")
-    if strain_per_radian is not None:
-        validation.check_number(strain_per_radian, "strain_per_radian", at_least=0.0)
     if source is not None and not isinstance(source, dict):
         raise TypeError(f"source must be a dict (JSON-serializable) or None; got {type(source).__name__}")
 
 
 def _record_text(record):
-    """The record's JSON text, checked by the same rules as a record read from a file (schema.parse_text)."""
+    """The record's JSON text, its parameters checked once, by the C library (a record's rules and messages)."""
     try:
         text = record.to_text()
     except (TypeError, ValueError) as exc:  # json.dumps of a source holding other objects, or a cycle
         raise TypeError(f"flexure {record.name!r}: source must hold JSON values only: {exc}") from None
-    try:
-        schema.parse_text(record.name, text)
-    except ValueError as exc:
-        raise ValueError(f"flexure {record.name!r}: {exc}") from None
+    schema.read_config(record.name, schema.config_of(record), schema.RECORD)
     return text
 
 
-def _checked_terms(terms, method, K, name):
+def _rest_pose(rest, name):
+    """The ``rest`` argument as a record holds it, ``((x, y, z), (w, x, y, z))`` of floats, or None (its rules: the
+    C library's, when the record is written)."""
+    if rest is None:
+        return None
+    if isinstance(rest, str | bytes | dict) or not hasattr(rest, "__len__") or len(rest) != 2:
+        raise ValueError(f"flexure {name!r}: rest must be a pose (pos, quat): ([x, y, z], [w, x, y, z]); got "
+                         f"{validation.shorten(rest)}")  # fmt: skip
+    parts = (validation.numeric_array(part, f"rest of flexure {name!r}").reshape(-1) for part in rest)
+    return tuple(tuple(float(v) for v in part) for part in parts)
+
+
+def _checked_terms(terms, method, name):
     """``(terms, order)`` for the record: None and 2 without terms; raises ValueError naming the element."""
     if terms is None:
         return None, 2
@@ -433,13 +436,7 @@ def _checked_terms(terms, method, K, name):
         raise ValueError(f"flexure {name!r}: terms must be a mjflex.PolynomialTerms; got {type(terms).__name__}")
     if terms.method != method:
         raise ValueError(f"flexure {name!r}: the terms are in {terms.method} coordinates; pass method={terms.method!r}")
-    if len(terms) == 0:
-        return None, 2
-    payload = {"order": terms.order, "terms": {k: v for k, v in terms.to_dict().items() if k != "method"}}
-    try:  # the record's own checks (e.g. K plus the terms' stiffness at rest is PSD)
-        return schema.order_and_terms(payload, method, K)[::-1]
-    except ValueError as exc:
-        raise ValueError(f"flexure {name!r}: {exc}") from None
+    return (terms, terms.order) if len(terms) else (None, 2)
 
 
 def add_flexure_in_body_frame(spec, name, body_a, body_b, *, pos, quat=(1.0, 0.0, 0.0, 0.0), poses=None, **kwargs):

@@ -52,13 +52,9 @@ class SpecElement:
 
     def record(self) -> schema.FlexureRecord:
         """Its parameters; raises ValueError naming the element and what to fix."""
-        try:
-            if self.kind == RECORD:
-                return schema.parse_text(self.name, self.holder.data)
-            return record_from_config(self.name, dict(self.holder.config))
-        except ValueError as exc:
-            where = "text record" if self.kind == RECORD else f"{schema.PLUGIN_NAME} configuration"
-            raise ValueError(f"flexure {self.name!r}: its {where} is malformed: {exc}") from None
+        if self.kind == RECORD:
+            return schema.parse_text(self.name, self.holder.data)
+        return record_from_config(self.name, dict(self.holder.config))
 
 
 def spec_elements(spec) -> list[SpecElement]:
@@ -122,24 +118,23 @@ def element_record(spec, name) -> schema.FlexureRecord:
 def write_record(spec, name, record: schema.FlexureRecord) -> None:
     """Replace the parameters of element ``name`` by ``record``, in the element's own form.
 
-    The record is checked by the schema's rules first (ValueError naming the element); the
-    sites are not touched.
+    The record is checked first, once, by the C library in the element's form (ValueError naming the
+    element); the sites are not touched.
     """
     element = find_element(spec, name)
     record = schema.FlexureRecord(**{**record.__dict__, "name": element.name})
-    text = record.to_text()
-    try:
-        schema.parse_text(element.name, text)
-    except ValueError as exc:
-        raise ValueError(f"flexure {element.name!r}: {exc}") from None
+    config = config_from_record(record, *_config_sites(element))
+    schema.read_config(element.name, config, element.kind)
     if element.kind == RECORD:
-        element.holder.data = text
+        element.holder.data = record.to_text()
     else:
-        element.holder.config = config_from_record(record, *_config_sites(element))
+        element.holder.config = config
 
 
 def _config_sites(element):
-    """The site names as the instance's configuration writes them (unprefixed under attach)."""
+    """The site names as the element's configuration writes them (an instance's: unprefixed under attach)."""
+    if element.kind == RECORD:
+        return element.site_a, element.site_b
     config = dict(element.holder.config)
     return config.get("site_a", element.site_a), config.get("site_b", element.site_b)
 
@@ -288,12 +283,11 @@ def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
     """
     record = element_record(spec, element)  # KeyError naming close matches
     if K is not None:
-        record.K = schema.element_matrix(K, f"K of flexure {element!r}")
+        record.K = schema.matrix_value(K, f"K of flexure {element!r}")
     if B is not None:
-        arr = np.asarray(B, dtype=float)
-        record.B = None if arr.size == 0 else schema.element_matrix(B, f"B of flexure {element!r}")
-        if arr.size == 0:
-            record.viscous = True
+        empty = np.size(B) == 0
+        record.B = None if empty else schema.matrix_value(B, f"B of flexure {element!r}")
+        record.viscous = True if empty else record.viscous
     write_record(spec, element, record)
 
 

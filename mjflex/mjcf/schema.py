@@ -1,105 +1,34 @@
-"""How a flexure element is stored in an MJCF model file.
+"""How a flexure element is stored in an MJCF model file: the two forms, read and written from one table.
 
-An element named ``E`` (any text) is
+An element named ``E`` (any text) is two sites at the same world pose in the model's reference configuration
+(``qpos0``), on body A and body B, and its parameters in one of two forms:
 
-* two sites, ``E/a`` on body A and ``E/b`` on body B, at the same world pose in the model's
-  reference configuration (``qpos0``): the element frame. ``E.a`` and ``E.b`` are read as
-  well: dm_control's ``mjcf`` rejects ``/`` in names (it reserves it for its scopes);
-* a custom text record ``<text name="mjflex:E" data="{...}"/>`` whose data is a JSON object
-  with the keys
+* a custom text record ``<text name="mjflex:E" data="{...}"/>`` whose data is a JSON object: ``"mjflex": 1`` (the
+  schema version) and the record's keys; its sites are ``E/a`` and ``E/b`` (or ``E.a``, ``E.b``: dm_control's
+  ``mjcf`` rejects ``/`` in names);
+* an instance named ``E`` of mjflex's engine plugin ``mjflex.flexure`` (:mod:`mjflex.mjcf.config`), whose
+  ``<config>`` attributes hold the same parameters as text and name its sites.
 
-  - ``"mjflex"``: schema version, ``1`` (required);
-  - ``"method"``: ``"twist"`` (default) or ``"dualquat"``;
-  - ``"K"``: stiffness in the element frame (required): a 6x6 nested list or 6 numbers (the
-    diagonal); 3x3 / 3 numbers for a planar element ``[theta_z; x; y]`` in the frame's x-y
-    plane;
-  - ``"B"``: damping, same layout as ``K`` (default: none, purely elastic);
-  - ``"order"`` and ``"terms"``: a higher-order potential (:mod:`mjflex.core.polynomial`):
-    ``"order"`` is its order N (an integer >= 2, even for ``"dualquat"``; default 2, the
-    quadratic potential of ``K``) and ``"terms"`` the polynomial terms added to ``K``'s energy,
-    ``{"exponents": [[...], ...], "coefficients": [...]}``: one row of 6 (twist: ``tau, t``) or
-    8 (dual quaternion: ``sigma, xi, s', x'``) exponents per term, in the coordinates of
-    ``"method"`` (also for planar elements), degrees at most ``"order"``. ``"terms"`` needs
-    ``"order"``; what :func:`mjflex.fit_potential` returns goes in as
-    ``fit.terms.to_dict()`` (less its ``"method"``);
-  - ``"enabled"``, ``"viscous"``: run-time switches, ``true`` (default) or ``false``;
-  - ``"strain_per_radian"``: peak bending strain per radian about the frame's z axis, used in
-    reports and strain colours (optional);
-  - ``"strain_scale"``: the full scale of the element's strain colour in MuJoCo's viewer (the
-    engine plugin's drawing): the bending strain shown red, or, without ``"strain_per_radian"``,
-    the rotation about z [rad] shown red (optional; default ``DEFAULT_STRAIN_SCALE`` = 1 % strain,
-    or ``DEFAULT_ROTATION_SCALE`` = 0.1 rad);
-  - ``"source"``: any JSON object recording where ``K`` came from (geometry, material,
-    formula); kept verbatim (optional);
-  - ``"site"``: the name of a site that gives the element frame, e.g. a robot's
-    ``"wrist_site"`` (optional; written by ``add_flexure(..., site=...)``). The element's sites
-    must then coincide with it at ``qpos0`` (the same tolerances as between the two sites), so a
-    site moved in the file without its element is reported rather than silently ignored. Under
-    ``MjSpec.attach`` the name is read with the element's prefix and suffix;
-  - ``"stops"``: end stops, one-sided limits on the element's coordinates (optional;
-    :class:`mjflex.Stops`, math in :mod:`mjflex.core.stops`): an object
-    ``{"lower": [...], "upper": [...], "stiffness": ...}`` whose lists have one entry per
-    coordinate, ``[rx, ry, rz, x, y, z]`` (rotation vector of frame b in frame a [rad], position
-    of frame b in frame a [m]) or ``[theta, x, y]`` for a planar element, ``null`` where a
-    coordinate has no stop; ``"stiffness"`` [N m/rad, N/m] is absent or ``null`` (derived:
-    100 times ``K``'s diagonal entry of each coordinate), a number, or one per coordinate;
-    ``"damping"`` [N m s/rad, N s/m] is absent or ``null`` (conservative stops), a number, or
-    one per coordinate;
-  - ``"rest"``: the rest pose, ``{"pos": [x, y, z], "quat": [w, x, y, z]}``: the pose of frame b
-    in frame a at which the element's energy is zero [m; unit quaternion] (optional; default:
-    the frames coincide, as compiled). Energies, wrenches and stop coordinates count from it
-    (:mod:`mjflex.core.rest`); a rest pose the model does not hold preloads the element.
+Each attribute of an element, in both forms (the plugin's key and the record's JSON key), its type and shape,
+default, units, meaning and checks is one row of the C library's table (``MJFX_SCHEMA``,
+``mjflex/native/schema.c``), read here through ctypes (:func:`attributes`) and rendered on the schema page
+(``docs/reference/mjcf_schema.md``, :func:`schema_page`). Everything follows from it:
 
-Validation rules (:func:`parse_text`; one place, mirrored by any other reader of records):
+* a record's JSON becomes the configuration strings it is equal to (:func:`config_from_payload`), and a
+  :class:`FlexureRecord` becomes either form (:func:`config_of`, :meth:`FlexureRecord.to_text`), every
+  number as the shortest text that reads back to the same double (lossless);
+* the C library checks a configuration, once, by the table's rules and those across attributes, in the words of
+  the element's form, and gives back what it read (:func:`read_config`), of which the :class:`FlexureRecord` is
+  made. Python adds only what the JSON form alone has: strict JSON (no key twice, no ``NaN``/``Infinity``), the
+  version, known keys, and JSON types (``true`` is not a number, ``"0.3"`` is not a number).
 
-1. the data is strict JSON (RFC 8259): one object, no key given twice in any object, no
-   ``NaN``/``Infinity``/``-Infinity`` anywhere (Python's ``json`` accepts them; other readers
-   do not), nesting at most as deep as Python's recursion allows;
-2. the element name (the text after ``mjflex:``) is not empty;
-3. only the keys above; ``"mjflex"`` is the integer ``1`` (not ``true``, not ``1.0``);
-4. ``"method"`` is one of the two strings; ``"enabled"``, ``"viscous"`` are ``true`` or
-   ``false`` (not ``"false"``, not ``0``);
-5. ``"K"`` (required) and ``"B"`` (optional, ``null`` = none) are lists of 6 or 3 numbers or
-   6x6 / 3x3 nested lists; every entry is a JSON number (not a boolean, a string or
-   ``null``), finite, at most ``MAX_MATRIX_ENTRY`` in magnitude (so a 401-digit integer is
-   refused, not overflowed); the matrix is symmetric and positive semi-definite to the
-   tolerances of :mod:`mjflex.core.validation`; ``B`` has ``K``'s size;
-6. ``"order"`` is an integer (not a boolean) from 2 to ``MAX_ORDER``, even for ``"dualquat"``;
-   ``"terms"`` needs it and is an object with exactly ``"exponents"`` (whole numbers, ``2`` or
-   ``2.0``, from 0 to :data:`mjflex.core.polynomial.MAX_EXPONENT`; not booleans) and
-   ``"coefficients"`` (finite numbers), the rules of :class:`mjflex.core.polynomial.PolynomialTerms`
-   (degrees from 2 to ``"order"``, distinct rows, even and unstressed at rest for ``"dualquat"``),
-   and ``K`` plus the terms' stiffness at rest is positive semi-definite;
-7. ``"strain_per_radian"`` is ``null`` or a finite number >= 0 (not a boolean);
-   ``"strain_scale"`` is ``null`` or a finite number > 0;
-8. ``"source"`` is ``null`` or an object (any content within rule 1);
-9. ``"site"`` is ``null`` or a non-empty string naming a site of the model (checked by
-   :class:`mjflex.Flexures`: the element frame must coincide with it at ``qpos0``);
-10. ``"stops"`` is ``null`` or an object with only the keys ``"lower"``, ``"upper"``,
-    ``"stiffness"``: as many limits as ``K`` has rows, numbers or ``null``, none NaN; rotation
-    limits within ``[-pi, pi]`` (radians, not degrees); ``lower <= upper``; the stiffness finite,
-    ``>= 0``, and positive on every coordinate with a limit (a derived one needs ``K_ii > 0``);
-    no stiffness without a limit; the damping finite and ``>= 0``, none without a limit
-    (:mod:`mjflex.mjcf.stops` has the rules);
-11. ``"rest"`` is ``null`` or an object with only the keys ``"pos"`` (3 finite numbers) and
-    ``"quat"`` (4 finite numbers of norm 1 within :data:`mjflex.core.rest.REST_QUAT_TOLERANCE`), either optional.
-
-Every violation raises ValueError naming the key (and entry), quoting the bad value cut to
-:data:`mjflex.core.validation.SHORT_REPR` characters, and saying what is allowed; the model
-layer adds the element's name (:class:`mjflex.ModelError`).
-
-Units are SI and the row order is ``[rotation; translation]`` (``N m/rad``, ``N/rad``,
-``N/m``; damping per unit rate). A text record rather than ``<numeric>`` keeps every digit:
-MuJoCo writes numeric data with 6 significant digits but text verbatim, so ``K`` and ``B``
-survive ``MjSpec.to_xml()`` and ``mj_saveLastXML`` exactly. Site poses do get rounded to 6
-digits by those writers; :class:`mjflex.Flexures` accepts frames that coincide within
-``COINCIDENCE_RTOL`` of the model extent (and ``COINCIDENCE_ANGLE`` rad) and takes the measured
-residual as the rest offset, so a saved and reloaded model is unstressed at ``qpos0`` too.
+Units are SI and the rows of ``K`` and ``B`` ``[rotation; translation]``. A text record rather than ``<numeric>``
+keeps every digit: MuJoCo writes numeric data with 6 significant digits but text verbatim. Site poses do get
+rounded to 6 digits by those writers; the element takes the measured residual as its rest offset.
 
 Composed models: ``MjSpec.attach(child, prefix=P, suffix=S)`` renames the child's records to
-``P + "mjflex:" + E + S`` and its sites to ``P + E + "/a" + S``; dm_control's ``attach``
-prefixes both with ``"model_name/"``. Such a record is matched to its sites by the name around
-``mjflex:`` (:func:`match_record`), and the element is called ``P + E + S``.
+``P + "mjflex:" + E + S`` and its sites to ``P + E + "/a" + S``; such a record is matched to its sites by the name
+around ``mjflex:`` (:func:`match_record`), and the element is called ``P + E + S``.
 
 Example (hand-written)::
 
@@ -109,22 +38,21 @@ Example (hand-written)::
       <text name="mjflex:hinge" data='{"mjflex": 1, "method": "twist",
             "K": [2.0, 40, 40, 1e6, 1e6, 3e6], "B": [1e-4, 0, 0, 0, 0, 0]}'/>
     </custom>
-
-The same element as an engine plugin instance: :mod:`mjflex.mjcf.config`.
 """
 
+import dataclasses
 import difflib
+import functools
 import json
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from ..core import validation
-from ..core.polynomial import MAX_EXPONENT, PolynomialTerms
-from ..core.rest import rest_pose
+from ..core.polynomial import PolynomialTerms
 from ..core.stops import PLANAR_INDEX
-from ..core.validation import MAX_MATRIX_ENTRY, shorten
-from .stops import Stops
+from ..core.validation import shorten
+from ..native import library
 
 #: The two forms an element is written in: a text record, or an instance of the engine plugin.
 RECORD, PLUGIN = "record", "plugin"
@@ -137,65 +65,275 @@ SITE_B_SUFFIX = "/b"
 #: Separators between an element's name and the ``a`` / ``b`` of its sites, in order of preference.
 SITE_SEPARATORS = ("/", ".")
 SCHEMA_VERSION = 1
-KEYS = ("mjflex", "method", "K", "B", "order", "terms", "enabled", "viscous", "strain_per_radian", "strain_scale",
-        "source", "site", "stops", "rest")  # fmt: skip
-REST_KEYS = ("pos", "quat")
-#: Full scale of an element's strain colour in the viewer when ``"strain_scale"`` is not given: 1 %
-#: bending strain (where the elastic range of flexure metals ends: spring steel, titanium and
-#: aluminium alloys yield at 0.5-1 %), or 0.1 rad of rotation for an element without ``"strain_per_radian"``.
-DEFAULT_STRAIN_SCALE = 0.01
-DEFAULT_ROTATION_SCALE = 0.1
-TERMS_KEYS = ("exponents", "coefficients")
-#: The two sites count as coincident when they are closer than this times the element's own
-#: length scale: the summed lengths of the site and body positions that place both sites,
-#: whose 6-significant-digit rounding by MuJoCo's XML writers (relative error <= 5e-6 per
-#: number) is what the rest offset absorbs.
-COINCIDENCE_RTOL = 1e-5
-#: Angle [rad] below which the two site frames count as aligned.
-COINCIDENCE_ANGLE = 1e-5
-#: Highest ``"order"`` of a record's potential: every variable at its highest exponent (8 x 16).
-MAX_ORDER = 8 * MAX_EXPONENT
+#: The types of the table's rows (``MJFX_TYPE_*``, in their order).
+TYPES = ("name", "choice", "bool", "int", "real", "matrix", "vector", "limits", "per coordinate", "ints", "numbers",
+         "json")  # fmt: skip
+_REQUIRED, _WRITTEN, _DISPLAY = 1, 2, 4  # flags of a row (MJFX_REQUIRED, ...)
 
 
-@dataclass
+class Attribute(NamedTuple):
+    """One row of the C library's table of element attributes (``MJFX_SCHEMA``)."""
+
+    key: str  # the plugin's <config> key
+    json: str  # the record's JSON key ("stops.lower": key "lower" of object "stops"); "" for none
+    type: str  # one of TYPES
+    flags: int
+    count: int  # numbers of a vector
+    lo: float
+    hi: float
+    fallback: str  # the default as config text ("" for none)
+    choices: tuple
+    shape: str
+    units: str
+    meaning: str
+    rules: str
+
+    @property
+    def field(self) -> str:
+        """The :class:`FlexureRecord` attribute that holds it (the JSON key's head)."""
+        return self.json.partition(".")[0]
+
+
+@functools.cache
+def attributes() -> tuple[Attribute, ...]:
+    """The rows of the C library's table, in the order MuJoCo stores an instance's values."""
+    native, out, i = library.lib(), [], 0
+    while (key := native.mjfx_schema_text(i, b"key")) is not None:
+        text = {f: native.mjfx_schema_text(i, f.encode()).decode() for f in ("json", "fallback", "choices", "shape",
+                                                                             "units", "meaning", "rules")}  # fmt: skip
+        number = {f: native.mjfx_schema_number(i, f.encode()) for f in ("type", "flags", "count", "lo", "hi")}
+        out.append(Attribute(key.decode(), text["json"], TYPES[int(number["type"])], int(number["flags"]),
+                             int(number["count"]), number["lo"], number["hi"], text["fallback"],
+                             tuple(text["choices"].split("|")) if text["choices"] else (), text["shape"],
+                             text["units"], text["meaning"], text["rules"]))  # fmt: skip
+        i += 1
+    return tuple(out)
+
+
+@functools.cache
+def record_fields() -> tuple[str, ...]:
+    """The attributes of a :class:`FlexureRecord` after ``name``: the record's JSON keys, in the table's order."""
+    return tuple(dict.fromkeys(a.field for a in attributes() if a.json))
+
+
+def display_fields() -> set[str]:
+    """The record's fields that only the drawing reads (``MJFX_DISPLAY``): they never change the forces."""
+    return {a.field for a in attributes() if a.flags & _DISPLAY}
+
+
+def keys() -> tuple[str, ...]:
+    """The keys a record's JSON object may have: ``"mjflex"`` (the version) and :func:`record_fields`."""
+    return ("mjflex", *record_fields())
+
+
+def __getattr__(name):
+    if name == "KEYS":  # the record's keys, from the C table (read on first use: it needs the native library)
+        return keys()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _group(field) -> list[Attribute]:
+    return [a for a in attributes() if a.field == field]
+
+
+def _members(field) -> tuple[str, ...]:
+    """The keys of a JSON object field (``stops``: ``lower``, ``upper``, ...); () for a plain field."""
+    return tuple(a.json.partition(".")[2] for a in _group(field) if "." in a.json)
+
+
+# ------------------------------------------------------------------------------ values: Python, text, JSON
+
+
+def _numbers(value, where) -> np.ndarray:
+    """The numbers of a value (any nesting) as float64, by the core's rules: no booleans, text or None."""
+    try:
+        return validation.numeric_array(value, where)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def matrix_value(value, key: str) -> np.ndarray:
+    """A K or B argument as its matrix: a diagonal (1-D) or a square matrix of numbers (their types checked here,
+    their rules by the C library); ValueError naming ``key`` otherwise."""
+    a = _numbers(value, key)
+    if a.ndim == 1:
+        return np.diag(a)
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise ValueError(f"{key} must be a list of numbers (the diagonal) or a square matrix; got shape {a.shape}")
+    return a
+
+
+def _text_of(a: Attribute, value) -> str:
+    """The configuration text of a Python value of attribute ``a`` (numbers: the shortest text of each double)."""
+    if a.type in ("name", "choice"):
+        return str(value)
+    if a.type == "bool":
+        return "true" if value else "false"
+    if a.type == "int":
+        return str(int(value))
+    if a.type == "json":
+        return json.dumps(value)
+    if a.type == "ints":
+        return " ".join(str(int(v)) for v in np.ravel(value))
+    x = np.asarray(value, dtype=float)
+    if a.type == "matrix" and not x[~np.eye(len(x), dtype=bool)].any():
+        x = np.diagonal(x)  # the diagonal of a diagonal matrix
+    return " ".join(repr(float(v)) for v in np.ravel(x))
+
+
+def _json_of(a: Attribute, value):
+    """The JSON value of a Python value of attribute ``a`` (limits without a stop: null)."""
+    if a.type in ("matrix", "ints"):
+        return np.asarray(value).tolist()
+    if a.type in ("numbers", "vector", "limits"):
+        return [float(v) if np.isfinite(v) else None for v in np.ravel(value)]
+    if a.type == "per coordinate":
+        return list(value) if isinstance(value, tuple) else float(value)
+    return float(value) if a.type == "real" else value
+
+
+def _leaves(value):
+    """The entries of a nested list, row-major."""
+    for v in value:
+        yield from _leaves(v) if isinstance(v, list) else (v,)
+
+
+def _from_json(a: Attribute, value) -> str:
+    """The configuration text of a JSON value of attribute ``a``, each number as written (an integer in its
+    digits); ValueError naming its JSON type problem."""
+    where, key = a.json, f'"{a.json}"'  # numbers: K[0]; the value: "K"
+    if a.type in ("name", "choice"):
+        if not isinstance(value, str):
+            raise ValueError(f"{key} must be a string; got {shorten(value)}")
+        return value
+    if a.type == "bool" and not isinstance(value, bool):
+        raise ValueError(f"{key} must be true or false; got {shorten(value)}")
+    if a.type == "int" and (not isinstance(value, int) or isinstance(value, bool)):
+        raise ValueError(f"{key} must be an integer; got {shorten(value)} (an integer is needed)")
+    if a.type == "json" and not isinstance(value, dict):
+        raise ValueError(f"{key} must be a JSON object; got {shorten(value)}")
+    if a.type in ("bool", "int", "json"):
+        return _text_of(a, value)
+    if not isinstance(value, list) and a.type not in ("real", "per coordinate"):
+        raise ValueError(f"{key} must be a list; got {shorten(value)}")
+    if a.type == "matrix" and any(isinstance(v, list) for v in value):
+        if not all(isinstance(v, list) and len(v) == len(value) for v in value):
+            raise ValueError(f"{key} must be a list of numbers (the diagonal) or a square nested list; got "
+                             f"{shorten(value)}")  # fmt: skip
+    entries = list(_leaves(value)) if isinstance(value, list) else [value]
+    if a.type == "limits":
+        entries = [a.lo if v is None else v for v in entries]  # lo: the limit of a coordinate without a stop
+    _numbers(value if a.type != "limits" else entries, where)  # JSON numbers only (no true, "0.3", null)
+    whole = a.type == "ints"  # exponents: 2 or 2.0 (else C refuses the text)
+    return " ".join(str(int(v)) if type(v) is int or (whole and float(v).is_integer()) else repr(float(v))
+                    for v in entries)  # fmt: skip
+
+
+def _value(a: Attribute, text: bytes, count: int, first: int, num) -> object:
+    """The Python value of attribute ``a`` from what C read of it (count, first, num; text: its string)."""
+    if a.type in ("name", "json"):
+        given = text[first : first + count].decode("utf-8")
+        return json.loads(given) if a.type == "json" else given
+    x = num[first : first + count]
+    if a.type == "choice":
+        return a.choices[int(x[0])]
+    if a.type == "bool":
+        return bool(x[0])
+    if a.type == "int":
+        return int(x[0])
+    if a.type == "real" or (a.type == "per coordinate" and count == 1):
+        return float(x[0])
+    if a.type == "matrix":
+        n = round(count**0.5)
+        return np.array(x, dtype=float).reshape(n, n)
+    if a.type == "ints":
+        return np.array(x, dtype=np.int64)
+    return np.array(x, dtype=float) if a.type == "numbers" else tuple(float(v) for v in x)
+
+
+def _default(a: Attribute):
+    """The Python value of attribute ``a``'s default (None where it has none)."""
+    if not a.fallback:
+        return None
+    return {"bool": a.fallback == "true", "int": int(a.fallback) if a.type == "int" else 0}.get(a.type, a.fallback)
+
+
+# ------------------------------------------------------------------------------ groups of attributes
+
+
+def _group_values(field, value, record) -> dict:
+    """The members of a group field's Python value (``terms``, ``stops``, ``rest``, another: a dict)."""
+    if field == "terms":
+        return {"exponents": value.exponents, "coefficients": value.coefficients} if len(value) else {}
+    if field == "stops":
+        return {k: getattr(value, k) for k in _members(field) if getattr(value, k) is not None} if value else {}
+    if field == "rest":
+        return dict(zip(_members(field), value, strict=True))
+    return dict(value)
+
+
+def _group_of(field, members: dict, method: str):
+    """A group field's Python value from its members' values (checked by C), or None when it has none."""
+    if not members:
+        return None
+    if field == "terms":
+        coefs = members.get("coefficients", np.zeros(0))
+        exps = members.get("exponents", np.zeros(0, np.int64)).reshape(len(coefs), -1)
+        return PolynomialTerms.checked(method, exps, coefs)
+    if field == "stops":
+        from .stops import Stops  # late: stops.py reads and writes its attributes through this module
+
+        return Stops.checked(**members)
+    if field == "rest":  # (pos, quat), the identity's part where one is not given
+        return members.get("pos", (0.0, 0.0, 0.0)), members.get("quat", (1.0, 0.0, 0.0, 0.0))
+    return members
+
+
+def _rows_of(record) -> dict:
+    """``{attribute key: Python value}`` of a record's given values (those to write)."""
+    out = {}
+    for field in record_fields():
+        value, group = getattr(record, field), _group(field)
+        if value is None:
+            continue
+        if _members(field):
+            members = _group_values(field, value, record)
+            out.update({a.key: members[a.json.partition(".")[2]] for a in group if a.json.partition(".")[2] in members})
+            continue
+        a = group[0]
+        if a.flags & _WRITTEN or not _same(value, _default(a)):
+            out[a.key] = value
+    return out
+
+
+def _same(x, y):
+    return y is not None and not isinstance(x, np.ndarray) and x == y
+
+
+# ------------------------------------------------------------------------------ the record
+
+
 class FlexureRecord:
-    """The parameters of one element as stored in the model file.
+    """The parameters of one element as stored in the model file (either form).
 
-    ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar); ``B`` is None without damping; ``terms``
-    (in the coordinates of ``method``) is None for the quadratic potential. A
-    :class:`mjflex.Flexures` holds one per element, in ``flex.records``.
+    Its attributes are the element's ``name`` and then one per key of the record, in the order of the schema
+    table (:func:`record_fields`; ``docs/reference/mjcf_schema.md``): ``method``, ``K``, ``B``, ``enabled``,
+    ``viscous``, ... They may be given by position in that order, or by name; one not given holds its default
+    (None where the table has none). ``K`` and ``B`` are 6x6 (spatial) or 3x3 (planar) arrays in the element frame, rows
+    ``[rotation; translation]`` (N m/rad, N/rad, N/m; damping per unit rate), ``B`` None without damping;
+    ``terms`` a :class:`mjflex.PolynomialTerms` (None: quadratic potential), ``stops`` a :class:`mjflex.Stops`,
+    ``rest`` the rest pose ``((x, y, z), (w, x, y, z))`` as written (None: the frames coincide).
+    Nothing is checked here: the C library checks a record when it is written to a spec or read from a model.
+    A :class:`mjflex.Flexures` holds one per element, in ``flex.records``.
 
-    Attributes
+    Parameters
     ----------
     name : str
         The element's name.
-    method : {"twist", "dualquat"}
-        How the relative displacement is measured.
-    K : ndarray, shape (6, 6) or (3, 3)
-        Stiffness in the element frame, rows ``[rotation; translation]`` (``[theta_z; x; y]``
-        planar): N m/rad, N/rad, N/m.
-    B : ndarray, shape (6, 6) or (3, 3), or None
-        Damping, the layout of ``K`` (N m s/rad, N s/m); None without damping.
-    enabled, viscous : bool
-        The run-time switches as stored in the model.
-    strain_per_radian : float or None
-        Peak bending strain per radian about the frame's z axis, for reports.
-    source : dict or None
-        Where ``K`` came from, verbatim.
-    terms : PolynomialTerms or None
-        Higher-order terms of the potential (None: quadratic).
-    order : int
-        Order of the potential (2: quadratic).
-    site : str or None
-        The site that gives the element frame, if the element was placed at one.
-    strain_scale : float or None
-        Full scale of the element's strain colour in MuJoCo's viewer (bending strain, or rotation
-        in rad without ``strain_per_radian``); None: the default (``DEFAULT_STRAIN_SCALE``).
-    stops : Stops or None
-        End stops on the element's coordinates (:class:`mjflex.Stops`); None: none.
-    rest : tuple or None
-        The rest pose ``((x, y, z), (w, x, y, z))``: the pose of frame b in frame a at which the
-        element's energy is zero [m; unit quaternion], as written; None: the frames coincide.
+    *args
+        Its attributes by position, in the order of :func:`record_fields` (``method``, ``K``, ``B``, ...).
+    **kwargs
+        Its attributes by name; ``K`` (6x6 or 3x3 array) is required.
 
     Examples
     --------
@@ -210,51 +348,221 @@ class FlexureRecord:
     mount twist (6, 6) 10000 N/m False
     """
 
-    name: str
-    method: str
-    K: np.ndarray
-    B: np.ndarray | None = None
-    enabled: bool = True
-    viscous: bool = True
-    strain_per_radian: float | None = None
-    source: dict | None = None
-    terms: PolynomialTerms | None = None
-    order: int = 2
-    site: str | None = None
-    strain_scale: float | None = None
-    stops: Stops | None = None
-    rest: tuple | None = None
+    def __init__(self, name, *args, **kwargs):
+        fields = record_fields()
+        if len(args) > len(fields):
+            raise TypeError(f"FlexureRecord takes at most {len(fields) + 1} values by position; got {len(args) + 1}")
+        given = dict(zip(fields, args, strict=False))
+        for key, value in kwargs.items():
+            if key not in fields or key in given:
+                why = "is given twice" if key in given else f"is not an attribute of a record ({list(fields)})"
+                raise TypeError(f"FlexureRecord: {key!r} {why}")
+            given[key] = value
+        if "K" not in given:
+            raise TypeError("FlexureRecord needs K, the element's stiffness")
+        self.name = name
+        for field in fields:
+            group = _group(field)
+            setattr(self, field, given.get(field, None if _members(field) else _default(group[0])))
+
+    class _Dataclass:
+        """Its ``__dataclass_fields__`` and ``__dataclass_params__``, made from the table on first use: the functions
+        of ``dataclasses`` take a record, and a dataclass may derive from it."""
+
+        def __set_name__(self, owner, name):
+            self.name = name
+
+        def __get__(self, record, cls=None):
+            return getattr(_dataclass(), self.name)
+
+    __dataclass_fields__ = _Dataclass()
+    __dataclass_params__ = _Dataclass()
 
     @property
     def planar(self) -> bool:
         """True for a planar element (3×3 ``K`` over ``[theta; x; y]``), False for a spatial one (6×6)."""
-        return self.K.shape == (3, 3)
+        return np.shape(self.K) == (3, 3)
 
     def to_text(self) -> str:
         """JSON data of the ``<text>`` record (full float precision)."""
-        payload = {"mjflex": SCHEMA_VERSION, "method": self.method, "K": self.K.tolist()}
-        if self.B is not None:
-            payload["B"] = self.B.tolist()
-        if self.terms is not None:
-            payload["order"] = int(self.order)
-            payload["terms"] = {k: v for k, v in self.terms.to_dict().items() if k != "method"}
-        if not self.enabled:
-            payload["enabled"] = False
-        if not self.viscous:
-            payload["viscous"] = False
-        if self.strain_per_radian is not None:
-            payload["strain_per_radian"] = float(self.strain_per_radian)
-        if self.strain_scale is not None:
-            payload["strain_scale"] = float(self.strain_scale)
-        if self.source is not None:
-            payload["source"] = self.source
-        if self.site is not None:
-            payload["site"] = self.site
-        if self.stops:
-            payload["stops"] = self.stops.to_dict()
-        if self.rest is not None:
-            payload["rest"] = {"pos": list(self.rest[0]), "quat": list(self.rest[1])}
+        payload, rows = {"mjflex": SCHEMA_VERSION}, _rows_of(self)
+        for a in attributes():
+            value = rows.get(a.key)
+            if value is None or not a.json:
+                continue
+            head, _, leaf = a.json.partition(".")
+            (payload.setdefault(head, {}) if leaf else payload)[leaf or head] = _json_of(a, value)
         return json.dumps(payload)
+
+    def __eq__(self, other):
+        return isinstance(other, FlexureRecord) and self.name == other.name and self.to_text() == other.to_text()
+
+    def __repr__(self):
+        shown = ", ".join(
+            f"{f}={shorten(getattr(self, f), 40)}" for f in record_fields() if getattr(self, f) is not None
+        )
+        return f"FlexureRecord(name={self.name!r}, {shown})"
+
+
+@functools.cache
+def _dataclass():
+    """A dataclass with the fields of :class:`FlexureRecord` and their defaults (its ``__dataclass_fields__``)."""
+    defaults = {f: None if _members(f) else _default(_group(f)[0]) for f in record_fields()}
+    fields = [(f, object, dataclasses.field(default=d)) for f, d in defaults.items()]
+    return dataclasses.make_dataclass("FlexureRecord", [("name", str), *fields])
+
+
+def config_of(record: FlexureRecord) -> dict[str, str]:
+    """The configuration strings of a record's given values (lossless: the shortest text of every double, the
+    source verbatim); :func:`mjflex.mjcf.config.config_from_record` adds its sites."""
+    rows = _rows_of(record)
+    return {a.key: _text_of(a, rows[a.key]) for a in attributes() if a.key in rows}
+
+
+def config_from_payload(payload) -> dict[str, str]:
+    """The configuration strings equal to a record's JSON object; ValueError for what only JSON can get wrong.
+
+    The version, known keys (and members of the objects ``"terms"``, ``"stops"``, ...) and the JSON type of
+    each value; the rules on the values are the C library's (:func:`read_config`).
+    """
+    if not isinstance(payload, dict):
+        raise ValueError(f'its data must be a JSON object such as {{"mjflex": 1, "K": [...]}}; got {shorten(payload)}')
+    unknown = sorted(set(payload) - set(keys()))
+    if unknown:
+        raise ValueError(f"unknown key(s) {shorten(unknown)}; the allowed keys are {list(keys())}")
+    version = payload.get("mjflex")
+    if type(version) is not int or version != SCHEMA_VERSION:
+        raise ValueError(f'"mjflex" must be the schema version {SCHEMA_VERSION}; got {shorten(version)} (an integer '
+                         "is needed)")  # fmt: skip
+    config = {}
+    for field in record_fields():
+        value, members = payload.get(field), _members(field)
+        if value is None:
+            continue
+        if members and not isinstance(value, dict):
+            raise ValueError(f'"{field}" must be an object with the keys {list(members)}; got {shorten(value)}')
+        if members and set(value) - set(members):
+            unknown = sorted(set(value) - set(members))
+            raise ValueError(f'"{field}" has unknown key(s) {shorten(unknown)}; the allowed keys are {list(members)}')
+        for a in _group(field):
+            x = value.get(a.json.partition(".")[2]) if members else value
+            if x is not None:
+                config[a.key] = _from_json(a, x)
+    return config
+
+
+def read_values(element: str, config: dict, form: str):
+    """What the C library reads of a configuration (attribute -> text) written in ``form`` (``RECORD``, ``PLUGIN``
+    or ``"arguments"``): ``(strings, count, first, num, row)`` (:func:`mjflex.native.library.parse_values`); its
+    checks fail with its message, naming the element in the words of the form (ValueError)."""
+    strings = [str(config.get(a.key, "")) for a in attributes()]
+    return strings, *library.parse_values(element, form, strings)
+
+
+def read_config(element: str, config: dict, form: str) -> FlexureRecord:
+    """The record of element ``element`` from its configuration strings (attribute -> text), written in ``form``
+    (``RECORD`` or ``PLUGIN``), checked by the C library (ValueError with its message)."""
+    return record_from_values(element, *read_values(element, config, form)[:4])
+
+
+def text_of(key: str, value) -> str:
+    """The configuration text of a Python value of attribute ``key`` (lossless)."""
+    return _text_of(next(a for a in attributes() if a.key == key), value)
+
+
+def group_config(field: str, members: dict) -> dict[str, str]:
+    """The configuration strings of the given members of an object field (``stops``: ``lower`` -> ``stop_lower``)."""
+    return {a.key: _text_of(a, members[leaf]) for a in _group(field)
+            if members.get(leaf := a.json.partition(".")[2]) is not None}  # fmt: skip
+
+
+def group_json(field: str, members: dict) -> dict:
+    """The JSON object of the given members of an object field (as in a record)."""
+    return {leaf: _json_of(a, members[leaf]) for a in _group(field)
+            if members.get(leaf := a.json.partition(".")[2]) is not None}  # fmt: skip
+
+
+def group_values(field: str, strings, count, first, num) -> dict:
+    """``{member: Python value}`` of an object field from what the C library read (:func:`read_values`)."""
+    return {a.json.partition(".")[2]: _value(a, strings[i].encode(), int(count[i]), int(first[i]), num)
+            for i, a in enumerate(attributes()) if a.field == field and count[i] >= 0}  # fmt: skip
+
+
+def record_from_values(element: str, strings, count, first, num) -> FlexureRecord:
+    """A record from what the C library read of a configuration (``strings``: its values in table order)."""
+    fields, groups = {}, {}
+    for i, a in enumerate(attributes()):
+        if count[i] < 0 or not a.json:
+            continue
+        value = _value(a, strings[i].encode("utf-8"), int(count[i]), int(first[i]), num)
+        head, _, leaf = a.json.partition(".")
+        (groups.setdefault(head, {}) if leaf else fields)[leaf or head] = value
+    method = fields.get("method", "twist")
+    fields.update({field: _group_of(field, members, method) for field, members in groups.items()})
+    return FlexureRecord(element, **fields)
+
+
+class _Constant(str):
+    """A ``NaN``/``Infinity``/``-Infinity`` read by ``json``: kept as a marker to report with its key."""
+
+
+def _find_constant(value, path=""):
+    """The JSON path (``"K"[0][1]``, ``"source"["E"]``) and text of the first NaN or Infinity in ``value``, or None."""
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, v in items:
+        where = (f'"{key}"' if not path else f'{path}["{key}"]') if isinstance(value, dict) else f"{path}[{key}]"
+        found = (where, str(v)) if isinstance(v, _Constant) else _find_constant(v, where)
+        if found:
+            return found
+    return None
+
+
+def load_json(data: str):
+    """The JSON value of a record's data, strict (RFC 8259): no key twice in an object, no NaN or Infinity."""
+
+    def strict(pairs):
+        out = {}
+        for key, value in pairs:
+            if key in out:
+                raise ValueError(f"the key {shorten(key, 40)} is given twice in one object; keep one")
+            out[key] = value
+        return out
+
+    try:
+        payload = json.loads(data, object_pairs_hook=strict, parse_constant=_Constant)
+        found = (("its data", str(payload)) if isinstance(payload, _Constant) else None) or _find_constant(payload)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"its data is not valid JSON ({exc.msg} at character {exc.pos})") from None
+    except RecursionError:
+        raise ValueError("its data nests JSON arrays or objects too deeply to be a flexure record") from None
+    if found:
+        raise ValueError(f"{found[0]} is {found[1]}, which is not a JSON number (strict JSON has no NaN or Infinity); "
+                         "every number of a record must be finite")  # fmt: skip
+    return payload
+
+
+def record_config(element: str, data: str) -> dict[str, str]:
+    """The configuration strings a text record's JSON data is equal to; ValueError for what only JSON can get
+    wrong (:func:`config_from_payload`), or an empty element name."""
+    if not element:
+        raise ValueError(
+            f'the element name is empty (the record is named "{PREFIX}" with nothing after it); name the '
+            f'element: <text name="{PREFIX}NAME"> with sites NAME/a and NAME/b'
+        )
+    return config_from_payload(load_json(data))
+
+
+def parse_text(element: str, data: str) -> FlexureRecord:
+    """The record of a text record's JSON data; ValueError saying what to fix (the C library's rules on the
+    values: its message names the element)."""
+    try:
+        config = record_config(element, data)
+    except ValueError as exc:  # what only JSON can get wrong: with the head of the C library's messages
+        raise ValueError(f"flexure '{element}': {exc}") from None
+    return read_config(element, config, RECORD)
+
+
+# ------------------------------------------------------------------------------ names of records and sites
 
 
 def site_names(element: str) -> tuple[str, str]:
@@ -319,212 +627,18 @@ def embed_planar(M: np.ndarray) -> np.ndarray:
     return out
 
 
-def element_matrix(value, key: str, *, n_allowed=(6, 3), what: str | None = None) -> np.ndarray:
-    """A validated K or B: a square nested list or a diagonal list; raises ValueError with the fix.
-
-    6x6 (6 diagonal entries) for a spatial element, 3x3 (3 entries) for a planar one; real numbers
-    (rules of :func:`mjflex.core.validation.numeric_array`: no booleans, text, null, complex),
-    finite, at most ``MAX_MATRIX_ENTRY`` in magnitude, symmetric and positive semi-definite.
-    """
-    if value is None:
-        raise ValueError(f'"{key}" must be a list of numbers or a square nested list; got null/None')
-    try:
-        a = validation.numeric_array(value, key)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(str(exc)) from None
-    if a.ndim == 1 and a.shape[0] in n_allowed:
-        a = np.diag(a)
-    elif not (a.ndim == 2 and a.shape[0] == a.shape[1] and a.shape[0] in n_allowed):
-        raise ValueError(
-            f'"{key}" must be 6x6 (or 6 diagonal entries) for a spatial element, or 3x3 (3 entries) for a '
-            f"planar one; got shape {a.shape}: {shorten(value)}"
-        )
-    finite = np.isfinite(a)
-    if finite.all() and np.abs(a).max(initial=0.0) > MAX_MATRIX_ENTRY:
-        r, c = np.unravel_index(np.argmax(np.abs(a)), a.shape)
-        raise ValueError(
-            f"{key}[{r}, {c}] = {a[r, c]:.3g} is beyond {MAX_MATRIX_ENTRY:g}, where the element's energy and "
-            "forces overflow float64 for displacements MuJoCo accepts; check its units (SI: N m/rad, N/m)"
-        )
-    what = what or ("stiffness" if key.startswith("K") else "damping")
-    return validation.check_psd_matrix(a, key, a.shape[0], what=what)
+# ------------------------------------------------------------------------------ the schema page
 
 
-def _strict_object(pairs):
-    """``json`` object hook: a dict, refusing a key given twice (``json`` would keep the last)."""
-    out = {}
-    for key, value in pairs:
-        if key in out:
-            raise ValueError(f"the key {shorten(key, 40)} is given twice in one object; keep one")
-        out[key] = value
-    return out
-
-
-class _Constant(str):
-    """A ``NaN``/``Infinity``/``-Infinity`` read by ``json``: kept as a marker to report with its key."""
-
-
-def _find_constant(value, path=""):
-    """The JSON path (``"K"[0][1]``, ``"source"["E"]``) and text of the first NaN or Infinity in ``value``, or None."""
-    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
-    for key, v in items:
-        where = (f'"{key}"' if not path else f'{path}["{key}"]') if isinstance(value, dict) else f"{path}[{key}]"
-        if isinstance(v, _Constant):
-            return where, str(v)
-        found = _find_constant(v, where)
-        if found:
-            return found
-    return None
-
-
-def load_json(data: str):
-    """The JSON value of a record's data under rule 1 (strict JSON); ValueError saying what is wrong."""
-    try:
-        payload = json.loads(data, object_pairs_hook=_strict_object, parse_constant=_Constant)
-        found = _find_constant(payload)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"its data is not valid JSON ({exc.msg} at character {exc.pos})") from None
-    except RecursionError:
-        raise ValueError("its data nests JSON arrays or objects too deeply to be a flexure record") from None
-    if isinstance(payload, _Constant) or found:
-        where, text = found or ("its data", str(payload))
-        raise ValueError(f"{where} is {text}, which is not a JSON number (strict JSON has no NaN or Infinity); "
-                         "every number of a record must be finite")  # fmt: skip
-    return payload
-
-
-def _flag(payload, key):
-    value = payload.get(key, True)
-    if not isinstance(value, bool):
-        raise ValueError(f'"{key}" must be true or false; got {shorten(value)}')
-    return value
-
-
-def _strain(payload, key="strain_per_radian"):
-    strain = payload.get(key)
-    if strain is None:
-        return None
-    ok = isinstance(strain, int | float) and not isinstance(strain, bool)
-    positive = key == "strain_scale"
-    if not (ok and abs(strain) <= MAX_MATRIX_ENTRY and (strain > 0 if positive else strain >= 0)):
-        what = "> 0" if positive else ">= 0"  # huge integers are refused, not overflowed
-        raise ValueError(f'"{key}" must be a finite number {what} (or null); got {shorten(strain)}')
-    return float(strain)
-
-
-def parse_text(element: str, data: str) -> FlexureRecord:
-    """Parse the JSON data of an element's text record (rules in the module docstring); raises
-    ValueError saying what to fix."""
-    if not element:
-        raise ValueError(
-            f'the element name is empty (the record is named "{PREFIX}" with nothing after it); name the '
-            f'element: <text name="{PREFIX}NAME"> with sites NAME/a and NAME/b'
-        )
-    payload = load_json(data)
-    if not isinstance(payload, dict):
-        raise ValueError(f'its data must be a JSON object such as {{"mjflex": 1, "K": [...]}}; got {shorten(payload)}')
-    return parse_payload(element, payload)
-
-
-def parse_payload(element: str, payload: dict) -> FlexureRecord:
-    """A record from its decoded JSON object; raises ValueError saying what to fix."""
-    unknown = sorted(set(payload) - set(KEYS))
-    if unknown:
-        raise ValueError(f"unknown key(s) {shorten(unknown)}; the allowed keys are {list(KEYS)}")
-    version = payload.get("mjflex")
-    if type(version) is not int or version != SCHEMA_VERSION:
-        raise ValueError(
-            f'"mjflex" must be the schema version {SCHEMA_VERSION}; got {shorten(version)} (an integer is needed)'
-        )
-    method = payload.get("method", "twist")
-    if method not in ("twist", "dualquat"):
-        raise ValueError(f'unknown method {shorten(method)}; use "twist" or "dualquat"')
-    if "K" not in payload:
-        raise ValueError('the stiffness "K" is missing')
-    K = element_matrix(payload["K"], "K")
-    B = None
-    if payload.get("B") is not None:
-        B = element_matrix(payload["B"], "B", n_allowed=(K.shape[0],))
-    enabled, viscous = _flag(payload, "enabled"), _flag(payload, "viscous")
-    strain = _strain(payload)
-    source = payload.get("source")
-    if source is not None and not isinstance(source, dict):
-        raise ValueError(f'"source" must be a JSON object; got {shorten(source)}')
-    site = payload.get("site")
-    if site is not None and not (isinstance(site, str) and site):
-        raise ValueError(f'"site" must be the name of a site of the model; got {shorten(site)}')
-    order, terms = order_and_terms(payload, method, K)
-    return FlexureRecord(element, method, K, B, enabled, viscous, strain, source, terms, order, site,
-                         _strain(payload, "strain_scale"), _stops(payload, K), _rest(payload))  # fmt: skip
-
-
-def checked_rest(rest, what="rest") -> tuple | None:
-    """A rest pose ``(pos, quat)`` (or None) checked (:func:`mjflex.core.rest.rest_pose`) and kept as written:
-    ``((x, y, z), (w, x, y, z))`` of floats; ValueError saying what is wrong."""
-    if rest is None:
-        return None
-    rest_pose(rest, what)
-    return tuple(float(v) for v in rest[0]), tuple(float(v) for v in rest[1])
-
-
-def _rest(payload):
-    """The record's rest pose (rule 11), or None."""
-    data = payload.get("rest")
-    if data is None:
-        return None
-    if not isinstance(data, dict) or set(data) - set(REST_KEYS):
-        raise ValueError(f'"rest" must be an object with the keys "pos" ([x, y, z], m) and "quat" ([w, x, y, z], a '
-                         f"unit quaternion): the pose of frame b in frame a at rest; got {shorten(data)}")  # fmt: skip
-    for key, n in (("pos", 3), ("quat", 4)):
-        if data.get(key) is not None and not (isinstance(data[key], list) and len(data[key]) == n):
-            raise ValueError(f'"rest" "{key}" must be a list of {n} numbers; got {shorten(data[key])}')
-    pos = data.get("pos") if data.get("pos") is not None else [0.0, 0.0, 0.0]
-    quat = data.get("quat") if data.get("quat") is not None else [1.0, 0.0, 0.0, 0.0]
-    return checked_rest((pos, quat), '"rest"')
-
-
-def _stops(payload, K):
-    """The record's end stops checked against its ``K`` (rule 10), or None."""
-    if payload.get("stops") is None:
-        return None
-    stops = Stops.from_dict(payload["stops"])
-    try:
-        stops.stiffness_for(K)
-    except ValueError as exc:
-        raise ValueError(f'"stops": {exc}') from None
-    return stops if stops else None
-
-
-def order_and_terms(payload, method, K):
-    """``(order, terms)`` of a record: validated polynomial terms, or ``(2, None)``."""
-    order = payload.get("order", 2)
-    integer = isinstance(order, int | np.integer) and not isinstance(order, bool)
-    if not integer or not 2 <= order <= MAX_ORDER or (method == "dualquat" and order % 2):
-        even = " and even for a dualquat element (its potential is even in q)" if method == "dualquat" else ""
-        raise ValueError(f'"order" must be an integer >= 2{even}, at most {MAX_ORDER}; got {shorten(order)}')
-    data = payload.get("terms")
-    if data is None:
-        if order != 2:
-            raise ValueError(f'"order" is {order} but there are no "terms"; add the terms or drop "order"')
-        return 2, None
-    if "order" not in payload:
-        raise ValueError('"terms" need the "order" of the potential (the highest degree of its terms)')
-    if not isinstance(data, dict) or sorted(data) != sorted(TERMS_KEYS):
-        raise ValueError(f'"terms" must be an object with exactly the keys {list(TERMS_KEYS)}; got {shorten(data)}')
-    try:
-        terms = PolynomialTerms.from_dict({"method": method, **data})
-    except ValueError as exc:
-        raise ValueError(f'"terms": {str(exc).rstrip(".")}') from None
-    if terms.order > order:
-        row = int(np.argmax(terms.exponents.sum(axis=1)))
-        raise ValueError(
-            f'"terms" exponents[{row}] has degree {terms.order}, above "order" {order}; raise "order" or drop the term'
-        )
-    H = terms.rest_stiffness()
-    if np.any(H):
-        K6 = embed_planar(K) if K.shape == (3, 3) else K
-        validation.check_psd_matrix(K6 + H, "K + the terms' stiffness at rest", 6, what="stiffness")
-    return order, terms
-
-
-# ------------------------------------------------------------------------------ plugin instances
+def schema_page() -> str:
+    """The table of attributes in Markdown, as ``docs/reference/mjcf_schema.md`` shows it (a test compares)."""
+    lines = [
+        "| plugin key | record key | value | default | units | meaning | checks |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for a in attributes():
+        record = f"`{a.json}`" if a.json else "(the sites' names)"
+        default = f"`{a.fallback}`" if a.fallback else ("required" if a.flags & _REQUIRED else "none")
+        cells = (f"`{a.key}`", record, a.shape, default, a.units, a.meaning, a.rules)
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return "\n".join(lines) + "\n"

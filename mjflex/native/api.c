@@ -11,10 +11,13 @@
 
 #include <mujoco/mjplugin.h>
 
+#include "api.h"
 #include "config.h"
 #include "elements.h"
 #include "flexure_math.h"
 #include "instances.h"
+#include "matrix.h"
+#include "terms.h"
 
 #define FIELD(name) {#name, offsetof(mjfxElement, name)}
 static const struct {
@@ -48,7 +51,7 @@ int mjfx_is_instance(const mjModel* m, int i) {
 
 // the plugin's configuration attributes, in order (NULL past the end)
 const char* mjfx_attribute(int i) {
-  return i >= 0 && i < MJFX_NATTRIBUTE ? MJFX_ATTRIBUTES[i] : NULL;
+  return i >= 0 && i < MJFX_NATTRIBUTE ? MJFX_SCHEMA[i].key : NULL;
 }
 
 //------------------------------------------------------------------------------ argument checks
@@ -121,9 +124,23 @@ int mjfx_evaluate_checked(const mjModel* m, const mjData* d, const mjfxElement* 
   return mjfx_evaluate(m, d, el, n, chain, exps, coefs, mode, qfrc, out6, out1, scan);
 }
 
-// The sizes of a table from mjfx_read_table: out[0] elements, out[1] dof ids of the chains, out[2] terms.
-void mjfx_table_sizes(const Table* t, int out[3]) {
-  out[0] = t ? t->n : 0, out[1] = t ? t->nchain : 0, out[2] = t ? t->nterms : 0;
+// The sizes of a table from mjfx_read_table: out[0] elements, out[1] dof ids of the chains, out[2] terms, out[3]
+// numbers of the elements' values.
+void mjfx_table_sizes(const Table* t, int out[4]) {
+  out[0] = t ? t->n : 0, out[1] = t ? t->nchain : 0, out[2] = t ? t->nterms : 0, out[3] = 0;
+  for (int k = 0; t && t->values && k < t->n; k++) out[3] += t->values[k].nnum;
+}
+
+// Copy the values of a table's elements (mjfxValues; n x MJFX_NATTRIBUTE counts and firsts) into Python's arrays,
+// sized by mjfx_table_sizes: element k's numbers start at base[k] of num.
+void mjfx_table_values(const Table* t, int* count, int* first, int* base, double* num) {
+  for (int k = 0, at = 0; t && t->values && k < t->n; k++) {
+    const mjfxValues* v = t->values + k;
+    memcpy(count + MJFX_NATTRIBUTE * k, v->count, sizeof(v->count));
+    memcpy(first + MJFX_NATTRIBUTE * k, v->first, sizeof(v->first));
+    if (v->nnum) memcpy(num + at, v->num, sizeof(double) * v->nnum);
+    base[k] = at, at += v->nnum;
+  }
 }
 
 // Copy a table into Python's arrays, sized by mjfx_table_sizes (exps: MJFX_TERM_COLUMNS per term); NULL
@@ -137,22 +154,35 @@ void mjfx_table_copy(const Table* t, mjfxElement* el, int* chain, int* exps, dou
   if (instance) memcpy(instance, t->instance, sizeof(int) * t->n);
 }
 
-// Check element `name`'s configuration strings values[MJFX_NATTRIBUTE] (config.c's rules, without a model:
-// sites are not looked up). 0, or -1 with the message in err (its head names a plugin instance).
-int mjfx_check_config(const char* name, const char* const* values, char* err, int errsz) {
-  if (!name || !values || !err || errsz < 1) return -1;
+// Parse and check element `name`'s configuration strings values[MJFX_NATTRIBUTE], written in `form` (config.c's
+// rules, without a model: sites are not looked up): -1 with the message in err, or the number of numbers of its
+// values (mjfxValues), copied into num when they fit in cap, with each attribute's count and first, and the
+// element's parsed fields in el (NULL: not copied).
+int mjfx_parse_values(const char* name, int form, const char* const* values, mjfxElement* el, int* count,
+                      int* first, double* num, int cap, char* err, int errsz) {
+  if (!name || !values || !err || errsz < 1 || form < 0 || form > MJFX_FORM_ARGUMENTS) return -1;
   for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
     if (!values[i]) {
-      snprintf(err, errsz, "mjflex: mjfx_check_config: invalid arguments");
+      snprintf(err, errsz, "mjflex: mjfx_parse_values: invalid arguments");
       return -1;
     }
   }
   mjfxParsed parsed;
-  memset(&parsed, 0, sizeof(parsed));
-  if (mjfx_parse_config(name, MJFX_FORM_PLUGIN, values, &parsed, err, errsz)) return -1;
-  free(parsed.exps);
-  free(parsed.coefs);
-  return 0;
+  if (mjfx_parse_config(name, form, values, &parsed, err, errsz)) return -1;
+  const mjfxValues* v = &parsed.values;
+  int n = v->nnum;
+  if (el) *el = parsed.el;
+  if (count) memcpy(count, v->count, sizeof(v->count));
+  if (first) memcpy(first, v->first, sizeof(v->first));
+  if (num && n && n <= cap) memcpy(num, v->num, sizeof(double) * n);
+  mjfx_free_parsed(&parsed);
+  return n;
+}
+
+// Check element `name`'s configuration as a plugin instance (mjfx_parse_values): 0, or -1 with the message.
+int mjfx_check_config(const char* name, const char* const* values, char* err, int errsz) {
+  int n = mjfx_parse_values(name, MJFX_FORM_PLUGIN, values, NULL, NULL, NULL, NULL, 0, err, errsz);
+  return n < 0 ? -1 : 0;
 }
 
 // The constants Python holds too (tests/test_native_constants.py compares them); NaN for an unknown name.
@@ -162,12 +192,14 @@ double mjfx_constant(const char* name) {
     double value;
   } CONSTANTS[] = {
       {"MAX_MATRIX_ENTRY", MJFX_MAX_MATRIX_ENTRY},
+      {"MAX_STIFFNESS", MJFX_MAX_MATRIX_ENTRY},  // of the stops' stiffness and damping (the table's bound)
       {"SYMMETRY_RTOL", MJFX_SYMMETRY_RTOL},
       {"PSD_RTOL", MJFX_PSD_RTOL},
       {"COINCIDENCE_RTOL", MJFX_COINCIDENCE_RTOL},
       {"COINCIDENCE_ANGLE", MJFX_COINCIDENCE_ANGLE},
       {"REST_STRESS_RTOL", MJFX_REST_STRESS_RTOL},
       {"MAX_TERMS", MJFX_MAX_TERMS},
+      {"MAX_ORDER", MJFX_MAX_ORDER},
       {"REST_QUAT_TOLERANCE", MJFX_REST_QUAT_TOL},
       {"MAX_EXPONENT", MJFX_MAX_EXPONENT},
       {"TERM_COLUMNS", MJFX_TERM_COLUMNS},
@@ -176,6 +208,9 @@ double mjfx_constant(const char* name) {
       {"DEFAULT_STRAIN_SCALE", MJFX_DEFAULT_STRAIN_SCALE},
       {"DEFAULT_ROTATION_SCALE", MJFX_DEFAULT_ROTATION_SCALE},
       {"NATTRIBUTE", MJFX_NATTRIBUTE},
+      {"FORM_PLUGIN", MJFX_FORM_PLUGIN},
+      {"FORM_RECORD", MJFX_FORM_RECORD},
+      {"FORM_ARGUMENTS", MJFX_FORM_ARGUMENTS},
       {"TWIST", MJFX_TWIST},
       {"DUALQUAT", MJFX_DUALQUAT},
       {"FULL", MJFX_FULL},

@@ -29,6 +29,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "api.h"
 #include "elements.h"
 #include "states.h"
 

@@ -8,6 +8,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "flexure_kernel.h"  // MJFX_LANES of the base build
+
 // The thread-local log handler the Python bindings and mujoco.batch set around their calls
 // (absent from the public headers); weak, so that a MuJoCo without it still loads us.
 extern mjfLogHandler _mjPRIVATE_setTlsLogHandler(mjfLogHandler handler) __attribute__((weak));
@@ -20,9 +22,10 @@ extern mjfLogHandler _mjPRIVATE_setTlsLogHandler(mjfLogHandler handler) __attrib
 
 //------------------------------------------------------------------------------ evaluation
 
-// the loop for the base build's lanes: 2 with GNU C (SSE2 on x86-64, any such CPU), else 1
-#define MJFX_EVALUATE mjfx_evaluate_base
-#include "evaluate.h"
+// the loop for the base build's lanes (evaluate_base.c): 2 with GNU C (SSE2 on x86-64, any such CPU), else 1
+int mjfx_evaluate_base(const mjModel* m, const mjData* d, const mjfxElement* el, int n, const int* chain,
+                       const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
+                       mjfxScan* scan);
 #define BASE_LANES MJFX_LANES
 
 // and for 4 (evaluate_avx.c), where the compiler and the CPU have AVX

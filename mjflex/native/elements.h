@@ -71,12 +71,6 @@ int mjfx_evaluate(const mjModel* m, const mjData* d, const mjfxElement* el, int 
                   const int* exps, const double* coefs, int mode, double* qfrc, double* out6, double* out1,
                   mjfxScan* scan);
 
-// The first row of a table (with chain: nchain dof ids, and nterms rows of terms) whose indices or
-// ranges leave the arrays of model m or of the tables, or -1 (api.c: the check of the tables Python
-// passes through ctypes and publishes to the dispatcher).
-int mjfx_check_rows(const mjModel* m, const mjfxElement* el, int n, const int* chain, int nchain, const int* exps,
-                    const double* coefs, int nterms);
-
 // mjfx_evaluate evaluates consecutive elements of one kind together, one per lane of the CPU's
 // vectors: 2 lanes (SSE2 on x86-64) with GNU C, 4 (AVX) where the compiler is GCC on x86-64 and
 // the CPU has AVX, 1 with other compilers; the choice is made at the first evaluation. Every

@@ -1,5 +1,5 @@
 // The evaluation loop of mjfx_evaluate (elements.h) for MJFX_LANES lanes: included once per
-// lane count, by elements.c (2 lanes, any x86-64 or other CPU) and evaluate_avx.c (4 lanes,
+// lane count, by evaluate_base.c (2 lanes, any x86-64 or other CPU) and evaluate_avx.c (4 lanes,
 // AVX), each defining MJFX_EVALUATE, the name of the function it builds. Consecutive enabled
 // elements of one kind (method, matrix structures, damping, rest offset, terms, free bodies) are
 // evaluated together, one per lane; a lane's numbers do not depend on the others (see

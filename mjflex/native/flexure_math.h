@@ -15,28 +15,7 @@
 #ifndef MJFLEX_NATIVE_FLEXURE_MATH_H_
 #define MJFLEX_NATIVE_FLEXURE_MATH_H_
 
-#define MJFX_TWIST 0
-#define MJFX_DUALQUAT 1
-
-// largest exponent of one coordinate in a polynomial term (mjflex.core.polynomial.MAX_EXPONENT)
-#define MJFX_MAX_EXPONENT 16
-// columns of a term's exponent row (6 twist coordinates, 8 dual-quaternion coordinates)
-#define MJFX_TERM_COLUMNS 8
-
-// structure of a 6x6 matrix, detected once (mjfx_matrix_structure) so that the per-step
-// products skip the zero blocks
-#define MJFX_FULL 0
-#define MJFX_DIAGONAL 1
-#define MJFX_ZERO 2
-
-// The polynomial terms of one element: rows of exponents (MJFX_TERM_COLUMNS ints each, the
-// twist using the first 6) and their coefficients; top is the largest exponent.
-typedef struct mjfxTerms_ {
-  const int* exps;
-  const double* coefs;
-  int n;
-  int top;
-} mjfxTerms;
+#include "flexure_scalar.h"
 
 // Inputs of one element evaluation.
 typedef struct mjfxInput_ {
@@ -51,9 +30,6 @@ typedef struct mjfxInput_ {
   const double* v;   // and R_WB^T (v_WB - v_WA - w_WA x (p_WB - p_WA)) (3)
   const mjfxTerms* terms;  // NULL or n == 0: quadratic potential only
 } mjfxInput;
-
-// MJFX_DIAGONAL, MJFX_ZERO or MJFX_FULL for a 6x6 row-major matrix.
-int mjfx_matrix_structure(const double M[36]);
 
 // Wrench of the element on body B: moment about the origin of frame b and force, in frame b's
 // axes [N m; N]; *power: the dissipated power [W] (0 unless viscous).
@@ -83,8 +59,5 @@ void mjfx_quat_from_rot(const double R[9], double q[4]);
 // Quaternion product a b, and the rotation matrix (row-major) of a unit quaternion.
 void mjfx_quat_mul(const double a[4], const double b[4], double out[4]);
 void mjfx_rot_from_quat(const double q[4], double R[9]);
-
-// Series coefficients used near zero angle (for a test against mjflex.core.series).
-int mjfx_series_coefficients(double* c, double* g, int n);
 
 #endif  // MJFLEX_NATIVE_FLEXURE_MATH_H_

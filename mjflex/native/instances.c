@@ -13,44 +13,57 @@ const char* mjfx_instance_name(const mjModel* m, int instance) {
   return m->names + m->name_pluginadr[instance];
 }
 
+// The plugin's registered slot (-1 until registration; compute never runs before it).
+static int g_slot = -1;
+
+int mjfx_plugin_slot(void) {
+  return g_slot;
+}
+
+void mjfx_set_plugin_slot(int slot) {
+  g_slot = slot;
+}
+
 void mjfx_free_part(Part* p) {
   free(p->chain);
   free(p->exps);
   free(p->coefs);
+  mjfx_free_values(&p->values);
   memset(p, 0, sizeof(Part));
 }
 
 void mjfx_free_table(Table* t) {
   if (!t) return;
+  for (int k = 0; t->values && k < t->n; k++) mjfx_free_values(t->values + k);
   free(t->el);
   free(t->chain);
   free(t->exps);
   free(t->coefs);
   free(t->instance);
-  free(t->strain);
+  free(t->values);
   free(t);
 }
 
 // Gather parts (in instance order) into one table, the chain and term ranges shifted into the
 // concatenated arrays. NULL: out of memory.
-Table* mjfx_gather(const Part* parts, const int* instance, int n) {
+Table* mjfx_gather(Part* parts, const int* instance, int n, int values) {
   Table* t = calloc(1, sizeof(Table));
   if (!t) return NULL;
   int nchain = 0, nterms = 0;
   for (int k = 0; k < n; k++) nchain += parts[k].nchain, nterms += parts[k].nterms;
   t->el = malloc(sizeof(mjfxElement) * (n ? n : 1));
   t->instance = malloc(sizeof(int) * (n ? n : 1));
-  t->strain = malloc(sizeof(double) * 2 * (n ? n : 1));
+  t->values = values ? calloc(n ? n : 1, sizeof(mjfxValues)) : NULL;
   t->chain = malloc(sizeof(int) * (nchain ? nchain : 1));
   t->exps = calloc((size_t)(nterms ? nterms : 1) * MJFX_TERM_COLUMNS, sizeof(int));
   t->coefs = calloc(nterms ? nterms : 1, sizeof(double));
-  if (!t->el || !t->instance || !t->strain || !t->chain || !t->exps || !t->coefs) {
+  if (!t->el || !t->instance || (values && !t->values) || !t->chain || !t->exps || !t->coefs) {
     mjfx_free_table(t);
     return NULL;
   }
   int c = 0, r = 0;
   for (int k = 0; k < n; k++) {
-    const Part* p = parts + k;
+    Part* p = parts + k;
     mjfxElement* e = t->el + k;
     *e = p->el;
     e->chain_a0 += c, e->chain_a1 += c, e->chain_b0 += c, e->chain_b1 += c;
@@ -61,7 +74,7 @@ Table* mjfx_gather(const Part* parts, const int* instance, int n) {
       memcpy(t->coefs + r, p->coefs, sizeof(double) * p->nterms);
     }
     t->instance[k] = instance[k];
-    t->strain[2 * k] = p->strain[0], t->strain[2 * k + 1] = p->strain[1];
+    if (values) t->values[k] = p->values, memset(&p->values, 0, sizeof(mjfxValues));  // moved
     c += p->nchain, r += p->nterms;
   }
   t->n = n, t->nchain = nchain, t->nterms = nterms;
@@ -84,24 +97,34 @@ static const char* record_of(const mjModel* m, const char* name) {
   return NULL;
 }
 
-// Id of the site a configuration names: `value` itself or, in a model composed with MjSpec.attach
-// (which prefixes and suffixes every name but leaves configuration strings as written), P + value + S
-// where the element's name is P + E + S (mjflex.mjcf.config.attached_name, the same rule). -1: none.
+// Id of the site a configuration names: in a model composed with MjSpec.attach (which prefixes and suffixes every
+// name but leaves configuration strings as written), P + value + S where the element's name is P + E + S; the
+// element's own prefix and suffix win (the longest P + S: nested attaches), `value` itself (no P, S) comes last
+// (mjflex.mjcf.config.attached_name, the same rule). -1: none.
 static int config_site(const mjModel* m, const char* instance_name, const char* value) {
-  int id = mj_name2id(m, mjOBJ_SITE, value);
-  if (id >= 0 || !value[0]) return id;
+  if (!value[0]) return -1;
   size_t nlen = strlen(instance_name), vlen = strlen(value);
+  int best = -1;
+  size_t longest = 0;
   for (int i = 0; i < m->nsite; i++) {
     const char* s = m->names + m->name_siteadr[i];
     size_t slen = strlen(s);
     for (const char* at = strstr(s, value); at; at = strstr(at + 1, value)) {
       size_t pre = (size_t)(at - s), suf = slen - pre - vlen;
-      if (pre + suf < nlen && !strncmp(instance_name, s, pre) && !strcmp(instance_name + nlen - suf, at + vlen)) {
-        return i;
+      if (pre + suf < nlen && !strncmp(instance_name, s, pre) && !strcmp(instance_name + nlen - suf, at + vlen) &&
+          (best < 0 || pre + suf > longest)) {
+        best = i, longest = pre + suf;
       }
     }
   }
-  return -1;
+  return best;
+}
+
+// The value of attribute row as given (white space around it left out: its span in v) into out.
+static const char* value_text(const char* const* values, const mjfxValues* v, int row, char* out, int size) {
+  int len = v->count[row] < 0 ? 0 : v->count[row];
+  snprintf(out, size, "%.*s", len, values[row] + (len ? v->first[row] : 0));
+  return out;
 }
 
 // Whether a distance and an angle are within the coincidence tolerances; NaN is not (a NaN or
@@ -166,13 +189,13 @@ static int check_frame_site(const mjModel* m, const mjData* d, const char* name,
 }
 
 // the two sites of an element (ids into sites[2]); 0 or -1 with a message
-static int read_sites(const mjModel* m, const char* name, int form, const char* const* values, int sites[2],
-                      char* err, int errsz) {
-  char head[300];
+static int read_sites(const mjModel* m, const char* name, int form, const char* const* values, const mjfxValues* v,
+                      int sites[2], char* err, int errsz) {
+  char head[300], site[1000];
   mjfx_element_head(name, form, head, sizeof(head));
   for (int k = 0; k < 2; k++) {
     const char* key = WORDS[form].site[k];
-    const char* site = values[k];
+    value_text(values, v, MJFX_A_SITE_A + k, site, sizeof(site));
     if (!site[0]) {
       snprintf(err, errsz,
                "%s%s is missing. Add <config key=\"%s\" value=\"SITE\"/> naming the site of the element frame on "
@@ -200,7 +223,7 @@ static int read_sites(const mjModel* m, const char* name, int form, const char* 
 // The rest offset of the sites (d holds the kinematics of the reference configuration): it must be the
 // identity within the coincidence tolerance. 0 or -1 with a message.
 static int read_rest_offset(const mjModel* m, const mjData* d, const char* name, int form,
-                            const char* const* values, mjfxElement* e, char* err, int errsz) {
+                            const char* const* values, const mjfxValues* v, mjfxElement* e, char* err, int errsz) {
   double dist, angle;
   mjfx_rest_offset(d, e->site_a, e->site_b, e->R0, e->p0, &dist, &angle);
   double scale = mjfx_length_scale(m, e->site_a, e->site_b);
@@ -212,25 +235,27 @@ static int read_rest_offset(const mjModel* m, const mjData* d, const char* name,
     snprintf(err, errsz,
              "%ssites '%.100s' and '%.100s' are %.3g m apart and %.3g rad apart at qpos0 (tolerance %.3g m: %g times "
              "the %.3g m of site and body positions that place them, which covers their 6-digit rounding in saved "
-             "files; %g rad). %s", head, values[0], values[1], dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
+             "files; %g rad). %s", head, m->names + m->name_siteadr[e->site_a], m->names + m->name_siteadr[e->site_b],
+             dist, angle, tol, MJFX_COINCIDENCE_RTOL, scale,
              MJFX_COINCIDENCE_ANGLE,
              finite ? "Both frames must coincide in the reference configuration: place both at the same world pose "
                       "(mjflex.add_flexure does this)"
                     : NONFINITE);
     return -1;
   }
-  return check_frame_site(m, d, name, form, values[MJFX_NATTRIBUTE - 1], e->site_a, tol, err, errsz);
+  char site[1000];
+  return check_frame_site(m, d, name, form, value_text(values, v, MJFX_A_SITE, site, sizeof(site)), e->site_a, tol,
+                          err, errsz);
 }
 
 int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int form, const char* const* values,
-                      Part* p, char* err, int errsz) {
+                      Part* p, int keep, char* err, int errsz) {
   memset(p, 0, sizeof(Part));
   mjfxParsed parsed;
-  memset(&parsed, 0, sizeof(parsed));
   if (mjfx_parse_config(name, form, values, &parsed, err, errsz)) return -1;
   p->el = parsed.el;
   p->exps = parsed.exps, p->coefs = parsed.coefs, p->nterms = parsed.nterms;
-  p->strain[0] = parsed.strain_per_radian, p->strain[1] = parsed.strain_scale;
+  p->values = parsed.values;
   mjfxElement* e = &p->el;
   const char* record = form == MJFX_FORM_PLUGIN ? record_of(m, name) : NULL;
   int sites[2];
@@ -239,10 +264,10 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
              "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
              "added twice. Keep one of them (python -m mjflex convert writes either form)",
              name, record);
-  } else if (!read_sites(m, name, form, values, sites, err, errsz)) {
+  } else if (!read_sites(m, name, form, values, &p->values, sites, err, errsz)) {
     e->site_a = sites[0], e->site_b = sites[1];
     e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
-    if (!read_rest_offset(m, d, name, form, values, e, err, errsz)) {
+    if (!read_rest_offset(m, d, name, form, values, &p->values, e, err, errsz)) {
       e->rest = parsed.has_rest;
       if (e->rest) mjfx_compose_rest(parsed.rest_pos, parsed.rest_quat, e->R0, e->p0);
       mjfx_element_prepare(m, e);
@@ -260,6 +285,7 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
         if (e->free_b < 0) count += mjfx_dof_chain(m, e->body_b, p->chain + count);
         e->chain_b1 = count;
         p->nchain = count;
+        if (!keep) mjfx_free_values(&p->values);
         return 0;
       }
       snprintf(err, errsz, "mjflex: flexure '%.200s': out of memory", name);
@@ -271,7 +297,7 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
 
 // Read instance `instance` of m into p, d holding the kinematics of the reference configuration
 // (measure_begin). 0, or -1 with a message in err (p holds nothing then).
-int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, char* err, int errsz) {
+int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, int keep, char* err, int errsz) {
   memset(p, 0, sizeof(Part));
   const char* name = mjfx_instance_name(m, instance);
   if (!name[0]) {
@@ -283,10 +309,10 @@ int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, cha
   }
   const char* values[MJFX_NATTRIBUTE];
   for (int i = 0; i < MJFX_NATTRIBUTE; i++) {
-    values[i] = mj_getPluginConfig(m, instance, MJFX_ATTRIBUTES[i]);
+    values[i] = mj_getPluginConfig(m, instance, MJFX_SCHEMA[i].key);
     if (!values[i]) values[i] = "";
   }
-  return mjfx_read_element(m, d, name, MJFX_FORM_PLUGIN, values, p, err, errsz);
+  return mjfx_read_element(m, d, name, MJFX_FORM_PLUGIN, values, p, keep, err, errsz);
 }
 
 // The reference configuration in d's kinematics, for reading elements: qpos0 and the mocap bodies at
@@ -325,7 +351,7 @@ void mjfx_measure_end(const mjModel* m, mjData* d, double* saved, int kinematics
 // values[k * MJFX_NATTRIBUTE ...]), then every instance of the plugin at `slot` (-1: none) in order. The table,
 // or NULL with a message in err.
 static Table* read_elements(const mjModel* m, mjData* d, int slot, int nrec, const char* const* names,
-                            const char* const* values, char* err, int errsz) {
+                            const char* const* values, int keep, char* err, int errsz) {
   int n = nrec;
   for (int i = 0; i < m->nplugin && slot >= 0; i++) n += m->plugin[i] == slot;
   Part* parts = calloc(n ? n : 1, sizeof(Part));
@@ -339,16 +365,16 @@ static Table* read_elements(const mjModel* m, mjData* d, int slot, int nrec, con
   int k = 0, failed = 0;
   for (int r = 0; r < nrec && !failed; r++) {
     failed = mjfx_read_element(m, d, names[r], MJFX_FORM_RECORD, values + (size_t)r * MJFX_NATTRIBUTE, parts + k,
-                               err, errsz);
+                               keep, err, errsz);
     instance[k++] = -1;
   }
   for (int i = 0; i < m->nplugin && slot >= 0 && !failed; i++) {
     if (m->plugin[i] != slot) continue;
-    failed = mjfx_read_part(m, d, i, parts + k, err, errsz);
+    failed = mjfx_read_part(m, d, i, parts + k, keep, err, errsz);
     instance[k++] = i;
   }
   mjfx_measure_end(m, d, saved, 1);
-  Table* t = failed ? NULL : mjfx_gather(parts, instance, n);
+  Table* t = failed ? NULL : mjfx_gather(parts, instance, n, keep);
   if (!failed && !t) snprintf(err, errsz, "mjflex: out of memory");
   for (int j = 0; j < k; j++) mjfx_free_part(parts + j);
   free(parts), free(instance);
@@ -356,7 +382,7 @@ static Table* read_elements(const mjModel* m, mjData* d, int slot, int nrec, con
 }
 
 Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz) {
-  return read_elements(m, d, slot, 0, NULL, NULL, err, errsz);
+  return read_elements(m, d, slot, 0, NULL, NULL, 0, err, errsz);
 }
 
 Table* mjfx_read_table(const mjModel* m, mjData* d, int nrec, const char* const* names, const char* const* values,
@@ -371,7 +397,7 @@ Table* mjfx_read_table(const mjModel* m, mjData* d, int nrec, const char* const*
       return NULL;
     }
   }
-  return read_elements(m, d, mjfx_plugin_slot(), nrec, names, values, err, errsz);
+  return read_elements(m, d, g_slot, nrec, names, values, 1, err, errsz);
 }
 
 // Sleeping: whether tree `t` may sleep: its policy lets MuJoCo put it to sleep.

@@ -10,14 +10,16 @@
 #include <mujoco/mujoco.h>
 
 #include "elements.h"
+#include "schema.h"
 
-// One instance's element as its init reads it (own dof chain and terms, indices from 0).
+// One instance's element as its init reads it (own dof chain and terms, indices from 0), and the values of its
+// configuration when they are kept (for Python).
 typedef struct Part_ {
   mjfxElement el;
   int *chain, *exps;
   double* coefs;
   int nchain, nterms;
-  double strain[2];  // strain_per_radian, strain_scale (0: not given)
+  mjfxValues values;
 } Part;
 
 // All elements of a model, gathered.
@@ -27,8 +29,8 @@ typedef struct Table_ {
   int* chain;
   int* exps;
   double* coefs;
-  int* instance;   // plugin instance of each element (-1: a text record)
-  double* strain;  // 2 per element: strain_per_radian, strain_scale
+  int* instance;        // plugin instance of each element (-1: a text record)
+  mjfxValues* values;   // each element's configuration values (mjfx_read_table), else NULL
 } Table;
 
 // the name of plugin instance `instance` (its element's name)
@@ -38,8 +40,9 @@ void mjfx_free_part(Part* p);
 void mjfx_free_table(Table* t);
 
 // Gather parts (in instance order; instance[k] is part k's plugin instance) into one table, the chain and
-// term ranges shifted into the concatenated arrays. NULL: out of memory.
-Table* mjfx_gather(const Part* parts, const int* instance, int n);
+// term ranges shifted into the concatenated arrays; the parts' values move into it (with `values`). NULL: out of
+// memory.
+Table* mjfx_gather(Part* parts, const int* instance, int n, int values);
 
 // The reference configuration in d's kinematics, for reading elements: qpos0 and the mocap bodies at their
 // model poses (what mj_resetData sets). The caller's qpos and mocap poses are saved in what it returns (NULL:
@@ -58,25 +61,27 @@ int mjfx_offsets_coincide(const mjModel* m, const mjfxElement* a, const mjfxElem
 // into p, d holding the kinematics of the reference configuration (mjfx_measure_begin): parsed and checked
 // (config.c), its sites found and on two bodies, its rest offset measured and checked (the sites coincide,
 // the frame site too), its derived fields, inverse inertias and dof chains. The one reader of both forms:
-// every check has one message, in the words of the form. 0, or -1 with the message in err (p holds nothing).
+// every check has one message, in the words of the form. The values read are kept in p->values with `keep`.
+// 0, or -1 with the message in err (p holds nothing).
 int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int form, const char* const* values,
-                      Part* p, char* err, int errsz);
+                      Part* p, int keep, char* err, int errsz);
 
 // Read instance `instance` of m into p (mjfx_read_element with its <config> strings).
-int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, char* err, int errsz);
+int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, int keep, char* err, int errsz);
 
 // Every instance of the plugin at `slot` in m, read on d (d's kinematics are put back bit for bit): the
 // table, or NULL with a message in err.
 Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz);
 
 // For Python (mjflex.runtime.tables): nrec text records (names[k] and their configuration strings values[k *
-// MJFX_NATTRIBUTE ...]) and then every instance of the plugin, read on d as mjfx_read_model does. The
-// table (free it with mjfx_free_table), or NULL with the message in err.
+// MJFX_NATTRIBUTE ...]) and then every instance of the plugin, read on d as mjfx_read_model does, each element's
+// values kept. The table (free it with mjfx_free_table), or NULL with the message in err.
 Table* mjfx_read_table(const mjModel* m, mjData* d, int nrec, const char* const* names, const char* const* values,
                        char* err, int errsz);
 
-// The plugin's registered slot (-1 before registration; plugin.c).
+// The plugin's registered slot (-1 before registration): plugin.c sets it when it registers the plugin.
 int mjfx_plugin_slot(void);
+void mjfx_set_plugin_slot(int slot);
 
 // With sleeping enabled, warn about an element that joins a tree which may sleep (see instances.c).
 void mjfx_warn_sleepy(const mjModel* m, const Table* t);

@@ -81,8 +81,12 @@ _SIGNATURES = {
     "mjfx_read_table": (_P, [_P, _P, _I, _P, _P, ctypes.c_char_p, _I]),
     "mjfx_table_sizes": (None, [_P, _P]),
     "mjfx_table_copy": (None, [_P, _P, _P, _P, _P, _P]),
+    "mjfx_table_values": (None, [_P, _P, _P, _P, _P]),
     "mjfx_free_table": (None, [_P]),
     "mjfx_check_config": (_I, [ctypes.c_char_p, _P, ctypes.c_char_p, _I]),
+    "mjfx_parse_values": (_I, [ctypes.c_char_p, _I, _P, _P, _P, _P, _P, _I, ctypes.c_char_p, _I]),
+    "mjfx_schema_text": (ctypes.c_char_p, [_I, ctypes.c_char_p]),
+    "mjfx_schema_number": (_D, [_I, ctypes.c_char_p]),
     "mjfx_constant": (_D, [ctypes.c_char_p]),
     "mjfx_offsets_coincide": (_I, [_P, _P, _P, _P]),
     "mjfx_registry_capacity": (_I, []),
@@ -202,41 +206,62 @@ def _strings(texts):
 
 def read_table(model, data, records):
     """The element table of ``model``, read by the C library (``mjfx_read_table``): its text records, then its plugin
-    instances in order. ``records``: ``[(element, configuration)]`` of the text records, each as the plugin
-    configuration it is equal to (attribute -> string). ``data`` (of ``model``) gives the reference configuration's
-    kinematics (put back after). Returns ``(elements, chain, exps, coefs, instances)``: ``instances[e]`` the plugin
-    instance of row ``e`` (-1 for a record); the arrays are never empty (one zero row or a trailing 0: valid
-    addresses for the C loop). Raises ValueError with the message of the first element that C refuses.
+    instances in order. ``records``: ``[(element, values)]`` of the text records, each with the values of the plugin
+    configuration it is equal to (one string per attribute, in :func:`plugin_attributes` order). ``data`` (of
+    ``model``) gives the reference configuration's kinematics (put back after). Returns ``(elements, chain, exps,
+    coefs, instances, values)``: ``instances[e]`` the plugin instance of row ``e`` (-1 for a record); the arrays are
+    never empty (one zero row or a trailing 0: valid addresses for the C loop); ``values[e]`` what C read of row
+    ``e``'s configuration, ``(count, first, num)`` (:func:`parse_values`). Raises ValueError with the message of the
+    first element that C refuses.
     """
-    native, attributes = lib(), plugin_attributes()
+    native = lib()
     names = _strings([name for name, _ in records])
-    values = _strings([str(config.get(a, "")) for _, config in records for a in attributes])
+    values = _strings([v for _, strings in records for v in strings])
     err = ctypes.create_string_buffer(4096)
     table = native.mjfx_read_table(model._address, data._address, len(records), ctypes.cast(names, _P),
                                    ctypes.cast(values, _P), err, len(err))  # fmt: skip
     if not table:
         raise ValueError(err.value.decode(errors="replace"))
     try:
-        sizes = (ctypes.c_int * 3)()
+        sizes = (ctypes.c_int * 4)()
         native.mjfx_table_sizes(table, sizes)
-        n, nchain, nterms = sizes
+        n, nchain, nterms, nnum = sizes
         elements = np.zeros(max(n, 1), dtype=ELEMENT_DTYPE)
         chain = np.zeros(nchain + 1, dtype=np.int32)
         exps = np.zeros((max(nterms, 1), TERM_COLUMNS), dtype=np.int32)
         coefs, instances = np.zeros(max(nterms, 1)), np.zeros(max(n, 1), dtype=np.int32)
         native.mjfx_table_copy(table, *(_ptr(a) for a in (elements, chain, exps, coefs, instances)))
+        count, first = (np.zeros((max(n, 1), len(plugin_attributes())), np.int32) for _ in range(2))
+        base, num = np.zeros(max(n, 1), np.int32), np.zeros(max(nnum, 1))
+        native.mjfx_table_values(table, *(_ptr(a) for a in (count, first, base, num)))
     finally:
         native.mjfx_free_table(table)
-    return elements, chain, exps, coefs, tuple(int(i) for i in instances[:n])
+    values = [(count[e], first[e], num[base[e] :]) for e in range(n)]
+    return elements, chain, exps, coefs, tuple(int(i) for i in instances[:n]), values
 
 
-def check_config(element: str, config) -> None:
-    """ValueError with the C library's message unless ``config`` (attribute -> string) is a valid configuration of
-    element ``element`` (``mjfx_check_config``: the rules of the plugin's compile errors, without a model)."""
-    values = _strings([str(config.get(a, "")) for a in plugin_attributes()])
-    err = ctypes.create_string_buffer(4096)
-    if lib().mjfx_check_config(element.encode(), ctypes.cast(values, _P), err, len(err)):
-        raise ValueError(err.value.decode(errors="replace"))
+def parse_values(element: str, form: str, strings):
+    """What the C library reads of element ``element``'s configuration, ``strings`` (one per attribute, in
+    :func:`plugin_attributes` order), written in ``form`` (``"plugin"``, ``"record"`` or ``"arguments"``:
+    ``mjfx_parse_values``, the rules of the plugin's compile errors, without a model): ``(count, first, num,
+    element)``, per attribute how many numbers it has and where they start in ``num`` (for a name or a JSON object,
+    the length and byte offset of its value in its string; -1: not given), and its ``ELEMENT_DTYPE`` row. Raises
+    ValueError with the C library's message.
+    """
+    native, values, err = lib(), _strings(strings), ctypes.create_string_buffer(4096)
+    count, first, row = np.zeros(len(strings), np.int32), np.zeros(len(strings), np.int32), np.zeros(1, ELEMENT_DTYPE)
+    code = int(constant("FORM_" + form.upper()))
+    cap = 64 + sum(len(s) for s in strings)  # numbers are at least a character each, and K or B at most 36
+    for _ in range(2):
+        num = np.zeros(cap)
+        n = native.mjfx_parse_values(element.encode(), code, ctypes.cast(values, _P), _ptr(row), _ptr(count),
+                                     _ptr(first), _ptr(num), cap, err, len(err))  # fmt: skip
+        if n < 0:
+            raise ValueError(err.value.decode(errors="replace"))
+        if n <= cap:
+            return count, first, num[:n], row[0]
+        cap = n
+    raise RuntimeError("mjflex: mjfx_parse_values read another size twice")
 
 
 def constant(name: str) -> float:

@@ -62,7 +62,7 @@
 #include "instances.h"
 #include "states.h"
 
-// The plugin's registered slot (-1 until registration; compute never runs before it).
+// The plugin's registered slot (-1 until registration; compute never runs before it; instances.c is told).
 static int g_slot = -1;
 
 // What identifies the model a table was read from. Beyond the model's address and its configuration
@@ -93,10 +93,6 @@ typedef struct State_ {
   int settled;           // its configuration text was compared in this run (reset clears it)
   int edited;            // a read after an in-place edit was said (once per data)
 } State;
-
-static int is_ours(const mjModel* m, int i) {
-  return i >= 0 && i < m->nplugin && m->plugin[i] == g_slot;
-}
 
 // the model's first (leader) and last instance of the plugin, -1 if none
 static int first_of(const mjModel* m) {
@@ -243,7 +239,7 @@ static int init_table(const mjModel* m, State* s) {
     for (int i = 0, k = 0; i < m->nplugin; i++) {
       if (m->plugin[i] == g_slot && k < s->nparts) instance[k++] = i;
     }
-    t = mjfx_gather(s->parts, instance, s->nparts);
+    t = mjfx_gather(s->parts, instance, s->nparts, 0);
   }
   free(instance);
   atomic_fetch_sub(&g_live, s->nparts);
@@ -272,7 +268,7 @@ static int flexure_init(const mjModel* m, mjData* d, int instance) {
   }
   double* saved = mjfx_measure_begin(m, d);
   if (!saved) return init_fail(d, "mjflex: out of memory");
-  int failed = mjfx_read_part(m, d, instance, s->parts + s->nparts, err, sizeof(err));
+  int failed = mjfx_read_part(m, d, instance, s->parts + s->nparts, 0, err, sizeof(err));
   mjfx_measure_end(m, d, saved, 0);  // a fresh data: MuJoCo resets it next
   if (failed) return init_fail(d, err);
   s->nparts++, s->counted++;
@@ -449,8 +445,9 @@ static void strain_color(double x, float rgba[4]) {
 }
 
 // Draw every element (leader only) as its site a's shape, 10 % larger so that it covers the site, at the
-// site's pose, coloured by |rotation about z| x strain_per_radian over the full scale (the rotation itself
-// without strain_per_radian); where site a's group is shown, while the scene has room.
+// site's pose, coloured by |rotation about z| x strain_per_radian over the full scale strain_scale (the rotation
+// itself without strain_per_radian; both display attributes, read from the configuration here); where site a's
+// group is shown, while the scene has room.
 static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
   if (!is_leader(m, instance)) return;
   Table* temp;
@@ -465,7 +462,8 @@ static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt,
     int site = t->el[k].site_a;
     int group = m->site_group[site];
     if (!opt->sitegroup[group < 0 ? 0 : (group >= mjNGROUP ? mjNGROUP - 1 : group)]) continue;
-    double per_radian = t->strain[2 * k], scale = t->strain[2 * k + 1];
+    double per_radian = mjfx_config_number(m, t->instance[k], MJFX_A_STRAIN, 0);
+    double scale = mjfx_config_number(m, t->instance[k], MJFX_A_STRAIN_SCALE, 0);
     double bending = fabs(s->twists[6 * k + 2]);
     double value = per_radian > 0 ? bending * per_radian : bending;
     double full = scale > 0 ? scale : (per_radian > 0 ? MJFX_DEFAULT_STRAIN_SCALE : MJFX_DEFAULT_ROTATION_SCALE);
@@ -486,10 +484,6 @@ static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt,
 }
 
 //------------------------------------------------------------------------------ for Python (ctypes)
-
-int mjfx_plugin_slot(void) {
-  return g_slot;
-}
 
 // The divergence watch of d (tallies indexed by the model's instances of the plugin, in order), or NULL.
 const mjfxWatch* mjfx_plugin_watch(const mjModel* m, const mjData* d) {
@@ -534,12 +528,14 @@ mjPLUGIN_LIB_INIT(mjflex_flexure) {
     g_status = -2;
     return;
   }
+  static const char* attributes[MJFX_NATTRIBUTE];  // the table's keys (MuJoCo keeps the pointer)
+  for (int i = 0; i < MJFX_NATTRIBUTE; i++) attributes[i] = MJFX_SCHEMA[i].key;
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
   plugin.name = MJFX_PLUGIN_NAME;
   plugin.capabilityflags |= mjPLUGIN_PASSIVE;
   plugin.nattribute = MJFX_NATTRIBUTE;
-  plugin.attributes = MJFX_ATTRIBUTES;
+  plugin.attributes = attributes;
   plugin.nstate = flexure_nstate;
   plugin.init = flexure_init;
   plugin.destroy = flexure_destroy;
@@ -549,5 +545,6 @@ mjPLUGIN_LIB_INIT(mjflex_flexure) {
   plugin.advance = flexure_advance;
   plugin.visualize = flexure_visualize;
   g_slot = mjp_registerPlugin(&plugin);
+  mjfx_set_plugin_slot(g_slot);
   g_status = 1;
 }

@@ -3,15 +3,15 @@ in the element table that the C loop reads (one ``mjflex.native.library.ELEMENT_
 
 An element is written in a model file either as a text record with two sites
 (:mod:`mjflex.mjcf.schema`) or as an instance of the engine plugin ``mjflex.flexure``
-(``PLUGIN_ATTRIBUTES``); both give the same table row, so every analysis works on both.
+(:mod:`mjflex.mjcf.config`); both give the same table row, so every analysis works on both.
 
 The set-up of an element exists once, in C (``mjflex/native/instances.c``, ``mjfx_read_element``):
 its configuration's checks, its sites on two bodies, the rest offset and the coincidence checks,
 the frame site, the derived fields, inverse inertias and dof chains. The plugin's ``init`` runs
-it on its instances; :func:`derive` runs it on every element of a model (``library.read_table``):
-a text record is found here by its sites' names, read from its JSON (:func:`schema.parse_text`,
-the record's own rules) and given to C as the configuration it is equal to
-(:func:`config_from_record`). So a check has one message, in the words of the element's
+it on its instances; :func:`derive` runs it on every element of a model (``library.read_table``),
+once: a text record is found here by its sites' names and its JSON given to C as the configuration
+it is equal to (:func:`schema.config_from_payload`), and each element's record is made from what C
+read (:func:`schema.record_from_values`). So a check has one message, in the words of the element's
 form, and a record and a plugin instance of one element lay out the same row.
 
 :func:`derive` is the single place where a model is read; the provider runs it once at
@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 
 from ..mjcf import naming, schema
-from ..mjcf.config import config_from_record, config_sites, config_text, record_from_config
+from ..mjcf.config import config_sites, config_text
 from ..mjcf.schema import PLUGIN, RECORD
 from ..native import library
 from . import contacts
@@ -116,12 +116,13 @@ def _text_records(model, site_ids, claimed_sites=()):
     return out
 
 
-def parse(element, data):
+def _record_strings(element, data, site_a, site_b):
+    """The configuration strings (in the table's order) a text record's JSON is equal to; ModelError otherwise."""
     try:
-        return schema.parse_text(element, data)
-    except ValueError as exc:
-        problem = f"text record '{schema.PREFIX}{element}' is malformed: {str(exc).rstrip('.')}"
-        raise model_error(element, problem, "Fix its text record (see mjflex.mjcf.schema for the keys).") from None
+        config = schema.record_config(element, data) | {"site_a": site_a, "site_b": site_b}
+    except ValueError as exc:  # what only JSON can get wrong (the values' rules: C's, in read_table)
+        raise ModelError(f"flexure '{element}': text record '{schema.PREFIX}{element}' is malformed: {exc}") from None
+    return [config.get(a.key, "") for a in schema.attributes()]
 
 
 def _site_id(model, element, name, role, all_sites, others):
@@ -137,23 +138,16 @@ def _site_id(model, element, name, role, all_sites, others):
 
 
 def _plugin_elements(model, all_sites):
-    """``[(element, config text, site a, site b, record)]`` of the model's mjflex.flexure instances, in order."""
-    ours = library.plugin_instances(model)
-    if not ours:
-        return []
-    attributes = library.plugin_attributes()
+    """``[(element, config text, site a, site b, strings)]`` of the model's mjflex.flexure instances, in order."""
+    keys = [a.key for a in schema.attributes()]
     out = []
-    for i in ours:
+    for i in library.plugin_instances(model):
         element = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, i) or ""
         start = int(model.plugin_attradr[i])
-        values = bytes(model.plugin_attr[start:]).split(b"\x00")[: len(attributes)]
-        config = {a: v.decode("utf-8") for a, v in zip(attributes, values, strict=True)}
-        try:
-            record = record_from_config(element, config)
-        except ValueError as exc:
-            raise ModelError(str(exc)) from None
+        strings = [v.decode("utf-8") for v in bytes(model.plugin_attr[start:]).split(b"\x00")[: len(keys)]]
+        config = dict(zip(keys, strings, strict=True))
         site_a, site_b = config_sites(config, element, all_sites)
-        out.append((element, config_text(config), site_a, site_b, record))
+        out.append((element, config_text(config), site_a, site_b, strings))
     return out
 
 
@@ -164,20 +158,21 @@ def derive(model) -> Tables:
     plugins = _plugin_elements(m, all_sites)
     found, configs = [], []
     for element, data, site_a, site_b, _ in _text_records(m, {s for s in all_sites if s}, {p[2] for p in plugins}):
-        record = parse(element, data)
+        strings = _record_strings(element, data, site_a, site_b)
         for s, role in ((site_a, "body A"), (site_b, "body B")):
             _site_id(m, element, s, role, all_sites, {site_a, site_b})
-        found.append((element, data, site_a, site_b, record))
-        configs.append((element, config_from_record(record, site_a, site_b)))
+        found.append((element, data, site_a, site_b, strings))
+        configs.append((element, strings))
     try:
         ref = mujoco.MjData(m)  # runs the plugin instances' init, which may refuse a model edited in place
     except mujoco.FatalError as exc:
         raise ModelError(f"its mjflex.flexure instances cannot be read ({exc}; MuJoCo's warning says why)") from None
     try:
-        elements, chain, exps, coefs, instances = library.read_table(m, ref, configs)
+        elements, chain, exps, coefs, instances, values = library.read_table(m, ref, configs)
     except ValueError as exc:
         raise ModelError(str(exc)) from None
     found += plugins
+    found = [(*f[:4], schema.record_from_values(f[0], f[4], *v)) for f, v in zip(found, values, strict=True)]
     joined = {}
     for e, row in enumerate(elements[: len(found)]):
         ba, bb = int(row["body_a"]), int(row["body_b"])

@@ -19,10 +19,11 @@ from ..native import library
 from ..runtime.flexures import Flexures
 from . import _kernels as kn
 
-#: Record fields the kernels implement, or that do not change the forces (reports, colours, provenance).
+#: Record fields the kernels implement, or that do not change the forces (reports, provenance; and the display
+#: attributes of the schema table, schema.display_fields).
 SUPPORTED_FIELDS = {
-    "name", "method", "K", "B", "enabled", "viscous", "terms", "order", "strain_per_radian", "source", "site",
-    "strain_scale", "stops", "rest",
+    "name", "method", "K", "B", "enabled", "viscous", "terms", "order", "strain_per_radian", "source", "site", "stops",
+    "rest",
 }  # fmt: skip
 METHODS = {"twist": kn.TWIST, "dualquat": 1}
 
@@ -159,7 +160,7 @@ def unsupported_features(record) -> list[str]:
     """Features of ``record`` (a FlexureRecord) that the Warp kernels do not implement, set to a non-default value."""
     found = []
     for f in dataclasses.fields(record):
-        if f.name in SUPPORTED_FIELDS:
+        if f.name in SUPPORTED_FIELDS | schema.display_fields():
             continue
         default = f.default if f.default is not dataclasses.MISSING else None
         value = getattr(record, f.name)

@@ -1,4 +1,5 @@
-"""End stops as per-world parameters of the Warp kernels: their limits and stiffness, checked once at the boundary.
+"""End stops as per-world parameters of the Warp kernels: their limits and stiffness, checked once at the boundary;
+their damping, the model's.
 
 The rules are those of an element's stops in a model (:mod:`mjflex.mjcf.stops`), applied to every
 world: limits on ``[rx, ry, rz, x, y, z]`` (a planar element's on ``rz, x, y``, the rows of
@@ -38,11 +39,14 @@ def vectors(name, value, n) -> np.ndarray:
 
 
 def stiffness(table, K, given) -> np.ndarray:
-    """The stiffness the kernels read before the limits are applied: ``given`` ``(worlds, n, 6)``, or the model's
-    (derived from ``K`` ``(worlds, n, 6, 6)`` for the elements that derive it, as written for the others)."""
+    """The stiffness the kernels read before the limits are applied: ``given`` ``(worlds, n, 6)``, or the model's:
+    as written, or for the elements that derive it, the C library's (``stop_k``) where a world keeps the model's
+    ``K_ii`` and limit, else derived from the world's ``K`` ``(worlds, n, 6, 6)`` as the C library derives it."""
     if given is not None:
         return given
-    derived = STIFFNESS_FACTOR * np.diagonal(K, axis1=-2, axis2=-1)
+    diag = np.diagonal(K, axis1=-2, axis2=-1)
+    model = (diag == np.diagonal(table.K, axis1=-2, axis2=-1)[None]) & (table.stop_stiffness[None] > 0)
+    derived = np.where(model, table.stop_stiffness[None], STIFFNESS_FACTOR * diag)
     return np.where(table.stop_derived[None, :, None], derived, table.stop_stiffness[None])
 
 
