@@ -54,7 +54,8 @@ def test_lower_above_upper_is_refused_on_every_coordinate_in_every_form(n, i):
     mjflex.Stops, the core's stop functions, a text record's stops and a plugin instance's configuration (C)."""
     name = (SPATIAL if n == 6 else PLANAR)[i]
     lower, upper = _crossed(n, i)
-    with pytest.raises(ValueError, match=rf"lower of {name} \(0.02\) is above upper \(0.01\)"):
+    crossed = rf"lower of {name} \(0.02\) is above (its )?\S*upper \(0.01\)"  # one check's words in every form
+    with pytest.raises(ValueError, match=crossed):
         mjflex.Stops(lower=lower, upper=upper)
     lo = np.where(np.equal(lower, None), -np.inf, lower).astype(float)
     hi = np.where(np.equal(upper, None), np.inf, upper).astype(float)
@@ -72,14 +73,14 @@ def test_lower_above_upper_is_refused_on_every_coordinate_in_every_form(n, i):
         ", ".join("null" if v is None else repr(v) for v in upper),
     )
     text.data = text.data[:-1] + f', "stops": {{"lower": [{limits[0]}], "upper": [{limits[1]}]}}}}'
-    with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*lower of {name} \(0.02\) is above upper"):
+    with pytest.raises(mjflex.ModelError, match=rf"flexure 'disc': .*{crossed}"):
         mjflex.Flexures(spec.compile())
     spec = _bodies(planar=n == 3)
     handle = mjflex.add_flexure(spec, "disc", "world", "b0", pos=[0.1, 0, 0], K=K)
     config = {"stop_lower": " ".join("-inf" if v is None else repr(v) for v in lower),
               "stop_upper": " ".join("inf" if v is None else repr(v) for v in upper)}  # fmt: skip
     handle.plugin.config = {**dict(handle.plugin.config), **config}
-    with pytest.raises(ValueError, match=rf"flexure 'disc' .*stop_lower of {name} \(0.02\) is above its stop_upper"):
+    with pytest.raises(ValueError, match=rf"flexure 'disc' .*{crossed}"):
         spec.compile()
 
 

@@ -22,13 +22,13 @@ import mujoco
 import numpy as np
 
 from ..analysis.damping import DIRECTIONS, checked_ratios, damping_from_ratios
+from ..core.rest import rest_pose
 from ..core.stops import stop_coordinates
 from ..mjcf import coordinates, keyframes
 from ..mjcf import joints as joint_replacement
 from ..mjcf.build import add_flexure, joints_checked, remove_flexure
 from ..mjcf.elements import element_record, spec_elements, write_record
 from ..mjcf.keyframes import KeyframeEdit
-from ..mjcf.schema import checked_rest
 from ..mjcf.spec import compile_spec, quaternion_from_rotation
 from ..mjcf.stops import Stops
 from ..runtime import contacts
@@ -494,7 +494,8 @@ def _rest_pose(rest, rigid, body, replaced, R_BE, p_BE, name):
     if rest is None:
         found = coordinates.rest_from_springs(rigid, body, replaced, R_BE, p_BE) if replaced else None
         return None if found is None else (tuple(found[0].tolist()), tuple(found[1].tolist()))
-    return checked_rest(rest, f"rest of flexure {name!r}")
+    rest_pose(rest, f"rest of flexure {name!r}")  # ValueError saying what is wrong (schema.checked_rest until 1.1)
+    return tuple(float(v) for v in rest[0]), tuple(float(v) for v in rest[1])
 
 
 def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
