@@ -399,7 +399,8 @@ def _refuse_second_element(spec, body):
         raise ValueError(
             f"body {body.name!r} and its parent {parent!r} are already joined by flexure {e.name!r}: make_compliant "
             "would add a second element in parallel with it. To change that element, undo it first "
-            "(mjflex.make_rigid(spec, compliance), or mjflex.remove_flexure) or edit it (mjflex.edit_flexure); to "
+            "(mjflex.make_rigid(spec, compliance), or mjflex.remove_flexure) or edit it "
+            "(mjflex.mjcf.elements.edit_flexure); to "
             f"add a second one on purpose, use mjflex.add_flexure(spec, name, {parent!r}, {body.name!r}, ...)"
         )
 
