@@ -93,6 +93,43 @@ def chain_xml(n_links=4, *, method="twist"):
             f"</plugin></extension><worldbody>{ground}{xml}</worldbody></mujoco>")  # fmt: skip
 
 
+def arm_xml(kind, k=(0.3, 0.2)):
+    """A planar two-link arm (hinges about z at the shoulder and the elbow, no gravity) with a muscle on a tendon
+    across each joint, whose ``actuator_lengthrange`` MuJoCo's compiler computes by simulation.
+
+    ``kind``: ``"element"``, an element in parallel with each hinge (sites on the joint's axis, frames aligned
+    with it), stiffness ``k[j]`` (N m/rad) about z and stiff in the other directions, which the hinge does
+    not allow (no force there); ``"spring"``, MuJoCo's hinge springs of stiffness ``k[j]`` instead: the same
+    forces (a twist of a rotation about the frame's z axis is that angle); ``"plain"``: neither.
+    """
+    stiffness = [f' stiffness="{kj!r}"' if kind == "spring" else "" for kj in k]
+    extension = ""
+    if kind == "element":
+        joints = (("world_axis", "upper_axis"), ("upper_tip", "lower_axis"))
+        extension = (
+            '<extension><plugin plugin="mjflex.flexure">'
+            + "".join(
+                f'<instance name="{name}"><config key="site_a" value="{a}"/><config key="site_b" value="{b}"/>'
+                f'<config key="K" value="2 2 {kj!r} 500 500 500"/></instance>'
+                for name, (a, b), kj in zip(("shoulder_element", "elbow_element"), joints, k, strict=True)
+            )
+            + "</plugin></extension>"
+        )
+    return f"""<mujoco model="arm_{kind}"><option timestep="0.002" gravity="0 0 0"/>{extension}
+<worldbody><site name="world_axis"/><site name="origin" pos="-0.05 0.03 0"/>
+<body name="upper"><joint name="shoulder" axis="0 0 1"{stiffness[0]}/>
+<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+<site name="upper_axis"/><site name="upper_tip" pos="0.3 0 0"/>
+<site name="insertion" pos="0.1 -0.02 0"/><site name="upper_origin" pos="0.05 0.02 0"/>
+<body name="lower" pos="0.3 0 0"><joint name="elbow" axis="0 0 1"{stiffness[1]}/>
+<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+<site name="lower_axis"/><site name="lower_insertion" pos="0.1 0.02 0"/></body></body></worldbody>
+<tendon><spatial name="across_shoulder"><site site="origin"/><site site="insertion"/></spatial>
+<spatial name="across_elbow"><site site="upper_origin"/><site site="lower_insertion"/></spatial></tendon>
+<actuator><muscle name="shoulder_muscle" tendon="across_shoulder"/><muscle name="elbow_muscle" tendon="across_elbow"/>
+</actuator></mujoco>"""
+
+
 def sanitizer_reports(text):
     """The sanitizer reports in a process's output (empty: none)."""
     return [line for line in text.splitlines() if any(r in line for r in SANITIZER_REPORTS)]

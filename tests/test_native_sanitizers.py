@@ -9,7 +9,8 @@ then run in a child interpreter that loads that build (``MJFLEX_NATIVE_DIR``, ho
 C++ exception of another extension, e.g. MuJoCo's errors). UBSan stops at the first report
 (``-fno-sanitize-recover=all``); any report of either fails the test, as does any failing test.
 ThreadSanitizer runs the threaded paths: rollout with threads and model lists of other element
-counts, datas made, stepped and freed in threads (the plugin's registry), and the mjcb_passive
+counts, datas made, stepped and freed in threads (the plugin's registry), models with muscles compiled
+in threads (MuJoCo's length-range simulations on datas without instances), and the mjcb_passive
 dispatcher with more datas than it has watch entries. Not ``mujoco.batch.Batch``: its thread pool, in
 the uninstrumented libmujoco, hands work over through atomics ThreadSanitizer cannot see, so every
 handover is reported as a race, inside MuJoCo (``mjb_makeBatch``) as much as in the plugin; Batch
@@ -46,6 +47,7 @@ SANITIZED_TESTS = [
     "tests/test_model_edits.py",  # the model snapshots compared after in-place edits (issue 33 item 14)
     "tests/test_stop_damping.py",
     "tests/test_rest_pose.py",
+    "tests/test_lengthrange.py",  # the compiler's length-range data (no instances), in threads too
 ]
 
 # builds and loads a copy of the library of its own, without the sanitizers: nothing to learn from it here
@@ -191,6 +193,16 @@ def churn(k):
         mujoco.mj_step(models[(k + r + 1) % 3], twin, 2)
 
 threads = [threading.Thread(target=churn, args=(k,)) for k in range(4)]
+[t.start() for t in threads]; [t.join() for t in threads]
+
+# compiles in 4 threads: MuJoCo's length-range simulations (on its datas without instances) side by side
+from tests.native_cases import arm_xml
+
+def compile_arm(k):
+    for _ in range(3):
+        mujoco.MjSpec.from_string(arm_xml("element")).compile()
+
+threads = [threading.Thread(target=compile_arm, args=(k,)) for k in range(4)]
 [t.start() for t in threads]; [t.join() for t in threads]
 
 print("threaded paths done")

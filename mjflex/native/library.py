@@ -116,6 +116,7 @@ _SIGNATURES = {
     "mjfx_is_instance": (_I, [_P, _I]),
     "mjfx_live_instances": (ctypes.c_long, []),
     "mjfx_states_count": (ctypes.c_long, []),
+    "mjfx_stateless_reads": (ctypes.c_long, []),
     "mjfx_set_lanes": (_I, [_I]),
     "mjfx_lanes_available": (_I, [_I]),
     "mjfx_lanes": (_I, []),

@@ -36,7 +36,12 @@
 // read (sites that no longer meet) it warns once, gives NaN forces with that model, and keeps its
 // table for its own model. A data that has no mjflex instance of its own (made from a model without
 // elements) cannot hold a State (MuJoCo would never destroy it): its elements are read at every
-// evaluation (slow; a warning says so once per process).
+// evaluation (slow; a warning says so once per process); advance and visualize, which have nothing to
+// do without a State, leave it alone. MuJoCo's compiler steps such a data: the one it computes
+// actuator_lengthrange with (mjCModel::LengthRange, mj_setLengthRange) is made by mj_makeRawData,
+// without plugin instances, and stepped with spring and damper forces disabled (MuJoCo's own springs'
+// too), so mj_passive calls no compute there and only advance runs, at every step: nothing is read or
+// said, and the elements exert no force in that simulation (tests/test_lengthrange.py).
 //
 // Divergence (see elements.h, mjfx_watch_*): the State owns the data's watch. The leader's compute
 // first looks at MuJoCo's bad-state counters; its advance, which MuJoCo calls at the end of every
@@ -286,9 +291,15 @@ static void flexure_destroy(mjData* d, int instance) {
 // Elements of a data without a state of its own (see the top): read, evaluated and freed at every call;
 // said once per process (and once more if they cannot be read: NaN forces then).
 static _Atomic int g_warned_stateless = 0, g_warned_unread = 0;
+static _Atomic long g_stateless_reads = 0;  // such reads in the process (for tests)
+
+long mjfx_stateless_reads(void) {
+  return atomic_load(&g_stateless_reads);
+}
 
 static Table* stateless_table(const mjModel* m, mjData* d) {
   char err[1000];
+  atomic_fetch_add(&g_stateless_reads, 1);
   if (!atomic_exchange(&g_warned_stateless, 1)) {
     mju_warning("mjflex: a data made from a model without mjflex.flexure instances is stepped with model '%.100s', "
                 "which has them: its elements are read again at every step (slow). Make the data from the model "
@@ -306,13 +317,14 @@ static Table* stateless_table(const mjModel* m, mjData* d) {
 // The state of d holding model m's elements, reading them when d's table is another model's, or m's
 // before an in-place edit (where `check`: compared at a step's first evaluation, or at one again at the
 // time of the last comparison, as repeated mj_forward calls; the configuration text where a run starts). NULL, with a warning once per model,
-// when they cannot be read (or d cannot hold a state: *temp gets a table to free).
+// when they cannot be read, or when d cannot hold a state (see the top): then, with `temp` (compute, which owes
+// the forces), *temp gets a table to free; without it (advance, visualize) nothing is read or said.
 static State* state_for(const mjModel* m, mjData* d, Table** temp, int check) {
   char err[1000];
-  *temp = NULL;
+  if (temp) *temp = NULL;
   State* s = (State*)mjfx_states_find(d, d->buffer);
   if (!s && !data_has_instance(d)) {
-    *temp = stateless_table(m, d);
+    if (temp) *temp = stateless_table(m, d);
     return NULL;
   }
   if (!s && !(s = state_new(d))) return NULL;
@@ -398,9 +410,7 @@ static void flexure_compute(const mjModel* m, mjData* d, int instance, int capab
 
 static void flexure_advance(const mjModel* m, mjData* d, int instance) {
   if (!is_leader(m, instance)) return;
-  Table* temp;
-  State* s = state_for(m, d, &temp, 0);
-  mjfx_free_table(temp);
+  State* s = state_for(m, d, NULL, 0);
   if (!s) return;
   s->checked = 0;  // the next step's first evaluation compares the model with its snapshot
   mjfxVerdict v;
@@ -450,9 +460,7 @@ static void strain_color(double x, float rgba[4]) {
 // group is shown, while the scene has room.
 static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
   if (!is_leader(m, instance)) return;
-  Table* temp;
-  State* s = state_for(m, d, &temp, 0);
-  mjfx_free_table(temp);
+  State* s = state_for(m, d, NULL, 0);
   if (!s || !s->table->n) return;
   Table* t = s->table;
   if (!s->twists && !(s->twists = malloc(sizeof(double) * 6 * t->n))) return;
