@@ -22,13 +22,13 @@ import mujoco
 import numpy as np
 
 from ..analysis.damping import DIRECTIONS, checked_ratios, damping_from_ratios
+from ..core.rest import rest_pose
 from ..core.stops import stop_coordinates
 from ..mjcf import coordinates, keyframes
 from ..mjcf import joints as joint_replacement
 from ..mjcf.build import add_flexure, joints_checked, remove_flexure
 from ..mjcf.elements import element_record, spec_elements, write_record
 from ..mjcf.keyframes import KeyframeEdit
-from ..mjcf.schema import checked_rest
 from ..mjcf.spec import compile_spec, quaternion_from_rotation
 from ..mjcf.stops import Stops
 from ..runtime import contacts
@@ -493,7 +493,11 @@ def _rest_pose(rest, rigid, body, replaced, R_BE, p_BE, name):
     if rest is None:
         found = coordinates.rest_from_springs(rigid, body, replaced, R_BE, p_BE) if replaced else None
         return None if found is None else (tuple(found[0].tolist()), tuple(found[1].tolist()))
-    return checked_rest(rest, f"rest of flexure {name!r}")
+    p_r, q_r, _ = rest_pose(rest, f"rest of flexure {name!r}")  # checked here, before the spec is edited
+    if p_r.shape != (3,) or q_r.shape != (4,):
+        raise ValueError(f"rest of flexure {name!r} must be one pose: pos (3,) and quat (4,); got shapes "
+                         f"{p_r.shape} and {q_r.shape}")  # fmt: skip
+    return tuple(float(v) for v in rest[0]), tuple(float(v) for v in rest[1])
 
 
 def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
