@@ -15,7 +15,12 @@ from ..analysis.directions import energy_shares
 
 
 def rigid_floor(freq):
-    return max(1e-3, 1e-7 * float(np.max(freq, initial=0.0)))
+    """Frequency [Hz] below which a mode counts as a rigid-body mode: 1e-3 Hz, or 1e-6 of the highest.
+
+    The eigensolver leaves a zero ``omega^2`` at about ``n eps`` times the largest (1e-14 for a notch-hinge gripper,
+    nv 33: a free box came out at 1e-7 of the highest frequency); 1e-12 of it (1e-6 in frequency) is clear of that.
+    """
+    return max(1e-3, 1e-6 * float(np.max(freq, initial=0.0)))
 
 
 def _null_space(rows, n):
@@ -242,7 +247,10 @@ def choose_for_step(dirs, freq, modes, candidate, omega_band, band_mask, freq_to
     the band's frequencies only rise, so both prefixes of the stiffest-first order are found by
     bisection. The target never goes below the model with every element direction rigid (the
     rigid robot): a mode of the file's own that the step does not resolve is the author's
-    choice, not the elements'.
+    choice, not the elements'. A candidate that the held directions and the equalities already hold
+    (its modal row in their span: a notch's twist in a four-bar closed by a ``connect``) is held
+    too (``info["implied"]``): it changes no mode, and left compliant it would be held by the
+    equalities' softness alone.
     """
     lam = (2.0 * np.pi * freq) ** 2
     floor = rigid_floor(freq)
@@ -292,4 +300,22 @@ def choose_for_step(dirs, freq, modes, candidate, omega_band, band_mask, freq_to
     rigid = forced.copy()
     for e, i in cand[:n]:
         rigid[e, i] = True
+    held = np.vstack([fixed, rows[:n]])
+    info["implied"] = []
+    for k in range(n, len(cand)):  # directions the held ones and the equalities already hold: held too
+        if _implied(rows[k], held):
+            e, i = cand[k]
+            rigid[e, i] = True
+            info["implied"].append(f"{dirs[e].element} {dirs[e].labels[i]}")
     return rigid, info
+
+
+def _implied(row, held, rtol=1e-6) -> bool:
+    """Whether the modal row of a direction lies in the span of ``held`` (the rows held rigid): the loop's
+    equalities and those directions then hold it too, so holding it changes no mode. Left compliant, only the
+    equalities' softness would hold it (a stiff mode the step advice counts and the projected modes do not)."""
+    norm = float(np.linalg.norm(row))
+    if not len(held) or norm == 0.0:
+        return norm == 0.0
+    x = np.linalg.lstsq(held.T, row, rcond=None)[0]
+    return float(np.linalg.norm(held.T @ x - row)) <= rtol * norm
