@@ -98,7 +98,7 @@ from .reduce_choice import (
     scene_state,
     step_omega,
 )
-from .reduce_edges import edge_of, joint_users
+from .reduce_edges import edge_of, joint_users, preloaded
 from .reduce_verify import SceneState, modes_at, scene_states, state_line, verify_modes, verify_step
 from .tree import WORLD, free_world_bodies
 from .variant import Variant, body_names, keeps_element_kinds, polynomial_terms_lines, source_spec, stops_lines
@@ -254,6 +254,11 @@ def _plan(base, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scen
         forced[e] |= ~edge.free  # directions its joints cannot move are rigid already
         for i, names in edge.needed.items():
             needs[e, i] = names
+    extent = float(model.stat.extent)
+    for e, rec in enumerate(flex.records):  # a rest pose away from the compiled one: not held rigid there
+        for i in preloaded(rec, base.dirs[e], extent):
+            if not forced[e, i]:
+                needs.setdefault((e, i), []).append("its rest pose")
     needed = np.zeros((n_el, 6), dtype=bool)
     for e, i in needs:
         needed[e, i] = True
@@ -295,6 +300,8 @@ def _plan(base, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scen
             continue
         if _coupling(dirs[e], soft) > COUPLING_TOL:  # joint springs are independent: the directions must not couple
             reasons[e] = f"its compliant directions are coupled ({_coupling(dirs[e], soft):.1e} > {COUPLING_TOL:g})"
+        elif flex.records[e].rest is not None and len(soft) and rigid[e].any():
+            restricted[e] = True  # new joints rest at the compiled pose: the element keeps its rest pose (a preload)
     keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(n_el)]
     # damping: judged on every elastic mode the kept directions still carry, not only the resolved band (modes
     # above it stay in the model and would ring undamped; the viscous part costs little to keep)
@@ -322,8 +329,10 @@ def _plan(base, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scen
         "it holds its stiffness at rest K only (the modal analysis uses K in every case)",
     )
     report += stops_lines(
-        flex, "are kept if it stays a full 3-D element or an element in fewer directions; as joints, welds, a "
-        "one-direction spring or a planar record it has no range (the joints get no limits)",
+        flex, "are kept if it stays a full 3-D element, an element in fewer directions or a planar record (where they "
+        "fit the plane); as joints, welds or a one-direction spring it has no range (the joints get no limits)",
+        "is kept: the directions it moves stay compliant (all six unless it lies along one principal direction or "
+        "along translations); as MuJoCo's springs, their springref; else the element keeps it",
     )  # fmt: skip
     if plane_line:
         report.insert(1, plane_line)
