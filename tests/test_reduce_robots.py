@@ -279,6 +279,29 @@ def test_arcade_reduces_as_recorded():
     assert variant.details["modes"]["reduced_hz"] == pytest.approx(recorded["modes"]["reduced_hz"], rel=1e-6)
 
 
+@pytest.mark.parametrize("scene", ["gripper", "spine", "pusher_wrist"])
+def test_the_robots_reduce_as_recorded(scene):
+    """docs/results/reduce_robots.json is the scenes' reduction with today's code and defaults: the same degrees of
+    freedom, modes and advised step (at the scene's rest), and for the spine the same largest step that keeps what
+    its band needs."""
+    import json
+    import os
+
+    with open(os.path.join(os.path.dirname(__file__), "..", "docs", "results", "reduce_robots.json")) as f:
+        recorded = json.load(f)["rows"][scene]
+    _, full_spec, _ = robot_scenes.SCENES[scene]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mjflex.ReductionWarning)  # the spine's, recorded in the JSON too
+        variant = mjflex.reduce(full_spec)
+    assert variant.model.nv == recorded["nv"]["reduced"]
+    assert variant.details["modes"]["reduced_hz"] == pytest.approx(recorded["modes"]["reduced_hz"], rel=1e-6)
+    assert variant.details["step"]["advised_step"] == pytest.approx(recorded["reduced_advised_step"], rel=1e-3)
+    needed = variant.details["step"].get("needed")
+    assert (needed is None) == (recorded["needed"] is None)
+    if needed:
+        assert needed["largest_step"] == pytest.approx(recorded["needed"]["largest_step"], rel=1e-3)
+
+
 def test_a_plugin_other_than_mjflex_is_kept():
     """The gripper's lifter as MuJoCo's own PID actuator plugin: the reduced model keeps the plugin, its actuator and
     its activation, and runs."""
