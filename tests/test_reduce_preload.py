@@ -102,15 +102,20 @@ def _planar_block(rest_z=0.0):
     return spec
 
 
-def test_a_planar_record_keeps_the_rest_pose_and_the_stops():
+@pytest.mark.parametrize("plane", ["auto", [0.0, 0.0, -1.0]])
+def test_a_planar_record_keeps_the_rest_pose_and_the_stops(plane):
     """Reduced to a planar model, the leaf is a 3x3 record with its rest pose and its stops in the plane's
-    coordinates (the stop engaged under gravity): the block rests where the full 3-D model puts it."""
+    coordinates (the stop engaged under gravity): the block rests where the full 3-D model puts it. With the normal
+    against the element's z the plane's frame turns the element's y and rotations over: the stops change sides."""
     spec = _planar_block()
-    variant = mjflex.reduce(spec, keep_below_hz=50.0, plane="auto")
-    assert variant.details["plane"] == pytest.approx([0.0, 0.0, 1.0])
+    variant = mjflex.reduce(spec, keep_below_hz=50.0, plane=plane)
     rec = mjflex.Flexures(variant.model).records[0]
     assert rec.planar and rec.rest is not None and rec.stops
-    assert rec.stops.lower == (-np.inf, -np.inf, -0.005) and rec.stops.upper == (0.3, np.inf, np.inf)
+    if plane == "auto":
+        assert variant.details["plane"] == pytest.approx([0.0, 0.0, 1.0])
+        assert rec.stops.lower == (-np.inf, -np.inf, -0.005) and rec.stops.upper == (0.3, np.inf, np.inf)
+    else:
+        assert rec.stops.lower == (-0.3, -np.inf, -np.inf) and rec.stops.upper == (np.inf, np.inf, 0.005)
     p_full, R_full = _rest_geom(spec.compile(), "block")
     p_red, R_red = _rest_geom(variant.model, "block")
     assert p_full[1] < -0.005  # pressed into the stop (its stiffness is 100 K_yy)
