@@ -79,25 +79,16 @@ elements together), while every mode loses less than ``viscous_tol`` of damping 
 import warnings
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
-from ..analysis.advice import SAFETY, mode_limit
+from ..analysis.advice import SAFETY
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
 from ..core import validation
 from ..mjcf.spec import compile_spec
 from ..runtime.flexures import Flexures
 from .planar import in_plane_modes, out_of_plane, plane_of
 from .reduce_build import Plan, build, closure_singularity, element_line, step_line
-from .reduce_choice import (
-    choose_for_step,
-    choose_rigid,
-    drop_damping,
-    rigid_floor,
-    scene_shares,
-    scene_state,
-    step_omega,
-)
+from .reduce_choice import choose_rigid, drop_damping, rigid_floor, scene_shares, scene_state, step_choice
 from .reduce_edges import edge_of, joint_users, preloaded
 from .reduce_verify import SceneState, modes_at, scene_states, state_line, verify_modes, verify_step
 from .tree import WORLD, free_world_bodies
@@ -109,11 +100,8 @@ COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directi
 #: that at 1e-2 rad or m the loop constraints, not the flexures, would decide the motion.
 SINGULARITY_LIMIT = 0.1
 LOOP_MODES = ("auto", "constraint", "element")
-_INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_RK4): "RK4", int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
-                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
 
 
-_CAPPED = " (lowered by the reduced model's step advice, which counts the damping, constraints and actuators)"
 #: Rounds of :func:`reduce` at a time step: each lowers the target to what the reduced model's step advice resolves.
 ADVICE_ROUNDS = 4
 
@@ -168,34 +156,6 @@ def _coupling(d, soft):
     K = d.K_P[np.ix_(soft, soft)]
     c = np.abs(K - np.diag(np.diag(K))) / np.sqrt(np.outer(np.diag(K), np.diag(K)) + 1e-300)
     return float(c.max()) if len(soft) > 1 else 0.0
-
-
-def _step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep, keep_below_hz, freq_tol,
-                 cap_hz=None):  # fmt: skip
-    """The target-step selection (:func:`choose_for_step`): rigid directions, band mask, info (``"unreachable"``:
-    why no reduction reaches the step, every candidate then held). ``cap_hz``: a lower target [Hz] than the
-    undamped modes' (the step advice of an earlier round did not resolve the step: :func:`reduce`)."""
-    integrator = _INTEGRATORS.get(int(model.opt.integrator), "Euler")
-    omega = step_omega(timestep, integrator)
-    if cap_hz is not None:
-        omega = min(omega, 2.0 * np.pi * cap_hz)
-    band_hz = keep_below_hz if keep_below_hz is not None else omega / (2.0 * np.pi)
-    mask = (freq > rigid_floor(freq)) & (freq < band_hz)
-    candidate = reducible[:, None] & ~forced & ~needed
-    rigid, info = choose_for_step(dirs, freq, modes, candidate, omega, mask, freq_tol, forced, integrator)
-    info.update(timestep=timestep, integrator=integrator, band_hz=float(band_hz))
-    if not info["reached"]:
-        lim = info["limit"]
-        e, i = lim["index"]
-        why = ("needed by " + ", ".join(needs[e, i])) if needed[e, i] else "its element cannot be reduced"
-        info["unreachable"] = (
-            f"timestep={timestep:g} s: no reduction reaches it with {integrator}: element {lim['element']!r}, "
-            f"direction {lim['direction']} ({why}) keeps a mode at {lim['frequency_hz']:.4g} Hz, above the "
-            f"{info['target_hz']:.4g} Hz the step resolves{_CAPPED if cap_hz is not None else ''}; the largest step "
-            "with it is "
-        )
-        info["undamped_largest"] = SAFETY * mode_limit(2 * np.pi * lim["frequency_hz"], 0.0, integrator)
-    return rigid, mask, info
 
 
 @dataclass
@@ -272,7 +232,7 @@ def _plan(base, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scen
     step = None
     restricted = np.zeros(n_el, dtype=bool)
     if step_mode:
-        rigid, mask, step = _step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep,
+        rigid, mask, step = step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep,
                                          keep_below_hz, freq_tol, cap_hz)  # fmt: skip
         keep_below_hz = step["band_hz"]
         mask &= in_plane

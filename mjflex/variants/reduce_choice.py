@@ -13,6 +13,11 @@ import scipy.linalg
 from ..analysis.advice import SAFETY, mode_limit
 from ..analysis.directions import energy_shares
 
+#: MuJoCo's integrators by the names the advice uses (the others: Euler's).
+INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_RK4): "RK4", int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
+                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
+_CAPPED = " (lowered by the reduced model's step advice, which counts the damping, constraints and actuators)"
+
 
 def rigid_floor(freq):
     """Frequency [Hz] below which a mode counts as a rigid-body mode: 1e-3 Hz, or 1e-6 of the highest.
@@ -319,3 +324,31 @@ def _implied(row, held, rtol=1e-6) -> bool:
         return norm == 0.0
     x = np.linalg.lstsq(held.T, row, rcond=None)[0]
     return float(np.linalg.norm(held.T @ x - row)) <= rtol * norm
+
+
+def step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep, keep_below_hz, freq_tol,
+                cap_hz=None):  # fmt: skip
+    """The target-step selection of :func:`mjflex.reduce` (:func:`choose_for_step`): rigid directions, band mask,
+    info (``"unreachable"``: why no reduction reaches the step, every candidate then held). ``cap_hz``: a lower
+    target [Hz] than the undamped modes' (the step advice of an earlier round did not resolve the step)."""
+    integrator = INTEGRATORS.get(int(model.opt.integrator), "Euler")
+    omega = step_omega(timestep, integrator)
+    if cap_hz is not None:
+        omega = min(omega, 2.0 * np.pi * cap_hz)
+    band_hz = keep_below_hz if keep_below_hz is not None else omega / (2.0 * np.pi)
+    mask = (freq > rigid_floor(freq)) & (freq < band_hz)
+    candidate = reducible[:, None] & ~forced & ~needed
+    rigid, info = choose_for_step(dirs, freq, modes, candidate, omega, mask, freq_tol, forced, integrator)
+    info.update(timestep=timestep, integrator=integrator, band_hz=float(band_hz))
+    if not info["reached"]:
+        lim = info["limit"]
+        e, i = lim["index"]
+        why = ("needed by " + ", ".join(needs[e, i])) if needed[e, i] else "its element cannot be reduced"
+        info["unreachable"] = (
+            f"timestep={timestep:g} s: no reduction reaches it with {integrator}: element {lim['element']!r}, "
+            f"direction {lim['direction']} ({why}) keeps a mode at {lim['frequency_hz']:.4g} Hz, above the "
+            f"{info['target_hz']:.4g} Hz the step resolves{_CAPPED if cap_hz is not None else ''}; the largest step "
+            "with it is "
+        )
+        info["undamped_largest"] = SAFETY * mode_limit(2 * np.pi * lim["frequency_hz"], 0.0, integrator)
+    return rigid, mask, info
