@@ -3,8 +3,10 @@
 Pages are Markdown (MyST); the API reference is generated from the docstrings (numpydoc) of every
 public name (``docs/_ext/mjflex_docs.py`` writes the autosummary page from ``mjflex.__all__``);
 tutorials are sphinx-gallery scripts in ``docs/tutorials/``, executed by the build, which draws
-their figures. No intersphinx: the build needs no network (third-party types are listed in
-``nitpick_ignore_regex`` below).
+their figures. Links to MuJoCo's, numpy's and scipy's documentation (intersphinx) go through
+inventories kept in the repository (``docs/_inventories``, written by
+``scripts/docs_inventories.py``): the build needs no network. Third-party types without an
+inventory are listed in ``nitpick_ignore_regex`` below.
 """
 
 import os
@@ -29,11 +31,14 @@ release = version = mjflex.__version__
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.intersphinx",
     "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",  # [source] links: the package's code, highlighted, beside its reference
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
     "sphinxarg.ext",
+    "sphinx_copybutton",
     "mjflex_docs",
 ]
 
@@ -54,6 +59,17 @@ nitpick_ignore_regex = [
     ("py:(class|exc)", r"(Warning|UserWarning|ValueError|TypeError|Exception|RuntimeError)"),
 ]
 
+# ----------------------------------------------------------------------------- links out
+#: MuJoCo's, numpy's and scipy's pages, through inventories of the repository (no download at build time; see the
+#: module docstring): ``{class}`mujoco.MjModel``` and the types of the numpydoc sections link there.
+INVENTORIES = os.path.join(HERE, "_inventories")
+intersphinx_mapping = {
+    "mujoco": ("https://mujoco.readthedocs.io/en/stable/", os.path.join(INVENTORIES, "mujoco.inv")),
+    "numpy": ("https://numpy.org/doc/stable/", os.path.join(INVENTORIES, "numpy.inv")),
+    "scipy": ("https://docs.scipy.org/doc/scipy/", os.path.join(INVENTORIES, "scipy.inv")),
+    "python": ("https://docs.python.org/3/", os.path.join(INVENTORIES, "python.inv")),  # numpydoc's builtins
+}
+
 # ----------------------------------------------------------------------------- API reference
 autosummary_generate = True
 # mjflex.warp needs the warp extra (warp-lang, mujoco-warp: 149 MB), which the docs extra leaves out: where they are
@@ -66,11 +82,22 @@ autodoc_default_options = {"member-order": "bysource"}
 autodoc_typehints = "none"  # the numpydoc sections state types, shapes and units
 numpydoc_show_class_members = False  # the class template lists the members
 numpydoc_class_members_toctree = False
-numpydoc_xref_param_type = False
+# the types of Parameters / Returns link where they name a documented third-party type; other words stay text
+numpydoc_xref_param_type = True
+numpydoc_xref_ignore = "all"
+numpydoc_xref_aliases = {
+    "numpy.ndarray": "numpy.ndarray",
+    **{name: f":class:`{name}`" for name in (
+        "mujoco.MjModel", "mujoco.MjData", "mujoco.MjSpec", "mujoco.MjsBody", "mujoco.MjsSite", "mujoco.MjsText",
+        "mujoco.MjsPlugin", "mujoco_warp.Model", "mujoco_warp.Data",
+    )},
+}  # fmt: skip
 
 # ----------------------------------------------------------------------------- Markdown
 myst_enable_extensions = ["colon_fence", "dollarmath", "deflist"]
 myst_heading_anchors = 3
+# quotes and ellipses typeset, dashes not: `--out` in prose stays two hyphens (an en dash pasted into a shell fails)
+smartquotes_action = "qe"
 
 # ----------------------------------------------------------------------------- tutorials
 sphinx_gallery_conf = {
@@ -96,6 +123,10 @@ sphinx_gallery_conf = {
 # ----------------------------------------------------------------------------- HTML
 html_theme = "furo"
 html_title = f"mjflex {release}"
-html_static_path = []
+html_static_path = ["_static"]
+html_css_files = ["mjflex.css"]  # code blocks fit the content column (a wider column on wide screens, long lines wrap)
+# the copy button on code, not on what it prints (output blocks, mjflex_docs) nor on prompts
+copybutton_selector = "div:not(.highlight-output) > div.highlight pre"
+copybutton_exclude = ".linenos, .gp"
 html_show_sourcelink = False
 suppress_warnings = []

@@ -63,17 +63,22 @@ log handler in front of MuJoCo's, which passes every message on unchanged and ra
 ``mjflex.divergence_warnings(False)`` takes it out).
 """
 
+import importlib
+import sys
+
 from . import analysis, core, geometry, mjcf, runtime, variants
 from .analysis import *  # noqa: F403  (linearization at an operating pose, listed in analysis.__all__)
 from .core import *  # noqa: F403  (the public functions of the core, listed in core.__all__)
-from .core import units  # noqa: F401  (mjflex.units: conversions to SI)
+from .core import units  # mjflex.units: conversions to SI (import mjflex.units: sys.modules below)
 from .mjcf import *  # noqa: F403  (elements in MJCF and MjSpec, listed in mjcf.__all__)
 from .runtime import *  # noqa: F403  (the compiled model's elements and forces, listed in runtime.__all__)
 from .variants import *  # noqa: F403  (other models of the mechanism, listed in variants.__all__)
 
 __version__ = "1.0.0"
 
-#: The names of the MuJoCo layers, in one sorted list (as ``mjflex.mj.__all__`` gave them before the layers split).
+sys.modules[f"{__name__}.units"] = units  # import mjflex.units: the same module as mjflex.core.units
+
+#: The names of the MuJoCo layers, in one sorted list (as the old flat layer ``mjflex.mj`` listed them).
 _LAYERS = sorted([*mjcf.__all__, *runtime.__all__, *analysis.__all__, *variants.__all__])
 __all__ = ["geometry", *core.__all__, *_LAYERS]  # mjflex.units is a module of constants (reference: modules)
 
@@ -85,8 +90,6 @@ _LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.
 
 
 def __getattr__(name):
-    import importlib
-
     if name in _LAZY:
         module, attribute = _LAZY[name]
         return getattr(importlib.import_module(f".app.{module}", __name__), attribute)

@@ -64,6 +64,18 @@ def inline_stop_cost(results):
     return f"{with_stops:.0f} instructions per element evaluation with stops, engaged or not; {without:.0f} without"
 
 
+def inline_snapshot_cost(results):
+    """What comparing the model with its snapshot once per step costs (docs/reference/provider.md)."""
+    r = results["count_step_instructions_edits"]
+    rows, _ = _instructions(r)
+    base, model = rows["model, baseline library"], rows["model"]
+    return (
+        f"{_count(model)} instructions per ARCADE step against {_count(base)} without the comparison "
+        f"(+{pct(model / base - 1)}; `{r['command']}`, recorded {r['date'][:10]}, {r['steps']} steps, the baseline "
+        "the library before it)"
+    )
+
+
 def inline_stop_instructions(results):
     """The instruction counts of ARCADE's step before stops, after, and with stops, free and engaged."""
     r = results["count_step_instructions"]

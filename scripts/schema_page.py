@@ -1,7 +1,7 @@
 """Write the table of element attributes into docs/reference/mjcf_schema.md, from the C library's table.
 
 ``python scripts/schema_page.py`` (``--check``: exit 1 when the page differs). The table is
-:func:`mjflex.mjcf.schema.schema_page`; ``tests/test_schema_table.py`` holds the page equal to it.
+:func:`mjflex.mjcf.schema.schema_page`; ``tests/test_schema.py`` holds the page equal to it.
 """
 
 import argparse

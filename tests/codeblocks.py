@@ -23,8 +23,16 @@ A comment line right below a ``print(`` line, at its indentation, says what that
 (:func:`printed_claims`): the output must hold such a line, the same words and each number within
 one unit of the last digit the comment shows (:func:`claim_problems`), so the numbers a reader
 sees beside the code are what it prints.
+
+A python block that prints is followed by what it prints: a block of language ``output`` right after
+it (only blank lines between), which the site shows as the block's output. Its lines must match what
+the block printed, line by line, the same words and each number within one unit of the last digit it
+shows; a line ``...`` stands for any lines, and ``…`` within a line for any text (what changes from run
+to run: timings) (:func:`output_mismatches`). ``python -m tests.codeblocks PAGE...`` runs a page and writes its output
+blocks.
 """
 
+import itertools
 import os
 import re
 import shutil
@@ -47,6 +55,15 @@ PYTHON_WARNING = re.compile(r"^(?P<where>\S.*?):\d+: (?P<category>\w*Warning): (
 NON_FINITE = re.compile(r"(?<![\w.])[-+]?(nan|inf)(?![\w(])", re.I)
 
 
+#: The language of a block that shows what the python block before it prints.
+OUTPUT = "output"
+#: An output block's line that stands for any lines; within a line, ``…`` stands for any text (a timing).
+ANY_LINES = "..."
+ANY_TEXT = "…"
+#: What run_page prints after each python block, so that each block's output can be told apart.
+_SEPARATOR = "\x1e-- end of block --"
+
+
 @dataclass
 class Block:
     path: str
@@ -54,6 +71,8 @@ class Block:
     language: str  # "python", "bash", or the info string's first word for other blocks
     code: str
     skip: str | None  # the not-run reason, if marked
+    end: int = 0  # 1-based line of the closing fence
+    output: str | None = None  # a python block's output block (its text), if one follows it
 
     @property
     def program(self) -> bool:
@@ -83,8 +102,13 @@ def blocks(path, text=None):
             j += 1
         indent = m["indent"]
         body = "\n".join(line[len(indent) :] if line.startswith(indent) else line for line in lines[i + 1 : j])
-        out.append(Block(path, i + 1, PROGRAMS.get(word.lower(), word), body + "\n", mark["reason"] if mark else None))
+        out.append(Block(path, i + 1, PROGRAMS.get(word.lower(), word), body + "\n", mark["reason"] if mark else None,
+                         j + 1))  # fmt: skip
         i = j + 1
+    for before, block in itertools.pairwise(out):
+        between = lines[before.end : block.line - 1]
+        if block.language == OUTPUT and before.language == "python" and not any(x.strip() for x in between):
+            before.output = block.code
     return out
 
 
@@ -96,7 +120,7 @@ def commands(block):
 
 
 def problems(block):
-    """Why a program block can neither run nor stands marked; empty if fine."""
+    """Why a program block can neither run nor stands marked, or prints without showing it; empty if fine."""
     if not block.program:
         return []
     if block.skip is not None:
@@ -104,6 +128,33 @@ def problems(block):
     if block.language == "bash":
         fix = "is not 'python -m mjflex ...': run it or mark the block"
         return [f"{block.where()}: {c!r} {fix}" for c in commands(block) if not RUNNABLE.match(c)]
+    if "print(" in block.code and block.output is None:
+        return [f"{block.where()}: prints, but no ```{OUTPUT} block after it shows what (python -m tests.codeblocks "
+                f"{os.path.relpath(block.path, ROOT)} writes it)"]  # fmt: skip
+    return []
+
+
+def output_mismatches(where, expected, printed):
+    """How ``printed`` (what a block printed) differs from its output block ``expected`` (empty: it matches)."""
+    want = expected.rstrip("\n").split("\n") if expected.strip() else []
+    got = printed.rstrip("\n").split("\n") if printed.strip() else []
+    w = g = 0
+    while w < len(want):
+        if want[w].strip() == ANY_LINES:
+            following = want[w + 1] if w + 1 < len(want) else None
+            while g < len(got) and following is not None and not claim_matches(following, got[g]):
+                g += 1
+            if following is None:
+                g = len(got)
+            w += 1
+            continue
+        if g >= len(got) or not claim_matches(want[w], got[g]):
+            shown = got[g] if g < len(got) else "(nothing more)"
+            return [f"{where}: its output block says {want[w]!r}; the block printed {shown!r} there (write the "
+                    "block again: python -m tests.codeblocks PAGE)"]  # fmt: skip
+        w, g = w + 1, g + 1
+    if g < len(got):
+        return [f"{where}: the block printed {got[g]!r} and more, which its output block does not show"]
     return []
 
 
@@ -150,9 +201,12 @@ def _one_unit(number):
 
 
 def claim_matches(claim, line):
-    """``line`` says what ``claim`` says: the same text, and each number within one unit of the claim's last digit."""
+    """``line`` says what ``claim`` says: the same text, and each number within one unit of the claim's last digit
+    (``…`` in the claim: any text there)."""
     said = _PRINTED_NUMBER.findall(claim)
-    pattern = f"({_PRINTED_NUMBER.pattern})".join(re.escape(part) for part in _PRINTED_NUMBER.split(claim))
+    pattern = f"({_PRINTED_NUMBER.pattern})".join(
+        ".*?".join(re.escape(text) for text in part.split(ANY_TEXT)) for part in _PRINTED_NUMBER.split(claim)
+    )
     m = re.fullmatch(pattern, line.strip())
     if not m:
         return False
@@ -181,22 +235,62 @@ def environment():
     return env
 
 
+def _run_python_blocks(python, cwd, env, timeout):
+    """Run python blocks in order as one script (``page.py`` in ``cwd``), a separator line printed after each."""
+    # (a worker process that imports the script as __mp_main__, as Dask's and a process pool's do, prints none)
+    end = f"if __name__ == '__main__':\n    print({_SEPARATOR!r}, flush=True)\n"
+    script = "".join(f"# {b.where()}\n{b.code}\n{end}" for b in python)
+    with open(os.path.join(cwd, "page.py"), "w") as f:
+        f.write(script)
+    return subprocess.run([sys.executable, "page.py"], cwd=cwd, env=env, capture_output=True, text=True,
+                          timeout=timeout)  # fmt: skip
+
+
+def write_outputs(page, tmp):
+    """Run the python blocks of ``page`` (in the workspace folder ``tmp``) and write after each one that prints an
+    output block of what it printed (replacing the one it had). Returns the number of blocks written."""
+    text = open(page, encoding="utf-8").read()
+    lines = text.split("\n")
+    python = [b for b in blocks(page, text) if b.language == "python" and b.skip is None]
+    done = _run_python_blocks(python, workspace(tmp), environment(), 600)
+    if done.returncode:
+        raise SystemExit(f"{page}: the python blocks failed (exit {done.returncode}):\n{done.stderr[-3000:]}")
+    printed = done.stdout.split(_SEPARATOR + "\n")
+    all_blocks = blocks(page, text)
+    written = 0
+    for block, out in reversed(list(zip(python, printed, strict=False))):
+        if not out.strip() and block.output is None:
+            continue
+        fence = "```"
+        new = ["", f"{fence}{OUTPUT}", *out.rstrip("\n").split("\n"), fence]
+        old = next((b for b in all_blocks if b.language == OUTPUT and b.line > block.end), None)
+        if block.output is not None and old is not None:
+            lines[block.end : old.end] = new
+        else:
+            lines[block.end : block.end] = new
+        written += 1
+    with open(page, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines))
+    return written
+
+
 def run_page(page_blocks, cwd, timeout=600):
     """Run the unmarked program blocks of one page; returns a list of failures (empty: all ran)."""
     failures, env = [], environment()
     python = [b for b in page_blocks if b.language == "python" and b.skip is None]
     if python:
-        script = "".join(f"# {b.where()}\n{b.code}" for b in python)
-        with open(os.path.join(cwd, "page.py"), "w") as f:
-            f.write(script)
-        done = subprocess.run([sys.executable, "page.py"], cwd=cwd, env=env, capture_output=True, text=True,
-                              timeout=timeout)  # fmt: skip
+        done = _run_python_blocks(python, cwd, env, timeout)
         if done.returncode:
             failures.append(f"{python[0].where()} (python blocks): exit {done.returncode}\n{done.stderr[-3000:]}")
         else:
-            failures += output_problems(f"{python[0].where()} (python blocks)", done.stdout, done.stderr, cwd)
+            printed = done.stdout.split(_SEPARATOR + "\n")
+            stdout = "".join(printed)
+            failures += output_problems(f"{python[0].where()} (python blocks)", stdout, done.stderr, cwd)
             claims = [claim for b in python for claim in printed_claims(b)]
-            failures += claim_problems(f"{python[0].where()} (python blocks)", claims, done.stdout)
+            failures += claim_problems(f"{python[0].where()} (python blocks)", claims, stdout)
+            for block, out in zip(python, printed, strict=False):
+                if block.output is not None:
+                    failures += output_mismatches(block.where(), block.output, out)
     for block in (b for b in page_blocks if b.language == "bash" and b.skip is None):
         for command in commands(block):
             done = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, capture_output=True, text=True,
@@ -206,3 +300,11 @@ def run_page(page_blocks, cwd, timeout=600):
             else:
                 failures += output_problems(f"{block.where()}: {command!r}", done.stdout, done.stderr, cwd)
     return failures
+
+
+if __name__ == "__main__":  # python -m tests.codeblocks PAGE...: write the pages' output blocks
+    import tempfile
+
+    for name in sys.argv[1:]:
+        with tempfile.TemporaryDirectory() as folder:
+            print(f"{name}: {write_outputs(os.path.abspath(name), folder)} output block(s) written")

@@ -200,6 +200,25 @@ def private_imports(root):
     return out
 
 
+def late_imports_without_reason(root):
+    """Imports inside a function (or a class) with no comment on their lines: docs/reference/layout.md asks each late
+    import to say why it is late (a heavy or optional dependency kept out of ``import mjflex``); any import counts,
+    of mjflex or not."""
+    out = []
+    for name, path in modules(root).items():
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        lines, tree = text.splitlines(), ast.parse(text)
+        top_level = {id(n) for n in tree.body} | {
+            id(c) for n in tree.body if isinstance(n, ast.If | ast.Try) for c in ast.walk(n)
+        }  # fmt: skip
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import | ast.ImportFrom) and id(node) not in top_level:
+                if not any("#" in line for line in lines[node.lineno - 1 : node.end_lineno]):
+                    out.append(f"{name}:{node.lineno}: {lines[node.lineno - 1].strip()}")
+    return out
+
+
 def long_modules(root, limit=MAX_LINES):
     with_lines = {name: sum(1 for _ in open(path, encoding="utf-8")) for name, path in modules(root).items()}
     return [f"{name}: {n} lines" for name, n in sorted(with_lines.items()) if n > limit]
@@ -218,6 +237,10 @@ def test_no_import_circles():
 
 def test_nothing_private_is_imported_across_modules():
     assert private_imports(ROOT) == []
+
+
+def test_every_late_import_says_why_on_its_line():
+    assert late_imports_without_reason(ROOT) == []
 
 
 def test_the_c_library_has_no_include_circles_and_short_files():
@@ -263,8 +286,10 @@ def _package(tmp_path, files):
         ({"app/a.py": "from ..core import _kernels\n", "core/_kernels.py": ""}, private_imports,
          "imports mjflex.core._kernels, private to mjflex.core"),
         ({"app/a.py": "x = 1\n" * (MAX_LINES + 1)}, long_modules, f"mjflex.app.a: {MAX_LINES + 1} lines"),
+        ({"app/a.py": "def f():\n    import json  # stdlib: fine late, with a reason\n    import xarray\n"},
+         late_imports_without_reason, "mjflex.app.a:3: import xarray"),
     ],
-    ids=["layer order", "same rank", "circle", "private name", "private module", "long module"],
+    ids=["layer order", "same rank", "circle", "private name", "private module", "long module", "late import"],
 )  # fmt: skip
 def test_a_planted_violation_is_found(tmp_path, files, check, expected):
     found = check(_package(tmp_path, files))

@@ -266,7 +266,7 @@ def test_table_labels_every_per_element_result():
     mujoco.mj_forward(model, data)
     flex = mjflex.Flexures(model)
     flex.set_enabled("flex2", False)
-    table = flex.table(data)
+    table = flex.results(data)
     assert table.dtype.names == ("name", "wrench", "displacement", "energy", "power", "enabled", "method")
     assert table["name"].tolist() == ["flex1", "flex2", "flex3"] and table["enabled"].tolist() == [True, False, True]
     assert np.array_equal(table["wrench"], flex.wrenches(data))

@@ -42,6 +42,8 @@ SANITIZED_TESTS = [
     "tests/test_native_hardening.py",
     "tests/test_native_reference.py",
     "tests/test_native_fuzz.py",
+    "tests/test_native_guards.py",  # the registry's guards, the dof-chain buffer at its fullest (issue 33 item 17)
+    "tests/test_model_edits.py",  # the model snapshots compared after in-place edits (issue 33 item 14)
     "tests/test_stop_damping.py",
     "tests/test_rest_pose.py",
 ]

@@ -118,7 +118,7 @@ def test_every_analysis_function_works_on_plugin_models():
         mujoco.mj_forward(m, d)
     for name in ("wrenches", "potential_energies", "dissipation_powers", "displacements", "generalized_forces"):
         assert np.array_equal(getattr(pflex, name)(pd), getattr(flex, name)(rd)), name
-    assert np.array_equal(pflex.table(pd)["wrench"], flex.table(rd)["wrench"])
+    assert np.array_equal(pflex.results(pd)["wrench"], flex.results(rd)["wrench"])
     assert np.array_equal(pd.qfrc_passive, pflex.generalized_forces(pd))  # the model's own forces, no install
 
 

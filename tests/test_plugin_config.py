@@ -1,7 +1,7 @@
 """Bad plugin configurations are MuJoCo compile errors that name the element and the fix; nothing loads half.
 
 The plugin's init (mjflex/native/config.c) applies the text record's rules; each case is also checked
-against Python's reading of a configuration (mjflex.mjcf.record_from_config), which must reject it too.
+against Python's reading of a configuration (mjflex.mjcf.config.record_from_config), which must reject it too.
 """
 
 import json

@@ -496,7 +496,7 @@ def test_normal_modes_and_table_agree_on_both_forms():
         d.qpos[7:10] += [0.01, -0.02, 0.005]
         d.qvel[:] = 0.3
         mujoco.mj_forward(models[k], d)
-    tables = {k: flexes[k].table(datas[k]) for k in models}
+    tables = {k: flexes[k].results(datas[k]) for k in models}
     for field in ("wrench", "displacement", "energy", "power"):
         assert np.array_equal(tables["record"][field], tables["plugin"][field]), field
     assert copy.copy(flexes["plugin"]).kinds == ("plugin",)

@@ -199,6 +199,7 @@ def test_a_rest_pose_given_as_the_identity_changes_nothing():
 
 def _one(kind="plugin", **kwargs):
     spec = mujoco.MjSpec()
+    spec.option.gravity = [0, 0, 0]  # 1 N/m would let the 0.2 kg body sag 2 m (a LikelyMistakeWarning)
     body = spec.worldbody.add_body(name="b0", pos=[0.1, 0, 0], mass=0.2, inertia=[2e-4] * 3)
     body.explicitinertial = True
     body.add_freejoint()

@@ -38,15 +38,20 @@ logger = logging.getLogger(__name__)
 HERE = os.path.dirname(os.path.abspath(__file__))
 API_PAGE = os.path.join(HERE, "..", "reference", "api.rst")
 
-#: Sections of the API page, by the module that defines an object (first match wins).
+#: The names a model with elements starts from: the API page opens with them.
+START = ("mjflex.add_flexure", "mjflex.make_compliant", "mjflex.Flexures")
+START_TITLE = ("Start here", "Add an element to a spec, or make a body of a robot compliant; then read the compiled "
+               "model's elements and forces.")  # fmt: skip
+#: Sections of the API page after ``START``, by the module that defines an object (first match wins): from what a
+#: user calls to the low-level screw theory.
 SECTIONS = (
-    ("mjflex.core", "Screw-theory core", "Twists, dual quaternions, element wrenches and potentials (no MuJoCo)."),
     ("mjflex.mjcf", "Elements in MJCF and MjSpec", "Adding, editing and converting elements in a spec or a file."),
     ("mjflex.runtime", "The compiled model", "The passive-force provider, divergence reports, file conversion."),
     ("mjflex.analysis", "Linearization", "Statics, modes, damping from ratios and step advice at an operating pose."),
     ("mjflex.variants", "Model variants", "Compliant parts, reduced models and MuJoCo-native alternatives."),
-    ("mjflex.geometry", "Stiffness from geometry", "Notch hinges, leaf springs and rods (no MuJoCo)."),
     ("mjflex.app", "Studies and sweeps", "Speed against accuracy, and sweeps over model variants."),
+    ("mjflex.geometry", "Stiffness from geometry", "Notch hinges, leaf springs and rods (no MuJoCo)."),
+    ("mjflex.core", "Screw-theory core", "Twists, dual quaternions, element wrenches and potentials (no MuJoCo)."),
     (
         "mjflex.warp",
         "MuJoCo Warp",
@@ -129,13 +134,16 @@ def public_members(cls):
 
 
 def sections():
-    """``[(title, intro, [qualified names])]`` of the API page."""
+    """``[(title, intro, [qualified names])]`` of the API page: ``START`` first, then ``SECTIONS``."""
     grouped = {title: [] for _, title, _ in SECTIONS}
     for qualified in public_names():
+        if qualified in START:
+            continue
         module = getattr(_resolve(qualified), "__module__", "") or ""
         title = next(t for prefix, t, _ in SECTIONS if module.startswith(prefix))
         grouped[title].append(qualified)
-    return [(title, intro, grouped[title]) for _, title, intro in SECTIONS if grouped[title]]
+    first = (*START_TITLE, [name for name in START if name in public_names()])
+    return [first, *((title, intro, grouped[title]) for _, title, intro in SECTIONS if grouped[title])]
 
 
 def api_page():
@@ -288,6 +296,81 @@ class ErrorBands(SphinxDirective):
         return [_table(header, rows)]
 
 
+STUDY = os.path.join(HERE, "..", "study")
+#: A study report's first line (the writer of ``mjflex study``, :meth:`mjflex.app.study.StudyResult.to_markdown`).
+STUDY_TITLE = "# Speed-accuracy study:"
+#: Sections of a study report kept whole on its page; the others are summed up there (the full report, with every run,
+#: is a page of its own, written at each build into ``study/full/``, ignored by git).
+STUDY_KEPT = ("Recommendation", "Which choice for which need", "Largest stable step", "At the model file's step")
+
+
+def study_reports():
+    """``{docname: path}`` of the study reports under ``docs/study`` (``study/study_arcade``)."""
+    out = {}
+    for name in sorted(os.listdir(STUDY)) if os.path.isdir(STUDY) else []:
+        path = os.path.join(STUDY, name)
+        if name.endswith(".md") and os.path.isfile(path):
+            with open(path, encoding="utf-8") as f:
+                if f.readline().startswith(STUDY_TITLE):
+                    out[f"study/{name[:-3]}"] = path
+    return out
+
+
+def summarize_study(text, full_doc):
+    """A study report (Markdown) as its page shows it: the sections of ``STUDY_KEPT`` whole, each variant's first line,
+    and the runs counted, with a link to the full report (``full_doc``, a docname) for the per-element reports and the
+    table of every run (hundreds of rows, messages of a few hundred characters)."""
+    head, *sections = text.split("\n## ")
+    link = f"{{doc}}`the full report </{full_doc}>`"
+    out = [head.rstrip() + f"\n- every run, the variants' reports element by element: {link}\n"]
+    for section in sections:
+        title, _, body = section.partition("\n")
+        if title in STUDY_KEPT:
+            out.append(f"## {title}\n{body.rstrip()}\n")
+        elif title == "Variants":
+            firsts = [line for line in body.splitlines() if line.startswith("- **")]
+            out.append("## Variants\n\n" + "\n".join(firsts) + f"\n\nWhat became of each element: {link}.\n")
+        elif title == "Candidates":
+            rows = [line for line in body.splitlines() if line.startswith("| ") and not line.startswith("| variant")]
+            status = {}
+            for row in rows:
+                cells = [c.strip() for c in row.strip("|").split("|")]
+                if len(cells) > 4:  # variant, method, integrator, h, status, ...
+                    status[cells[4]] = status.get(cells[4], 0) + 1
+            counts = ", ".join(f"{n} {s}" for s, n in sorted(status.items()))
+            out.append(f"## Candidates\n\n{len(rows)} runs ({counts}): each with its errors, cost and what stopped "
+                       f"it, in {link}.\n")  # fmt: skip
+        else:
+            out.append(f"## {title}\n\nIn {link}.\n")
+    return "\n".join(out)
+
+
+def write_full_studies(app, config=None):
+    """``study/full/<stem>.md``: each study report whole (not in a toctree: the summary links it)."""
+    folder = os.path.join(STUDY, "full")
+    for path in study_reports().values():
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        title, _, rest = text.partition("\n")
+        page = f"---\norphan: true\n---\n\n{title} (full report)\n{rest}"
+        target = os.path.join(folder, os.path.basename(path))
+        os.makedirs(folder, exist_ok=True)
+        if not os.path.exists(target) or open(target, encoding="utf-8").read() != page:
+            with open(target, "w", encoding="utf-8") as f:
+                f.write(page)
+
+
+def summarize_studies(app, docname, source):
+    """``source-read``: a study report's page is its summary (:func:`summarize_study`)."""
+    if docname in study_reports():
+        source[0] = summarize_study(source[0], f"study/full/{docname.rpartition('/')[2]}")
+
+
+def outdated_studies(app, env, added, changed, removed):
+    """``env-get-outdated``: the study pages are read at every build (their summary is made when read)."""
+    return [docname for docname in study_reports() if docname in env.found_docs]
+
+
 MUJOCO_LOG = "MUJOCO_LOG.TXT"
 #: Python's ``warnings.formatwarning`` in a tutorial's captured output: ``path:line: Category: message``.
 PYTHON_WARNING = re.compile(r":\d+: (?P<category>\w*Warning): (?P<text>.*)$", re.M)
@@ -374,7 +457,13 @@ def check_leaks(app, exception):
 
 
 def setup(app):
+    from pygments.lexers.special import TextLexer
+
+    app.add_lexer("output", TextLexer)  # what a code block prints: a fence of language "output" right after it
     app.connect("config-inited", write_api_page)  # before Sphinx lists the sources and autosummary reads them
+    app.connect("config-inited", write_full_studies)
+    app.connect("source-read", summarize_studies)
+    app.connect("env-get-outdated", outdated_studies)
     app.connect("missing-reference", resolve_alias)
     app.connect("build-finished", check_leaks)
     app.add_directive("mjflex-error-bands", ErrorBands)
@@ -392,5 +481,7 @@ __all__ = [
     "reset_mujoco",
     "sections",
     "setup",
+    "study_reports",
+    "summarize_study",
     "tutorial_problems",
 ]

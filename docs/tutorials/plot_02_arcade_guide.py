@@ -83,9 +83,9 @@ for ax, k in zip(axes, picks, strict=True):
 renderer.close()
 
 # %%
-# The most loaded elements at the end, from the labelled table of :meth:`mjflex.Flexures.table`:
+# The most loaded elements at the end, from the labelled results of :meth:`mjflex.Flexures.results`:
 mujoco.mj_forward(model, data)
-table = flex.table(data)
+table = flex.results(data)
 for row in np.sort(table, order="energy")[::-1][:5]:
     angle = np.degrees(np.linalg.norm(row["displacement"][:3]))
     print(f"{row['name']:>16s}  {row['energy'] * 1e3:6.2f} mJ  rotation {angle:.2f} deg")

@@ -267,7 +267,7 @@ def _convert_parser(sub):
 
 
 def _convert_command(args):
-    from ..runtime.files import ConversionError, convert_file
+    from ..runtime.files import ConversionError, convert_file  # late: for `convert` only (--help stays light)
 
     try:
         names = convert_file(args.input, args.output, to=args.to)
@@ -327,7 +327,7 @@ def main(argv=None):
     args.provenance = provenance(argv)
     args.process_started = process_start() if argv is None else None  # the command line: start-up is timed
     if args.command == "docs":
-        from .docs import build_docs
+        from .docs import build_docs  # late: Sphinx is the docs extra's, for `docs` only
 
         raise SystemExit(build_docs(args.out, strict=not args.no_strict, tutorials=not args.no_tutorials))
     if args.command == "study":
@@ -344,7 +344,7 @@ def main(argv=None):
         if not (args.duration >= 0 and math.isfinite(args.duration)):
             ap.error(f"--duration must be a finite number of seconds >= 0; got {args.duration:g}")
         check_output_folder(args.out)
-        from .sweep.arcade import run_arcade_sweep
+        from .sweep.arcade import run_arcade_sweep  # late: xarray and the sweep machinery, for `sweep` only
 
         try:
             run_arcade_sweep(args.out, leaf_scale=args.leaf_scale, beta=args.beta, duration=args.duration,

@@ -26,6 +26,7 @@ REQUIRED = {
     "myst_parser": "myst-parser",
     "furo": "furo",
     "sphinxarg": "sphinx-argparse",
+    "sphinx_copybutton": "sphinx-copybutton",
     "skfem": "scikit-fem",  # mjflex.geometry.fe, documented and linked (the docs extra pulls in the fe extra)
 }
 

@@ -15,14 +15,14 @@ _ENERGY_UNITS = ((1.0, "J"), (1e3, "mJ"), (1e6, "µJ"), (1e9, "nJ"))
 
 def _figure(**kwargs):
     """A matplotlib figure that needs no pyplot backend (saved with ``fig.savefig``)."""
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # late: matplotlib, only when a figure is drawn
 
     return Figure(**kwargs)
 
 
 def strain_colormap():
     """The colours of :func:`mjflex.app.render.strain_colors` from 0 to 1 as a matplotlib colormap."""
-    from matplotlib.colors import ListedColormap
+    from matplotlib.colors import ListedColormap  # late: matplotlib, only when a figure is drawn
 
     return ListedColormap(strain_colors(np.linspace(0.0, 1.0, 256), 1.0)[:, :3], name="mjflex_strain")
 
@@ -33,8 +33,8 @@ def panel_figure(path, images, times, title, scale: ColourScale | None = None, c
     ``images``: ``(H, W, 3)`` uint8 frames; ``times`` [s]; ``scale``: the colours' meaning, drawn
     as a colour bar in its unit (none if None); ``caption``: a line under the frames.
     """
-    from matplotlib.cm import ScalarMappable
-    from matplotlib.colors import Normalize
+    from matplotlib.cm import ScalarMappable  # late: matplotlib, only when a figure is drawn
+    from matplotlib.colors import Normalize  # late: matplotlib, only when a figure is drawn
 
     rows = -(-len(images) // 3)
     aspect = images[0].shape[0] / images[0].shape[1]

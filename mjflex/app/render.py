@@ -46,8 +46,8 @@ QUALITIES = ("auto", "full", "fast")
 
 
 def _ffmpeg():
-    import imageio_ffmpeg
-    import mediapy
+    import imageio_ffmpeg  # late: the video stack, only when a video is written or read
+    import mediapy  # late: the video stack, only when a video is written
 
     mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
     return mediapy
@@ -64,7 +64,7 @@ def select_gl_backend() -> str:
     if chosen or platform.system() != "Linux" or not headless:
         return chosen or "(unset: MuJoCo's default)"
     os.environ["MUJOCO_GL"] = "egl"
-    from mujoco.rendering.classic import gl_context
+    from mujoco.rendering.classic import gl_context  # late: imports OpenGL, after MUJOCO_GL is chosen
 
     importlib.reload(gl_context)  # mujoco.Renderer reads gl_context.GLContext when it is created
     return "egl"
@@ -113,7 +113,7 @@ def _gl_query(backend):
     ``GL_MAX_VIEWPORT_DIMS``, whichever is smaller (None where unreadable). RuntimeError (saying
     how to get a context) when none can be made.
     """
-    from mujoco.rendering.classic import gl_context
+    from mujoco.rendering.classic import gl_context  # late: imports OpenGL, after MUJOCO_GL is chosen
 
     if gl_context.GLContext is None:
         return None, None
@@ -263,7 +263,7 @@ def colour_scale(flex, run, vmax=None) -> ColourScale:
 
 
 def _font(size):
-    from PIL import ImageFont
+    from PIL import ImageFont  # late: Pillow, only for captions
 
     try:
         return ImageFont.load_default(size=size)
@@ -282,7 +282,7 @@ class _Overlay:
     """
 
     def __init__(self, width, height, scale: ColourScale | None):
-        from PIL import Image, ImageDraw
+        from PIL import Image, ImageDraw  # late: Pillow, only for captions and legends
 
         self.size = max(10, height // 28)
         self.font = _font(self.size)
@@ -306,7 +306,7 @@ class _Overlay:
         self.legend = np.asarray(img)
 
     def draw(self, image, text):
-        from PIL import Image, ImageDraw
+        from PIL import Image, ImageDraw  # late: Pillow, only for captions and legends
 
         w, h = self.box
         patch = Image.fromarray(image[:h, :w])
@@ -413,7 +413,7 @@ def video_text(stats: VideoStats, renderer, slowdown) -> str:
 
 def read_video(path):
     """Decode a video into an array ``(frames, height, width, 3)`` with imageio-ffmpeg's reader."""
-    import imageio_ffmpeg
+    import imageio_ffmpeg  # late: the video stack, only when a video is written or read
 
     reader = imageio_ffmpeg.read_frames(path)
     meta = next(reader)

@@ -247,7 +247,7 @@ def _divergence(model, data, before):
             index = int(data.warning[w].lastinfo)
             return (
                 f"MuJoCo found a non-finite or huge {what}[{index}] (beyond 1e10, its mjMAXVAL); reduce the time "
-                "step (mjflex.normal_modes gives the stiffest mode) or check the initial state"
+                "step (mjflex.step_advice(model) gives the largest stable one) or check the initial state"
             )
     if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
         return "the state is not finite"

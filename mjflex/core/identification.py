@@ -533,7 +533,7 @@ def _warn_indefinite(K):
 
 
 def potential_in_frame(K, terms, R_F, p_F, *, seed=0):
-    """The same polynomial potential seen from other element frames (eq. 69).
+    """The same polynomial potential seen from other element frames (the paper's equation 69).
 
     New frames ``a' = a F`` and ``b' = b F`` (both moved by the same ``F``, so that they still
     coincide at rest) see the displacement ``X_a'b' = F^-1 X_ab F``, whose coordinates are linear

@@ -59,7 +59,7 @@ def adjoint_from_transform(R_AB, p_AB, *, check=True):
 
 
 def stiffness_in_frame(K_A, R_AB, p_AB, *, check=True):
-    """A stiffness (or damping) matrix re-expressed in another frame (eq. 54).
+    """A stiffness (or damping) matrix re-expressed in another frame (the paper's equation 54).
 
     Parameters
     ----------

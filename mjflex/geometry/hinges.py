@@ -218,7 +218,7 @@ def notch_hinge_stiffness(
         profile = fe.notch_profile(R, t, block_length)
         C = fe.element_compliance(profile, b, E, nu, level=fe_level, counts=fe.NOTCH_COUNTS)
         return np.diag(1.0 / np.diag(C))
-    from .tables import correction_factors
+    from .tables import correction_factors  # late: reads the stored FE tables, only for the table method
 
     f = correction_factors("notch", t / R, b / R, nu)
     return np.diag(f / _beam_compliance(lambda x: notch_hinge_thickness(x, R, t), R, b, E, nu, False))
@@ -313,7 +313,7 @@ def leaf_spring_stiffness(
             )
         wide = b >= WIDE_RATIO * t if wide is None else wide
         return np.diag(1.0 / _beam_compliance(lambda x: t, 0.5 * L, b, E, nu, wide))
-    from .tables import LEAF_BLOCK_HEIGHT, correction_factors
+    from .tables import LEAF_BLOCK_HEIGHT, correction_factors  # late: reads the stored FE tables, for this method
 
     H = LEAF_BLOCK_HEIGHT * t if block_height is None else block_height
     check_positive(block_height=H)

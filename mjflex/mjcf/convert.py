@@ -154,7 +154,7 @@ def spec_xml(spec) -> str:
 def records_to_plugins(spec, names=None) -> list[str]:
     """Turn text-record elements of ``spec`` (all, or ``names``) into ``mjflex.flexure`` instances, in place.
 
-    The parameters carry over exactly (:func:`mjflex.mjcf.config_from_record`), the sites
+    The parameters carry over exactly (:func:`mjflex.mjcf.config.config_from_record`), the sites
     stay where they are, and the trees the elements join get ``sleep="never"``
     (:func:`keep_joined_trees_awake`). Returns the converted elements' names.
     """

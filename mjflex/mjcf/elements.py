@@ -16,7 +16,6 @@ works on both:
   (:mod:`mjflex.mjcf.convert` turns one form into the other).
 """
 
-import difflib
 from dataclasses import dataclass
 
 import mujoco
@@ -24,7 +23,7 @@ import numpy as np
 
 from ..core import validation
 from ..native import library
-from . import schema
+from . import naming, schema
 from .config import config_from_record, config_sites, record_from_config
 from .schema import PLUGIN, RECORD
 from .spec import check_spec
@@ -107,8 +106,7 @@ def find_element(spec, name) -> SpecElement:
         if e.name == name:
             return e
     names = [e.name for e in elements]
-    close = difflib.get_close_matches(str(name), names, n=3)
-    hint = f"; did you mean {close}?" if close else (f"; its flexures are {names[:10]}" if names else "")
+    hint = naming.suggestion(name, names, "flexures")
     raise KeyError(f"no flexure {name!r} in the spec (neither a text record nor a {schema.PLUGIN_NAME} instance){hint}")
 
 

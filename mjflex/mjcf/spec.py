@@ -60,7 +60,7 @@ def find_body(spec, body, role):
     found = spec.worldbody if body == "world" else spec.body(body)
     if found is None:
         raise ValueError(f"{role} {body!r} is not a body of the spec ('world' grounds)"
-                         + naming.suggestion(body, [b.name for b in spec.bodies], "bodies"))  # fmt: skip
+                         + naming.spec_hint(spec, body, "body"))  # fmt: skip
     return found
 
 
@@ -167,7 +167,7 @@ def find_site(spec, site):
     found = spec.site(site)
     if found is None:
         raise ValueError(f"site {site!r} is not a site of the spec"
-                         + naming.suggestion(site, [s.name for s in spec.sites], "sites"))  # fmt: skip
+                         + naming.spec_hint(spec, site, "site"))  # fmt: skip
     return found
 
 

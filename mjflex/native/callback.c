@@ -1,5 +1,5 @@
 // The mjcb_passive provider for text-record models: one process-global dispatcher and a
-// registry of the models it serves (mjflex/mj/_callback.py fills it).
+// registry of the models it serves (mjflex/runtime/registry.py fills it).
 //
 // Rules (the registry semantics mjflex's tests guard):
 // * A slot is in use when its model pointer is non-NULL. Python fills a slot's fields before it
@@ -31,6 +31,7 @@
 
 #include "api.h"
 #include "elements.h"
+#include "states.h"
 
 #define MJFX_CAPACITY 1024
 #define MJFX_WATCHES 64
@@ -41,6 +42,8 @@ typedef struct Record_ {
   _Atomic uintptr_t owner;  // the mjData address, 0 when free
   _Atomic uint64_t stamp;   // last use (for reclaiming)
   _Atomic int busy;         // 1 while a thread uses the entry
+  int compared;             // the model was compared with the slot's snapshot (at time `at`) for this data
+  double at;
 } Entry;
 
 #define WATCH_AT ((sizeof(Entry) + _Alignof(mjfxWatch) - 1) / _Alignof(mjfxWatch) * _Alignof(mjfxWatch))
@@ -57,7 +60,9 @@ typedef struct Slot_ {
   const int* exps;
   const double* coefs;
   const char* const* names;
-  unsigned char* entries;  // MJFX_WATCHES entries of entry_size(n) bytes
+  unsigned char* entries;          // MJFX_WATCHES entries of entry_size(n) bytes
+  const unsigned char* snapshot;   // the model's fields when published (states.h: an in-place edit since)
+  _Atomic int edited;              // the edit was said
 } Slot;
 
 static Slot g_slots[MJFX_CAPACITY];
@@ -85,22 +90,29 @@ void mjfx_registry_watches_init(unsigned char* entries, int n) {
     atomic_store(&entry->owner, 0);
     atomic_store(&entry->stamp, 0);
     atomic_store(&entry->busy, 0);
+    entry->compared = 0;
     watch_of(entry)->exact = 0;
     mjfx_watch_clear(watch_of(entry), n);
   }
 }
 
-// Serve model m from slot `slot` with a table of n elements (chain: nchain dof ids, nterms rows of terms).
-// 0, or -1 when the slot is out of range or the table is not sound (nothing published).
+// Serve model m from slot `slot` with a table of n elements (chain: nchain dof ids, nterms rows of terms);
+// snapshot: mjfx_snapshot_size(m) bytes, written here, compared at every evaluation (an in-place edit of m
+// since makes the table stale: NaN forces, said once). 0, or -1 when the slot is out of range or the table is
+// not sound (nothing published).
 int mjfx_registry_publish(int slot, const mjModel* m, int n, const mjfxElement* el, const int* chain, int nchain,
                           const int* exps, const double* coefs, int nterms, const char* const* names,
-                          unsigned char* entries) {
-  if (slot < 0 || slot >= MJFX_CAPACITY || !entries || mjfx_check_rows(m, el, n, chain, nchain, exps, coefs, nterms) >= 0) {
+                          unsigned char* entries, unsigned char* snapshot) {
+  if (slot < 0 || slot >= MJFX_CAPACITY || !entries || !snapshot ||
+      mjfx_check_rows(m, el, n, chain, nchain, exps, coefs, nterms) >= 0) {
     return -1;
   }
   Slot* s = g_slots + slot;
   s->n = n, s->el = el, s->chain = chain, s->exps = exps, s->coefs = coefs, s->names = names;
   s->entries = entries;
+  mjfx_snapshot_take(m, snapshot);
+  s->snapshot = snapshot;
+  atomic_store(&s->edited, 0);
   atomic_store_explicit(&s->model, m, memory_order_release);  // last: the slot becomes visible complete
   int used = atomic_load(&g_used);
   while (used < slot + 1 && !atomic_compare_exchange_weak(&g_used, &used, slot + 1)) {
@@ -183,6 +195,7 @@ static Entry* entry_in(unsigned char* entries, int n, const mjData* d, int claim
     if (oldest && take(oldest)) {
       atomic_store_explicit(&oldest->owner, key, memory_order_release);
       mjfx_watch_clear(watch_of(oldest), n);
+      oldest->compared = 0;
       atomic_store_explicit(&oldest->stamp, now, memory_order_relaxed);
       return oldest;
     }
@@ -194,6 +207,18 @@ static const char* element_name(const Slot* s, int e) {
   return e >= 0 && e < s->n && s->names && s->names[e] ? s->names[e] : "?";
 }
 
+// Whether m is as the slot's snapshot: compared about once per step (the data's first evaluation; then one
+// at least a step of d's time after the last that matched, one at that same time again, as mj_forward after a
+// step, or one after time ran back), the configuration text where d's run starts; without an entry (lost to
+// another thread), at every evaluation. RK4 compares twice per step (its last stage, the next step's first).
+static int unedited(const mjModel* m, const Slot* s, const mjData* d, Entry* entry) {
+  int again = entry && entry->compared && d->time >= entry->at;
+  if (again && d->time > entry->at && d->time < entry->at + (1.0 - 1e-9) * m->opt.timestep) return 1;
+  if (!mjfx_snapshot_same(m, s->snapshot, !again)) return 0;
+  if (entry) entry->compared = 1, entry->at = d->time;
+  return 1;
+}
+
 // Evaluate the served elements of m on d; returns 0 if m is not served. With report, verdicts
 // are reported through MuJoCo here; else they are written to out[0..2) for the caller. The entry
 // is given back before anything is reported: a report may raise (mju_error), leaving this function.
@@ -202,6 +227,18 @@ int mjfx_dispatch(const mjModel* m, mjData* d, int report, mjfxVerdict out[2]) {
   if (out) out[0].element = out[1].element = -1;
   if (!s) return 0;
   Entry* entry = entry_in(s->entries, s->n, d, 1);
+  if (!unedited(m, s, d, entry)) {  // edited in place since the provider was built: stale table
+    if (entry) give(entry);
+    for (int i = 0; i < m->nv; i++) d->qfrc_passive[i] = NAN;
+    if (!atomic_exchange(&s->edited, 1)) {
+      mju_warning("mjflex: model '%.100s' was edited in place after its mjflex.Flexures was built (a field its "
+                  "elements are read from: a site's or body's pose, qpos0, a joint, a mass, a text record): its "
+                  "text-record elements' forces are NaN. An element is unstressed at the pose its sites had when the "
+                  "Flexures was built: build a new mjflex.Flexures(model) after editing",
+                  m->names[0] ? m->names : "unnamed");
+    }
+    return 1;
+  }
   mjfxVerdict v[2] = {{.element = -1}, {.element = -1}};
   if (entry) mjfx_watch_judge(watch_of(entry), m, d, 1, v);
   mjfxScan scan;

@@ -341,7 +341,7 @@ int mjfx_report_text(const mjModel* m, const mjfxVerdict* v, const char* element
   }
   if (len < 0 || len >= size) return len;
   len += snprintf(buf + len, size - len,
-                  " Reduce the time step (mjflex.normal_modes gives the stiffest mode) or check the "
+                  " Reduce the time step (mjflex.step_advice(model) gives the largest stable one) or check the "
                   "qpos/qvel you set. Later divergences of this element in this run (until mj_resetData) are "
                   "counted, not printed: Flexures.divergences(data).");
   return len;

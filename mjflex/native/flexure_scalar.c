@@ -13,7 +13,7 @@
 #endif
 
 // Taylor coefficients in x = a^2 of c(a) = (1 - (a/2) cot(a/2)) / a^2 and of g(a) = c'(a) / a: the
-// first 12 are mjflex.core._series.JL_INV_COEFFS, JL_INV_RATE_COEFFS (exact to the last digit shown),
+// first 12 are mjflex.core.series.JL_INV_COEFFS, JL_INV_RATE_COEFFS (exact to the last digit shown),
 // the last 8 exact too, from c_k = (-1)^k B_(2k+2) / (2k+2)!, g_k = 2 (k+1) c_(k+1) (Bernoulli numbers).
 #define NSERIES 20
 static const double JL_C[NSERIES] = {
@@ -31,7 +31,7 @@ static const double JL_G[NSERIES] = {
     1.2532382798262054e-27, 3.3612243325542163e-29, 8.987085179662393e-31, 2.3962687049928537e-32,
 };
 // below this angle [rad] the series are used: the closed forms cancel below it (g's by up to 3e-13
-// near 1 rad, the core's threshold mjflex.core._series.SERIES_THRESHOLD; a few 1e-15 from 2.2 rad on)
+// near 1 rad, the core's threshold mjflex.core.series.SERIES_THRESHOLD; a few 1e-15 from 2.2 rad on)
 #define SERIES_THRESHOLD 2.2
 
 int mjfx_series_coefficients(double* c, double* g, int n) {

@@ -37,7 +37,7 @@ typedef struct mjfxTerms_ {
 // MJFX_DIAGONAL, MJFX_ZERO or MJFX_FULL for a 6x6 row-major matrix.
 int mjfx_matrix_structure(const double M[36]);
 
-// Series coefficients used near zero angle (for a test against mjflex.core._series).
+// Series coefficients used near zero angle (for a test against mjflex.core.series).
 int mjfx_series_coefficients(double* c, double* g, int n);
 
 // The scalar functions of the angle alpha of a unit quaternion (w >= 0, vector part of squared

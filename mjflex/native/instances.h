@@ -73,7 +73,7 @@ int mjfx_read_part(const mjModel* m, const mjData* d, int instance, Part* p, int
 // table, or NULL with a message in err.
 Table* mjfx_read_model(const mjModel* m, mjData* d, int slot, char* err, int errsz);
 
-// For Python (mjflex.runtime.table): nrec text records (names[k] and their configuration strings values[k *
+// For Python (mjflex.runtime.tables): nrec text records (names[k] and their configuration strings values[k *
 // MJFX_NATTRIBUTE ...]) and then every instance of the plugin, read on d as mjfx_read_model does, each element's
 // values kept. The table (free it with mjfx_free_table), or NULL with the message in err.
 Table* mjfx_read_table(const mjModel* m, mjData* d, int nrec, const char* const* names, const char* const* values,

@@ -91,7 +91,10 @@ _SIGNATURES = {
     "mjfx_offsets_coincide": (_I, [_P, _P, _P, _P]),
     "mjfx_registry_capacity": (_I, []),
     "mjfx_registry_watches_size": (ctypes.c_size_t, [_I]),
-    "mjfx_registry_publish": (_I, [_I, _P, _I, _P, _P, _I, _P, _P, _I, _P, _P]),
+    "mjfx_registry_publish": (_I, [_I, _P, _I, _P, _P, _I, _P, _P, _I, _P, _P, _P]),
+    "mjfx_snapshot_size": (ctypes.c_size_t, [_P]),
+    "mjfx_snapshot_take": (None, [_P, _P]),
+    "mjfx_snapshot_same": (_I, [_P, _P, _I]),
     "mjfx_registry_clear": (None, [_I]),
     "mjfx_registry_used": (_I, []),
     "mjfx_registry_watch": (_P, [_P, _I, _P]),
@@ -145,7 +148,7 @@ def lib():
     """
     with _LOCK:
         if "lib" not in _STATE:
-            import mjflex_plugin
+            import mjflex_plugin  # late: finds and loads the library on first use (import mjflex works without it)
 
             _STATE["lib"] = _bind(mjflex_plugin.library())  # raises NativeLibraryError (not kept: may be fixed)
         return _STATE["lib"]

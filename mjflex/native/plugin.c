@@ -87,6 +87,11 @@ typedef struct State_ {
   ModelKey refused;      // the last model whose elements could not be read (NaN forces with it)
   mjfxWatch* watch;      // tallies by element of the table
   double* twists;        // 6 per element of the table, for visualize (allocated on first use)
+  unsigned char* model;  // the snapshot of the model the table was read from (states.h: in-place edits)
+  int checked;           // the snapshot was compared in this step, at d->time `at` (advance and reset clear it)
+  double at;
+  int settled;           // its configuration text was compared in this run (reset clears it)
+  int edited;            // a read after an in-place edit was said (once per data)
 } State;
 
 // the model's first (leader) and last instance of the plugin, -1 if none
@@ -154,6 +159,7 @@ static void free_state(void* p) {
   mjfx_free_table(s->table);
   free(s->watch);
   free(s->twists);
+  free(s->model);
   free(s);
 }
 
@@ -171,10 +177,16 @@ static int size_watch(State* s, int n) {
 
 // install table t (read from m) in s, replacing its table; -1: out of memory (t freed)
 static int install_table(State* s, const mjModel* m, Table* t) {
-  if (size_watch(s, t->n)) {
+  unsigned char* snapshot = malloc(mjfx_snapshot_size(m) + 1);
+  if (!snapshot || size_watch(s, t->n)) {
+    free(snapshot);
     mjfx_free_table(t);
     return -1;
   }
+  mjfx_snapshot_take(m, snapshot);
+  free(s->model);
+  s->model = snapshot;
+  s->checked = s->settled = 0;  // compared at the first evaluation (an edit may come before the first step)
   atomic_fetch_add(&g_live, t->n - (s->table ? s->table->n : 0));
   s->counted += t->n - (s->table ? s->table->n : 0);
   mjfx_free_table(s->table);
@@ -291,9 +303,11 @@ static Table* stateless_table(const mjModel* m, mjData* d) {
   return t;
 }
 
-// The state of d holding model m's elements, reading them when d's table is another model's. NULL, with
-// a warning once per model, when they cannot be read (or d cannot hold a state: *temp gets a table to free).
-static State* state_for(const mjModel* m, mjData* d, Table** temp) {
+// The state of d holding model m's elements, reading them when d's table is another model's, or m's
+// before an in-place edit (where `check`: compared at a step's first evaluation, or at one again at the
+// time of the last comparison, as repeated mj_forward calls; the configuration text where a run starts). NULL, with a warning once per model,
+// when they cannot be read (or d cannot hold a state: *temp gets a table to free).
+static State* state_for(const mjModel* m, mjData* d, Table** temp, int check) {
   char err[1000];
   *temp = NULL;
   State* s = (State*)mjfx_states_find(d, d->buffer);
@@ -303,18 +317,40 @@ static State* state_for(const mjModel* m, mjData* d, Table** temp) {
   }
   if (!s && !(s = state_new(d))) return NULL;
   s->state_base = (uintptr_t)d->plugin_state;
+  int edited = 0;
   if (s->table && key_is(&s->key, m)) {
-    int i = s->table->n ? s->table->instance[0] : -1;  // the model's leader: d's own word, if d has it
-    if (i >= 0 && i < d->nplugin && d->plugin[i] == g_slot && d->plugin_data[i] != (uintptr_t)s) own_words(d, s);
-    return s;
+    if (check && (!s->checked || d->time == s->at)) {  // a step's first evaluation, or one again at its time
+      edited = !mjfx_snapshot_same(m, s->model, !s->settled);
+      s->checked = s->settled = 1, s->at = d->time;
+    }
+    if (!edited) {
+      int i = s->table->n ? s->table->instance[0] : -1;  // the model's leader: d's own word, if d has it
+      if (i >= 0 && i < d->nplugin && d->plugin[i] == g_slot && d->plugin_data[i] != (uintptr_t)s) own_words(d, s);
+      return s;
+    }
+    memset(&s->key, 0, sizeof(ModelKey));  // read m again below; if that fails, m is refused (NaN forces)
   }
   if (key_is(&s->refused, m)) return NULL;
   Table* t = mjfx_read_model(m, d, g_slot, err, sizeof(err));
   if (t && !install_table(s, m, t)) {
     own_words(d, s);
+    if (edited && !s->edited) {
+      s->edited = 1;
+      mju_warning("mjflex: model '%.100s' was edited in place after this data was made (a field its elements are "
+                  "read from: a site's or body's pose, qpos0, a joint, a mass, the configuration): its elements were "
+                  "read again from the model as it is now, rest poses at its qpos0, as a new MjData would. Edit the "
+                  "spec and compile it, or make a new MjData, after such an edit; this is said once per data",
+                  m->names[0] ? m->names : "unnamed");
+    }
     return s;
   }
   s->refused = key_of(m);
+  if (edited) {
+    mju_warning("%s. mjflex: so the elements of model '%.100s', edited in place after this data was made, cannot be "
+                "read again: its forces are NaN with this data. Undo the edit, or edit the spec and compile it",
+                t ? "mjflex: out of memory" : err, m->names[0] ? m->names : "unnamed");
+    return NULL;
+  }
   mju_warning("%s. mjflex: so the elements of model '%.100s', with which a data made from another model is stepped, "
               "cannot be read: its forces are NaN with that model (the data's own model still works). Make the data "
               "from the model you step it with (mujoco.MjData(model))",
@@ -339,7 +375,7 @@ static void nan_forces(const mjModel* m, mjData* d) {
 static void flexure_compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   if (!is_leader(m, instance)) return;
   Table* temp;
-  State* s = state_for(m, d, &temp);
+  State* s = state_for(m, d, &temp, 1);
   if (!s) {
     if (!temp || mjfx_evaluate(m, d, temp->el, temp->n, temp->chain, temp->exps, temp->coefs, MJFX_APPLY,
                                d->qfrc_passive, NULL, NULL, NULL) >= 0) {
@@ -363,9 +399,10 @@ static void flexure_compute(const mjModel* m, mjData* d, int instance, int capab
 static void flexure_advance(const mjModel* m, mjData* d, int instance) {
   if (!is_leader(m, instance)) return;
   Table* temp;
-  State* s = state_for(m, d, &temp);
+  State* s = state_for(m, d, &temp, 0);
   mjfx_free_table(temp);
   if (!s) return;
+  s->checked = 0;  // the next step's first evaluation compares the model with its snapshot
   mjfxVerdict v;
   mjfx_watch_judge(s->watch, m, d, 1, &v);
   mjfx_watch_step_end(s->watch, d);
@@ -389,6 +426,7 @@ static void flexure_reset(const mjModel* m, mjtNum* plugin_state, void* plugin_d
   uintptr_t base = (uintptr_t)plugin_state - (uintptr_t)(sizeof(mjtNum) * (size_t)m->plugin_stateadr[instance]);
   State* s = (State*)mjfx_states_lock_live((uintptr_t)plugin_data);
   if (s && s->state_base == base && s->watch) s->watch->reset = 1;  // a new run, unless MuJoCo counts a bad state
+  if (s && s->state_base == base) s->checked = s->settled = 0;        // and the model is compared at its start
   mjfx_states_unlock();
 }
 
@@ -413,7 +451,7 @@ static void strain_color(double x, float rgba[4]) {
 static void flexure_visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn, int instance) {
   if (!is_leader(m, instance)) return;
   Table* temp;
-  State* s = state_for(m, d, &temp);
+  State* s = state_for(m, d, &temp, 0);
   mjfx_free_table(temp);
   if (!s || !s->table->n) return;
   Table* t = s->table;

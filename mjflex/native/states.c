@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <mujoco/mujoco.h>
+
 #if defined(_WIN32)
 #include <windows.h>
 #define YIELD() SwitchToThread()
@@ -159,4 +161,57 @@ long mjfx_states_count(void) {
   long n = (long)g_by_data.count;
   unlock();
   return n;
+}
+
+//------------------------------------------------------------------------------ snapshots of a model
+
+#define NFIELDS 12
+#define NCONFIGURATION 2  // the last fields: the elements' configuration text (the largest part)
+
+// the fields a snapshot holds: their addresses and sizes in m (the configuration last)
+static void model_fields(const mjModel* m, const void* at[NFIELDS], size_t bytes[NFIELDS]) {
+  int k = 0;
+#define FIELD(name, count) (at[k] = m->name, bytes[k++] = sizeof(*m->name) * (size_t)(count))
+  FIELD(site_pos, 3 * m->nsite);
+  FIELD(site_quat, 4 * m->nsite);
+  FIELD(site_bodyid, m->nsite);
+  FIELD(body_pos, 3 * m->nbody);
+  FIELD(body_quat, 4 * m->nbody);
+  FIELD(body_mass, m->nbody);
+  FIELD(body_inertia, 3 * m->nbody);
+  FIELD(qpos0, m->nq);
+  FIELD(jnt_pos, 3 * m->njnt);
+  FIELD(jnt_axis, 3 * m->njnt);
+  FIELD(plugin_attr, m->npluginattr);
+  FIELD(text_data, m->ntextdata);
+#undef FIELD
+}
+
+size_t mjfx_snapshot_size(const mjModel* m) {
+  const void* at[NFIELDS];
+  size_t bytes[NFIELDS], total = 0;
+  model_fields(m, at, bytes);
+  for (int k = 0; k < NFIELDS; k++) total += bytes[k];
+  return total;
+}
+
+void mjfx_snapshot_take(const mjModel* m, unsigned char* out) {
+  const void* at[NFIELDS];
+  size_t bytes[NFIELDS];
+  model_fields(m, at, bytes);
+  for (int k = 0; k < NFIELDS; k++) {
+    if (bytes[k]) memcpy(out, at[k], bytes[k]);
+    out += bytes[k];
+  }
+}
+
+int mjfx_snapshot_same(const mjModel* m, const unsigned char* snapshot, int configuration) {
+  const void* at[NFIELDS];
+  size_t bytes[NFIELDS];
+  model_fields(m, at, bytes);
+  for (int k = 0; k < (configuration ? NFIELDS : NFIELDS - NCONFIGURATION); k++) {
+    if (bytes[k] && memcmp(snapshot, at[k], bytes[k])) return 0;
+    snapshot += bytes[k];
+  }
+  return 1;
 }

@@ -17,7 +17,10 @@
 #ifndef MJFLEX_NATIVE_STATES_H_
 #define MJFLEX_NATIVE_STATES_H_
 
+#include <stddef.h>
 #include <stdint.h>
+
+#include <mujoco/mjmodel.h>
 
 // Register `state` as the state of `data` (buffer: data->buffer), freeing with free_state any state
 // registered for data before. 0, or -1 when out of memory (nothing registered then).
@@ -36,5 +39,24 @@ void mjfx_states_unlock(void);
 
 // Number of registered states (for tests).
 long mjfx_states_count(void);
+
+// What an element table was read from. The registry knows a model by address, signature and sizes; an
+// in-place edit (Python's model.site_pos[...] = ..., model.qpos0[...] = ...) changes none of them, and a
+// table read before it (rest offsets measured at qpos0, levers, masses) would be stale. A snapshot is a
+// copy of the bytes of every model field the element reader uses (mjfx_read_element: the sites' and
+// bodies' poses, qpos0, the joints' positions and axes, masses and inertias, the plugin configuration,
+// the text records); comparing it is a few memcmp calls (no hashing), done where it is cheap: once per
+// step (plugin.c: at a step's first evaluation; callback.c: once per step's worth of time), the
+// configuration text only where a run starts (a new data, a reset).
+// bytes of m's snapshot
+size_t mjfx_snapshot_size(const mjModel* m);
+
+// write m's snapshot (mjfx_snapshot_size(m) bytes) into out
+void mjfx_snapshot_take(const mjModel* m, unsigned char* out);
+
+// 1 if m's fields are the snapshot's bytes (taken from m, or a model of m's sizes), else 0. Without
+// `configuration`, the configuration text (plugin_attr, text_data: in ARCADE 23 of its 38 kB) is not compared:
+// the poses, qpos0, joints and masses are, each step; the text where a run starts.
+int mjfx_snapshot_same(const mjModel* m, const unsigned char* snapshot, int configuration);
 
 #endif  // MJFLEX_NATIVE_STATES_H_

@@ -1,6 +1,5 @@
 """The passive-force provider: parse a model's flexures once, then add their forces every step."""
 
-import difflib
 import warnings
 
 import mujoco
@@ -8,9 +7,11 @@ import numpy as np
 
 from ..core import validation
 from ..core.stops import stop_coordinates
+from ..mjcf import naming
+from ..mjcf.notices import warn_likely_mistake
 from ..mjcf.schema import PLUGIN
 from ..native import library
-from . import registry, tables
+from . import plausibility, registry, tables
 from .contacts import neighbour_message
 from .divergence import Divergence, divergences_of, model_name, step_index
 from .tables import ModelError
@@ -21,11 +22,22 @@ _SLEEP = mujoco.mjtSleepPolicy
 _SLEEPY = {int(_SLEEP.mjSLEEP_ALLOWED), int(_SLEEP.mjSLEEP_INIT)}  # the user's explicit choices
 _AUTO = {int(_SLEEP.mjSLEEP_AUTO), int(_SLEEP.mjSLEEP_AUTO_ALLOWED)}  # the compiler's
 
-#: dtype of :meth:`Flexures.table`: one row per element.
-TABLE_DTYPE = np.dtype(
+#: dtype of :meth:`Flexures.results`: one row per element.
+RESULTS_DTYPE = np.dtype(
     [("name", object), ("wrench", np.float64, (6,)), ("displacement", np.float64, (6,)),
      ("energy", np.float64), ("power", np.float64), ("enabled", bool), ("method", "U8")]
 )  # fmt: skip
+
+
+_WARNED = set()  # the deprecated names used (each warns once)
+
+
+def _snapshot(model) -> np.ndarray:
+    """The bytes of the model fields the element reader uses (``mjflex/native/states.h``)."""
+    native = library.lib()
+    out = np.zeros(native.mjfx_snapshot_size(model._address) + 1, np.uint8)
+    native.mjfx_snapshot_take(model._address, out.ctypes.data)
+    return out
 
 
 def _restore(model, copies, enabled, viscous, methods):
@@ -51,6 +63,17 @@ class Flexures:
         ``mjflex:E``), instances of the engine plugin ``mjflex.flexure``, or both (text records
         come first in the per-element arrays). All elements are parsed and validated here,
         once; a malformed one raises :class:`ModelError`.
+
+    Attributes
+    ----------
+    model : mujoco.MjModel
+        The model read (its elements are served on it; copies through :meth:`serve`).
+    names : tuple of str
+        The elements' names, in row order (text records first, then plugin instances):
+        every per-element array follows it (:meth:`index` finds a row).
+    records : list of mjflex.FlexureRecord
+        Each element's parameters as written in the model, in row order: ``K``, ``B`` (element
+        frame, SI), ``method``, ``stops``, polynomial ``terms``, ``site``, ``source``, ...
 
     Notes
     -----
@@ -97,7 +120,7 @@ class Flexures:
     Integrators: the forces enter every integrator explicitly, as external smooth forces
     (MuJoCo takes no user derivatives into its implicit updates), so the time step must resolve
     the stiffest element mode: about ``h < 2 / omega_max`` (Euler, implicit, implicitfast,
-    discrete) and ``h < 2 sqrt(2) / omega_max`` (RK4, 2.83 / omega_max); see :func:`mjflex.normal_modes`.
+    discrete) and ``h < 2 sqrt(2) / omega_max`` (RK4, 2.83 / omega_max); :func:`mjflex.step_advice` gives it.
     Convergence is first order for the single-step integrators and fourth order for RK4
     (tested). Under ``discrete`` the velocity-stepping solve treats them like any applied force:
     first order, no position-implicit stabilization of the flexures, and ``qacc`` is the step
@@ -155,8 +178,11 @@ class Flexures:
         self._elements = t.elements  # the C loop's table (one row per element; switches live here)
         self._fingerprints = {}
         self._warn_contacts(model)
+        for message in plausibility.implausible_stiffness(model, t.records, t.elements[: len(self.names)]):
+            warn_likely_mistake(message, stacklevel=plausibility.outside_stacklevel())  # the user's line
         self._sleep_policy(model)
         self._fingerprints[model._address] = tables.fingerprint(model)
+        self._snapshot = _snapshot(model)  # what the queries compare flex.model with (an in-place edit since)
         self._watches = {}  # model address -> the native per-mjData divergence watches of a served model (a buffer)
 
     def __reduce__(self):
@@ -401,6 +427,9 @@ class Flexures:
                 f"data belongs to another model: (nq, nv, nbody, nsite) = {sizes}, but flex.model has {expected}; "
                 "pass mujoco.MjData(flex.model), or build a Flexures for the data's model"
             )
+        if not library.lib().mjfx_snapshot_same(m._address, self._snapshot.ctypes.data, 1):
+            self._check_model(m, "flex.model")  # ModelError where an in-place edit changed the elements
+            self._snapshot = _snapshot(m)
 
     def _evaluate(self, data, mode, out6=None, out1=None, qfrc=None, model=None):
         """Evaluate the elements on ``data``; returns -1 or the index of the first non-finite wrench."""
@@ -417,7 +446,7 @@ class Flexures:
                 f"mjflex: flexure '{self.names[status]}' of model '{model_name(self.model)}': its wrench is not "
                 f"finite at t = {data.time:.9g} s (step index {step_index(data.time, h)}, counting from 0): the state "
                 "is NaN or infinite, or the forces overflow float64. Check the qpos/qvel you set, or reduce the time "
-                "step (mjflex.normal_modes gives the stiffest mode)."
+                "step (mjflex.step_advice(model) gives the largest stable one)."
             )
 
     def divergences(self, data) -> dict[str, Divergence]:
@@ -438,8 +467,7 @@ class Flexures:
             try:
                 return self._index[name]
             except KeyError:
-                close = difflib.get_close_matches(name, self.names, n=3)
-                raise KeyError(f"no flexure named {name!r}" + (f"; did you mean {close}?" if close else "")) from None
+                raise KeyError(f"no flexure named {name!r}" + naming.suggestion(name, self.names, "flexures")) from None
         if isinstance(name, int | np.integer) and not isinstance(name, bool | np.bool_):
             if not 0 <= name < len(self):
                 raise IndexError(
@@ -505,15 +533,16 @@ class Flexures:
         p_b = data.site_xpos[el["site_b"]] - np.einsum("nij,nj->ni", R_b, el["p0"])
         return stop_coordinates(R_a, p_a, R_b, p_b, check=False).reshape(len(self), 6)
 
-    def table(self, data) -> np.ndarray:
-        """Every per-element result in one labelled table: a structured array, one row per element.
+    def results(self, data) -> np.ndarray:
+        """Every per-element result at ``data``'s state in one labelled array, one row per element.
 
-        Fields (dtype ``TABLE_DTYPE``): ``name``; ``wrench`` (6,) as :meth:`wrenches`;
+        (Its name was ``table`` until 1.0: "table" is the element table, :attr:`element_table`.)
+        Fields (dtype ``RESULTS_DTYPE``): ``name``; ``wrench`` (6,) as :meth:`wrenches`;
         ``displacement`` (6,) as :meth:`displacements`; ``energy`` [J]; ``power`` [W];
         ``enabled``; ``method``. Select by name, e.g. ``t[t["name"] == "hinge"]["energy"]``;
         ``pandas.DataFrame({f: list(t[f]) for f in t.dtype.names})`` makes a data frame.
         """
-        out = np.zeros(len(self), dtype=TABLE_DTYPE)
+        out = np.zeros(len(self), dtype=RESULTS_DTYPE)
         out["name"] = self.names
         out["wrench"] = self.wrenches(data)
         out["displacement"] = self.displacements(data)
@@ -521,6 +550,13 @@ class Flexures:
         out["power"] = self.dissipation_powers(data)
         out["enabled"], out["method"] = self.enabled, self.methods
         return out
+
+    def table(self, data) -> np.ndarray:
+        """Deprecated: :meth:`results` (a "table" is the element table, :attr:`element_table`)."""
+        if "table" not in _WARNED:
+            _WARNED.add("table")
+            warnings.warn("Flexures.table is deprecated; use Flexures.results", DeprecationWarning, stacklevel=2)
+        return self.results(data)
 
     # ------------------------------------------------------------------ element data
 

@@ -39,6 +39,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
+import numpy as np
 
 from ..native import library
 
@@ -172,13 +173,15 @@ def _publish(model, provider, served):
     t, n = served.tables, served.tables.served
     names = (ctypes.c_char_p * max(n, 1))(*(name.encode() for name in served.names[:n]))
     watches = served.watches_for(model)
+    snapshot = np.zeros(library.lib().mjfx_snapshot_size(model._address) + 1, np.uint8)  # C writes the model's
     if library.lib().mjfx_registry_publish(
         slot, model._address, n, t.elements.ctypes.data, t.chain.ctypes.data, len(t.chain), t.exps.ctypes.data,
         t.coefs.ctypes.data, len(t.coefs), ctypes.cast(names, ctypes.c_void_p), watches.ctypes.data,
+        snapshot.ctypes.data,
     ):  # fmt: skip
         _FREE.insert(0, slot)
         raise RuntimeError("mjflex: the element table does not fit the model (an index out of range); rebuild it")
-    keep = (t, names, watches)
+    keep = (t, names, watches, snapshot)
     old = _IN_SLOT.get(model._address)
     _IN_SLOT[model._address] = (slot, provider, model, keep, served)
     if old is not None:

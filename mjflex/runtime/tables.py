@@ -19,7 +19,6 @@ construction, and again on a model it is asked to serve (a copy) to check that t
 the same elements in the same places.
 """
 
-import difflib
 import hashlib
 import warnings
 from dataclasses import dataclass
@@ -28,7 +27,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from ..mjcf import schema
+from ..mjcf import naming, schema
 from ..mjcf.config import config_sites, config_text
 from ..mjcf.schema import PLUGIN, RECORD
 from ..native import library
@@ -129,7 +128,7 @@ def _record_strings(element, data, site_a, site_b):
 def _site_id(model, element, name, role, all_sites, others):
     sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
     if sid < 0:
-        close = difflib.get_close_matches(name, [s for s in all_sites if s not in others], n=3, cutoff=0.6)
+        close = naming.close_names(name, [s for s in all_sites if s not in others])
         hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         raise model_error(
             element, f"site '{name}' not found",
@@ -164,7 +163,10 @@ def derive(model) -> Tables:
             _site_id(m, element, s, role, all_sites, {site_a, site_b})
         found.append((element, data, site_a, site_b, strings))
         configs.append((element, strings))
-    ref = mujoco.MjData(m)
+    try:
+        ref = mujoco.MjData(m)  # runs the plugin instances' init, which may refuse a model edited in place
+    except mujoco.FatalError as exc:
+        raise ModelError(f"its mjflex.flexure instances cannot be read ({exc}; MuJoCo's warning says why)") from None
     try:
         elements, chain, exps, coefs, instances, values = library.read_table(m, ref, configs)
     except ValueError as exc:

@@ -74,7 +74,7 @@ def find_body(spec, body):
         raise TypeError(f"body must be a body's name or an MjsBody; got {type(body).__name__}")
     if found is None:
         raise ValueError(f"body {body!r} is not in the spec"
-                         + naming.suggestion(body, [b.name for b in spec.bodies], "bodies"))  # fmt: skip
+                         + naming.spec_hint(spec, body, "body"))  # fmt: skip
     if found.name == "world" or found.parent is None:
         raise ValueError("the world body has no parent to be compliant against; name the body to make compliant "
                          "(e.g. a robot's hand or its mount)")  # fmt: skip
@@ -124,7 +124,7 @@ def frame_pose(spec, model, data, body, parent, frame):
     i = 0 if name in ("", "world") else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
     if i < 0:
         raise ValueError(f"frame={frame!r} is neither 'parent', 'body', 'world' nor a body of the spec"
-                         + naming.suggestion(frame, [b.name for b in spec.bodies if b.name]))  # fmt: skip
+                         + naming.spec_hint(spec, frame, "body"))  # fmt: skip
     return data.xmat[i].reshape(3, 3), data.xpos[i]
 
 
@@ -140,7 +140,7 @@ def element_pose(spec, model, body, parent, site, pos, quat, frame=None):
         found = spec.site(name) if isinstance(name, str) else None
         if found is None:
             raise ValueError(f"site {name!r} is not in the spec"
-                             + naming.suggestion(str(name), [s.name for s in spec.sites if s.name]))  # fmt: skip
+                             + naming.spec_hint(spec, name, "site"))  # fmt: skip
         if found.parent.name not in (body.name, parent.name):
             raise ValueError(
                 f"site {name!r} belongs to body {found.parent.name or 'world'!r}, not to {body.name!r} or its parent "
@@ -210,7 +210,7 @@ def pairs(spec, collide):
         for name in pair:
             if name not in ("*", "world") and spec.body(name) is None:
                 raise ValueError(f"collide: {name!r} is not a body of the spec"
-                                 + naming.suggestion(name, [b.name for b in spec.bodies], "bodies"))  # fmt: skip
+                                 + naming.spec_hint(spec, name, "body"))  # fmt: skip
         out.add(frozenset(pair))
     return out
 

@@ -20,6 +20,10 @@ records and ``mjflex.flexure`` plugin instances), per-world K, B, switches and e
 is not: an element feature the kernels do not implement is refused by :func:`put_model` naming
 the element and the feature; MuJoCo Warp integrates in float32 only (no float64 simulation: use
 MuJoCo itself for that).
+
+Data of another model is refused by every function here (ValueError naming the sizes): make the
+data from the MuJoCo model given to :func:`put_model`. The functions are the API; the
+:class:`WarpFlexures` a model carries describes its elements (names, records, parameters).
 """
 
 import copy
@@ -38,6 +42,7 @@ __all__ = [
     "UnsupportedElementError",
     "WarpFlexures",
     "WorldDivergence",
+    "clear_divergences",
     "displacements",
     "dissipation_powers",
     "diverged",
@@ -238,11 +243,11 @@ def set_parameters(
 
     Notes
     -----
-    The leading size of each parameter must be 1 or the data's ``nworld`` (checked at every
-    step, ValueError otherwise; the stops' limits and stiffness must agree among themselves, and
-    a derived stiffness has K's). Parameters not given keep their values. Takes effect at the
-    next step. Which elements run the stops' code is set here: an element without a finite
-    limit in any world skips it at one flag.
+    The leading size of each parameter must be 1 or the data's ``nworld`` (0 is refused here;
+    the data's is checked at every step, ValueError otherwise; the stops' limits and stiffness
+    must agree among themselves, and a derived stiffness has K's). Parameters not given keep
+    their values. Takes effect at the next step. Which elements run the stops' code is set
+    here: an element without a finite limit in any world skips it at one flag.
 
     Examples
     --------
@@ -264,7 +269,7 @@ def set_parameters(
     >>> print(mjflex.warp.potential_energies(m, d)[:, 0].round(5))  # [J]: K's 0.00125 and the stops'
     [0.0325  0.00625 0.00125 0.00125]
     """
-    flexures(m).set_parameters(K=K, B=B, enabled=enabled, viscous=viscous, stop_lower=stop_lower,
+    flexures(m)._set_parameters(K=K, B=B, enabled=enabled, viscous=viscous, stop_lower=stop_lower,
                                stop_upper=stop_upper, stop_stiffness=stop_stiffness)  # fmt: skip
 
 
@@ -298,7 +303,7 @@ def wrenches(m, d) -> np.ndarray:
     >>> print(mjflex.warp.wrenches(m, d)[0, 0].round(4) + 0.0)  # -K_zz 0.1 about z
     [ 0.     0.    -0.025  0.     0.     0.   ]
     """
-    return flexures(m).wrenches(m, d)
+    return flexures(m)._wrenches(m, d)
 
 
 def generalized_forces(m, d) -> np.ndarray:
@@ -330,7 +335,7 @@ def generalized_forces(m, d) -> np.ndarray:
     >>> print(mjflex.warp.generalized_forces(m, d)[0, [5, 11]].round(4) + 0.0)  # on A's and B's rotation about z
     [ 0.025 -0.025]
     """
-    return flexures(m).generalized_forces(m, d)
+    return flexures(m)._generalized_forces(m, d)
 
 
 def potential_energies(m, d) -> np.ndarray:
@@ -362,7 +367,7 @@ def potential_energies(m, d) -> np.ndarray:
     >>> print(mjflex.warp.potential_energies(m, d)[:, 0].round(6))  # K_zz 0.1^2 / 2
     [0.00125 0.00125]
     """
-    return flexures(m).potentials_and_twists(m, d)[0]
+    return flexures(m)._potentials_and_twists(m, d)[0]
 
 
 def dissipation_powers(m, d) -> np.ndarray:
@@ -399,7 +404,7 @@ def dissipation_powers(m, d) -> np.ndarray:
     >>> print(mjflex.warp.dissipation_powers(m, d)[:, 0].round(6))  # B_zz omega^2
     [0.004 0.008]
     """
-    return flexures(m).dissipation_powers(m, d)
+    return flexures(m)._dissipation_powers(m, d)
 
 
 def displacements(m, d) -> np.ndarray:
@@ -431,7 +436,7 @@ def displacements(m, d) -> np.ndarray:
     >>> print(mjflex.warp.displacements(m, d)[0, 0].round(6) + 0.0)
     [0.  0.  0.1 0.  0.  0. ]
     """
-    return flexures(m).potentials_and_twists(m, d)[1]
+    return flexures(m)._potentials_and_twists(m, d)[1]
 
 
 def stop_coordinates(m, d) -> np.ndarray:
@@ -469,7 +474,7 @@ def stop_coordinates(m, d) -> np.ndarray:
     >>> print(mjflex.warp.stop_coordinates(m, d)[0, 0].round(6) + 0.0)
     [0.  0.  0.1 0.  0.  0. ]
     """
-    return flexures(m).potentials_and_twists(m, d)[2]
+    return flexures(m)._potentials_and_twists(m, d)[2]
 
 
 def divergences(m, d) -> list[WorldDivergence]:
@@ -511,7 +516,7 @@ def divergences(m, d) -> list[WorldDivergence]:
     >>> [(v.world, v.element, v.step, v.reason) for v in mjflex.warp.divergences(m, d)]
     [(1, '', 0, "MuJoCo Warp's qvel became non-finite or beyond 1e10")]
     """
-    return flexures(m).divergences(m, d)
+    return flexures(m)._divergences(m, d)
 
 
 def diverged(m, d) -> np.ndarray:
@@ -546,4 +551,42 @@ def diverged(m, d) -> np.ndarray:
     >>> mjflex.warp.diverged(m, d)
     array([ True, False])
     """
-    return flexures(m).diverged(d)
+    forces = flexures(m)
+    forces._state(m, d)  # checks d against the model
+    return forces._diverged(d)
+
+
+def clear_divergences(m, d) -> None:
+    """Forget the divergence records of ``d``: every world starts a new run.
+
+    A world's run also restarts by itself when its time runs backwards (a reset); this clears
+    all of them at once, e.g. after setting a new state with ``d.qpos.assign``.
+
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data.
+
+    Examples
+    --------
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+    >>> d = mjw.put_data(mjmodel, mujoco.MjData(mjmodel), nworld=2)
+    >>> qvel = d.qvel.numpy()
+    >>> qvel[0, 0] = np.nan
+    >>> d.qvel.assign(qvel)
+    >>> m.callback.passive(m, d)
+    >>> mjflex.warp.diverged(m, d)
+    array([ True, False])
+    >>> mjflex.warp.clear_divergences(m, d)
+    >>> mjflex.warp.diverged(m, d)
+    array([False, False])
+    """
+    forces = flexures(m)
+    forces._state(m, d)  # checks d against the model
+    forces._clear_divergences(d)

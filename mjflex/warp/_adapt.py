@@ -36,7 +36,7 @@ def plugin_arrays_sized(model):
     if model.nplugin == int((model.geom_plugin >= 0).sum()):
         yield
         return
-    from mujoco_warp._src import io
+    from mujoco_warp._src import io  # MuJoCo Warp's private io: only for the work-around, where it applies
 
     original = io._create_array
 

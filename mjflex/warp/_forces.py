@@ -1,6 +1,7 @@
 """The passive callback of a MuJoCo Warp model: the elements' arrays on the device, their per-world
 parameters, the launches, the queries and the per-world divergence records."""
 
+import warnings
 import weakref
 from typing import NamedTuple
 
@@ -9,6 +10,8 @@ import numpy as np
 import warp as wp
 
 from ..core import validation
+from ..mjcf import naming
+from ..runtime.divergence import model_name
 from . import _kernels as kn
 from . import _stops, _watch
 from ._mjflex import PLANAR_INDEX, ElementTable
@@ -92,13 +95,26 @@ class _DataState:
         self.nworld = nworld
 
 
+def _some_worlds(name, a):
+    """``a`` ``(worlds, ...)``; ValueError if it has no world (the data's worlds could never match it)."""
+    if a.shape[0] == 0:
+        raise ValueError(
+            f"{name} has 0 worlds (shape {a.shape}): give one set for all worlds (no leading axis) or one per world "
+            "of the data (1 or nworld)"
+        )
+    return a
+
+
 class WarpFlexures:
     """The flexure elements of a MuJoCo Warp model and the passive callback that adds their forces.
 
     Made by :func:`mjflex.warp.put_model`, which sets it as ``m.callback.passive``; reach it with
     :func:`mjflex.warp.flexures`. Called with ``(m, d)`` (by ``mujoco_warp.forward`` and
     ``step``), it adds the elements' generalized forces to ``d.qfrc_passive`` and watches every
-    world for divergence.
+    world for divergence. It describes the elements (``names``, ``records``, :meth:`parameters`);
+    what is set or asked of the model and its data goes through :mod:`mjflex.warp`'s functions
+    (``set_parameters(m, ...)``, ``wrenches(m, d)``, ...), one API: the methods of the same names
+    that this class had are deprecated (each warns once, naming the function).
 
     Parameters
     ----------
@@ -178,7 +194,7 @@ class WarpFlexures:
         self._real = real
         self._host = {}
         self._stop_k_given = None  # stop_stiffness as set (None: the model's, derived from K where it is)
-        self.set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous,
+        self._set_parameters(K=table.K, B=table.B, enabled=table.enabled, viscous=table.viscous,
                             stop_lower=table.stop_lower, stop_upper=table.stop_upper)  # fmt: skip
         _stops.set_damping(self._params, table, k["V6"], real, d)  # the model's, shared by the worlds
         self._states = {}
@@ -196,11 +212,11 @@ class WarpFlexures:
         try:
             return self._index[name]
         except KeyError:
-            raise KeyError(f"no flexure named {name!r}; the elements are {list(self.names)[:10]}") from None
+            raise KeyError(f"no flexure named {name!r}" + naming.suggestion(name, self.names, "elements")) from None
 
     # ------------------------------------------------------------------ parameters
 
-    def set_parameters(
+    def _set_parameters(
         self, *, K=None, B=None, enabled=None, viscous=None, stop_lower=None, stop_upper=None, stop_stiffness=None
     ) -> None:
         """Set the per-world parameters (see :func:`mjflex.warp.set_parameters`)."""
@@ -217,13 +233,13 @@ class WarpFlexures:
                     a = a[None]
                 if a.ndim != 2 or a.shape[1] != n:
                     raise ValueError(f"{name} must have shape ({n},) or (worlds, {n}); got {np.shape(value)}")
-                fields[name] = a
+                fields[name] = _some_worlds(name, a)
         given = self._stop_k_given
         if stop_stiffness is not None:
-            given = _stops.vectors("stop_stiffness", stop_stiffness, n)
+            given = _some_worlds("stop_stiffness", _stops.vectors("stop_stiffness", stop_stiffness, n))
         stops = {}
         if K is not None or stop_lower is not None or stop_upper is not None or stop_stiffness is not None:
-            limits = [self._host.get(name) if value is None else _stops.vectors(name, value, n)
+            limits = [self._host.get(name) if value is None else _some_worlds(name, _stops.vectors(name, value, n))
                       for name, value in (("stop_lower", stop_lower), ("stop_upper", stop_upper))]  # fmt: skip
             k = _stops.stiffness(self._table, fields.get("K", self._host.get("K")), given)
             big = _FLOAT32_MAX if self.precision == "float32" else np.inf
@@ -264,6 +280,7 @@ class WarpFlexures:
                 f"matrix per element in the element frame (planar elements embedded at rows/columns "
                 f"{list(PLANAR_INDEX)}); got {np.shape(value)}"
             )
+        _some_worlds(name, a)
         what = "stiffness" if name == "K" else "damping"
         for e, element in enumerate(self.names):
             validation.check_psd_matrix(a[:, e], f"{name} of flexure '{element}' (per world)", 6, what=what)
@@ -291,12 +308,40 @@ class WarpFlexures:
 
     # ------------------------------------------------------------------ evaluation
 
-    def _state(self, d):
+    def _state(self, m, d):
+        """The per-data state of ``d``; its sizes are checked against the model when it is first seen."""
+        self._check_worlds(d)
         state = self._states.get(id(d))
         if state is None or state.nworld != d.nworld:
+            self._check_sizes(m, d)
             state = self._states[id(d)] = _DataState(self._k, len(self), d.nworld, self.device)
             weakref.finalize(d, self._states.pop, id(d), None)
         return state
+
+    def _check_sizes(self, m, d):
+        """ValueError unless ``d`` (and ``m``) have this model's sizes: data of another model would be read and
+        written out of bounds by the kernels (NaN results, or memory corrupted by the passive callback)."""
+        mj = self.mjmodel
+        want = {"nq": mj.nq, "nv": mj.nv, "nbody": mj.nbody, "nsite": mj.nsite}
+        got = {}
+        for field, size in (("qpos", "nq"), ("qvel", "nv"), ("qfrc_passive", "nv"), ("cdof", "nv"),
+                            ("xquat", "nbody"), ("cvel", "nbody"), ("subtree_com", "nbody"),
+                            ("site_xpos", "nsite")):  # fmt: skip
+            shape = getattr(getattr(d, field, None), "shape", ())
+            n = shape[1] if len(shape) > 1 else None
+            if n != want[size]:
+                got.setdefault(size, f"{field} {shape}")
+        for size in ("nq", "nv", "nbody", "nsite"):
+            if getattr(m, size, want[size]) != want[size]:
+                got.setdefault(size, f"the MuJoCo Warp model's {size} = {getattr(m, size)}")
+        if got:
+            have = ", ".join(f"{size} = {n}" for size, n in want.items())
+            raise ValueError(
+                f"mjflex.warp: this data is not of the model '{model_name(mj)}' ({have}): its "
+                f"{'; '.join(f'{size}: {text}' for size, text in got.items())}. Make the data from the MuJoCo model "
+                "given to mjflex.warp.put_model: mujoco_warp.make_data(mjmodel, nworld=...) or "
+                "mujoco_warp.put_data(mjmodel, mjdata, nworld=...)"
+            )
 
     def _check_worlds(self, d):
         for name, a in self._host.items():
@@ -327,8 +372,7 @@ class WarpFlexures:
         """The passive callback: add the elements' generalized forces to ``d.qfrc_passive`` and watch for divergence."""
         if not len(self):
             return
-        self._check_worlds(d)
-        state = self._state(d)
+        state = self._state(m, d)
         self._launch_wrench(m, d, state)
         wp.launch(
             _watch.watch_kernel, dim=d.nworld, device=self.device,
@@ -339,23 +383,22 @@ class WarpFlexures:
     # ------------------------------------------------------------------ queries
 
     def _evaluated(self, m, d):
-        self._check_worlds(d)
-        state = self._state(d)
+        state = self._state(m, d)
         if len(self):
             self._launch_wrench(m, d, state)
         return state
 
-    def wrenches(self, m, d) -> np.ndarray:
+    def _wrenches(self, m, d) -> np.ndarray:
         """Wrench of each element on its body B, ``(nworld, n, 6)`` (see :func:`mjflex.warp.wrenches`)."""
         out = self._evaluated(m, d).out
         n = len(self)
         return np.concatenate([out.mo.numpy()[:, :n], out.f.numpy()[:, :n]], axis=-1)
 
-    def dissipation_powers(self, m, d) -> np.ndarray:
+    def _dissipation_powers(self, m, d) -> np.ndarray:
         """Power dissipated by each element, ``(nworld, n)`` [W] (see :func:`mjflex.warp.dissipation_powers`)."""
         return self._evaluated(m, d).out.power.numpy()[:, : len(self)]
 
-    def generalized_forces(self, m, d) -> np.ndarray:
+    def _generalized_forces(self, m, d) -> np.ndarray:
         """The elements' generalized forces ``(nworld, nv)`` (see :func:`mjflex.warp.generalized_forces`)."""
         state = self._evaluated(m, d)
         qfrc = wp.zeros((d.nworld, m.nv), dtype=wp.float32, device=self.device)
@@ -363,9 +406,9 @@ class WarpFlexures:
             self._launch_gather(m, d, state, qfrc, False)
         return qfrc.numpy()
 
-    def potentials_and_twists(self, m, d):
+    def _potentials_and_twists(self, m, d):
         """``(energy (nworld, n), twist (nworld, n, 6), stop coordinates (nworld, n, 6))`` in ``d``'s state."""
-        self._check_worlds(d)
+        self._state(m, d)  # checks d against the model
         k, n = self._k, len(self)
         shape = (d.nworld, max(n, 1))
         energy = wp.zeros(shape, k["real"], device=self.device)
@@ -381,11 +424,9 @@ class WarpFlexures:
 
     # ------------------------------------------------------------------ divergence
 
-    def divergences(self, m, d) -> list[WorldDivergence]:
+    def _divergences(self, m, d) -> list[WorldDivergence]:
         """The worlds that diverged in their current run, in world order."""
-        state = self._states.get(id(d))
-        if state is None:
-            return []
+        state = self._state(m, d)
         w = state.watch
         at = w.at_step.numpy()
         worlds = np.flatnonzero(at >= 0)
@@ -411,16 +452,47 @@ class WarpFlexures:
             message = (
                 f"mjflex.warp: world {int(i)} diverged in the step from t = {t0:.9g} s (step index {step}, counting "
                 f"from 0): {blame}. Its forces are NaN from then on (until its time runs back: a reset). Reduce the "
-                "time step (mjflex.normal_modes gives the stiffest mode) or check the state you set."
+                "time step (mjflex.step_advice(mjmodel) gives the largest stable one) or check the state you set."
             )
             out.append(WorldDivergence(int(i), name, step, float(time[i]), reason, message))
         return out
 
-    def diverged(self, d) -> np.ndarray:
+    def _diverged(self, d) -> np.ndarray:
         """``(nworld,)`` bool: which worlds diverged in their current run."""
         state = self._states.get(id(d))
         return np.zeros(d.nworld, bool) if state is None else state.watch.at_step.numpy() >= 0
 
-    def clear_divergences(self, d) -> None:
+    def _clear_divergences(self, d) -> None:
         """Forget the divergence records of ``d`` (every world starts a new run)."""
         self._states.pop(id(d), None)
+
+
+def _deprecated(name, new):
+    """A ``WarpFlexures`` method that was the same thing as ``mjflex.warp.<name>``: warns once, then calls it."""
+    private = getattr(WarpFlexures, f"_{name}")
+
+    def method(self, *args, **kwargs):
+        if name not in _WARNED:
+            _WARNED.add(name)
+            warnings.warn(f"WarpFlexures.{name} is deprecated; use {new}", DeprecationWarning, stacklevel=2)
+        return private(self, *args, **kwargs)
+
+    method.__name__ = method.__qualname__ = name
+    method.__doc__ = f"Deprecated: use :func:`{new.partition('(')[0]}` (one Warp API: the module's functions)."
+    return method
+
+
+_WARNED = set()
+#: The methods that did what mjflex.warp's functions do (one Warp API): each warns once and names the function.
+DEPRECATED_METHODS = {
+    "set_parameters": "mjflex.warp.set_parameters(m, ...)",
+    "wrenches": "mjflex.warp.wrenches(m, d)",
+    "dissipation_powers": "mjflex.warp.dissipation_powers(m, d)",
+    "generalized_forces": "mjflex.warp.generalized_forces(m, d)",
+    "potentials_and_twists": "mjflex.warp.potential_energies(m, d), displacements(m, d) and stop_coordinates(m, d)",
+    "divergences": "mjflex.warp.divergences(m, d)",
+    "diverged": "mjflex.warp.diverged(m, d)",
+    "clear_divergences": "mjflex.warp.clear_divergences(m, d)",
+}
+for _name, _new in DEPRECATED_METHODS.items():
+    setattr(WarpFlexures, _name, _deprecated(_name, _new))

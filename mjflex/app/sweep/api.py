@@ -64,7 +64,7 @@ def _chunks(n, executor, chunk_size):
 def _progress_bar(enabled, total):
     if not enabled:
         return None
-    from tqdm.auto import tqdm
+    from tqdm.auto import tqdm  # late: tqdm, only with a progress bar
 
     fmt = "{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.0f} variants [{elapsed}<{remaining}]"
     return tqdm(total=total, desc="mjflex.sweep", smoothing=0.1, bar_format=fmt)
@@ -108,8 +108,26 @@ def _run_executor(executor, plan, grid, chunk_size, bar):
     return outcomes, len(chunks), stats
 
 
+_WARNED = set()  # deprecated argument names used (each warns once)
+
+
+def _renamed_recipe(recipe, variants):
+    """``recipe``, or what was given as ``variants=`` (its name until 1.0: warns once); TypeError without either."""
+    if variants is not None:
+        if recipe is not None:
+            raise TypeError("sweep() got both recipe and variants (its old name); give recipe")
+        if "variants" not in _WARNED:
+            _WARNED.add("variants")
+            warnings.warn("mjflex.sweep(variants=...) is deprecated; use mjflex.sweep(recipe=...)", DeprecationWarning,
+                          stacklevel=3)  # fmt: skip
+        recipe = variants
+    if recipe is None:
+        raise TypeError("sweep() needs the model family: a mjflex.Recipe, a model file or MJCF text (recipe=)")
+    return recipe
+
+
 def sweep(
-    variants,
+    recipe=None,
     grid=None,
     duration: float = 0.0,
     observe: Callable | None = None,
@@ -119,14 +137,16 @@ def sweep(
     *,
     samples: int | None = None,
     chunk_size: int | None = None,
+    variants=None,
 ):
     """Simulate every variant of a model family over a grid of parameters and observe each.
 
     Parameters
     ----------
-    variants : Recipe, str or os.PathLike
+    recipe : Recipe, str or os.PathLike
         The model family: a :class:`mjflex.Recipe` (source model + module-level
         ``edit(spec, **params)``), or a model file / MJCF text alone (then ``grid`` is empty).
+        (Named ``variants`` until 1.0.)
     grid : dict or list of dict, optional
         A dict of 1-D value arrays varies every combination (the result has one dimension
         per parameter, in this order); a list of dicts gives explicit variants (one dimension
@@ -163,6 +183,9 @@ def sweep(
         MuJoCo Warp batches (default 512). Otherwise a process builds and steps at most 256
         variants at once (fewer if its flexure registry, 1024 models, has less room): larger
         sweeps and chunks run in parts, automatically.
+    variants : Recipe, str or os.PathLike, optional
+        Deprecated: the old name of ``recipe``, which warns once (in mjflex a variant is a
+        :class:`mjflex.Variant`, what ``mjflex.study(variants=...)`` compares).
 
     Returns
     -------
@@ -209,7 +232,8 @@ def sweep(
     True
     """
     start = time.perf_counter()
-    recipe = variants if isinstance(variants, Recipe) else Recipe(variants)
+    recipe = _renamed_recipe(recipe, variants)
+    recipe = recipe if isinstance(recipe, Recipe) else Recipe(recipe)
     _check_args(duration, samples, threads, chunk_size, observe)
     g = make_grid(grid)
     recipe.check_parameters(g.names)
@@ -232,7 +256,7 @@ def sweep(
         if in_process:
             tick = None if bar is None else (lambda k: bar.update(k / blocks))
             if on_warp:
-                from . import warp
+                from . import warp  # late: imports warp (the warp extra), for its executor only
 
                 outcomes, stats = engine.run_chunk(plan, list(enumerate(g.rows)), tick, run_part=warp.run_part,
                                                    part_size=chunk_size or warp.PART_SIZE)  # fmt: skip

@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-from ...mjcf.elements import edit_flexure, flexure_matrices
+from ...mjcf.elements import edit_flexure, flexure_matrices, spec_elements
 from ..arcade import arcade_source
 from .recipe import Recipe
 
@@ -25,8 +25,6 @@ def arcade_edit(spec, leaf_scale=1.0, beta=2e-6):
     """Scale the 12 leaf springs' stiffness by ``leaf_scale``; damping ``B = beta K`` [s] for all 48 flexures."""
     if not (leaf_scale > 0 and beta >= 0):
         raise ValueError(f"leaf_scale must be > 0 and beta >= 0; got {leaf_scale!r}, {beta!r}")
-    from ...mjcf.elements import spec_elements
-
     for element in [e.name for e in spec_elements(spec)]:  # text records or plugin instances alike
         K, _ = flexure_matrices(spec, element)
         if element.startswith("leaf_"):
@@ -46,8 +44,8 @@ def arcade_stroke(model, flex, data):
 
 def first_frequency(model, flex, data):
     """The lowest non-rigid natural frequency [Hz], linearized about ``qpos0`` (``data`` unused)."""
-    from ...analysis.linearize import normal_modes
-    from ..modes import RIGID_TOL_HZ
+    from ...analysis.linearize import normal_modes  # late: modal analysis, only for the duration-0 sweep
+    from ..modes import RIGID_TOL_HZ  # late: with normal_modes above
 
     freq, _ = normal_modes(model, flex)
     return {"first_frequency": float(freq[freq >= RIGID_TOL_HZ][0])}
@@ -65,7 +63,7 @@ def make_executor(kind, workers, device=None):
         return None, lambda: None
     if kind == "warp":
         try:
-            import warp
+            import warp  # late: the warp extra, for --executor warp only
         except ImportError:
             raise SystemExit('error: --executor warp needs MuJoCo Warp: pip install "mjflex[warp]"') from None
         if device is None:
@@ -74,13 +72,13 @@ def make_executor(kind, workers, device=None):
         scope.__enter__()
         return "warp", lambda: scope.__exit__(None, None, None)
     if kind == "pool":
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
+        import multiprocessing  # late: for --executor pool only
+        from concurrent.futures import ProcessPoolExecutor  # late: for --executor pool only
 
         pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
         return pool, pool.shutdown
     try:
-        from distributed import Client, LocalCluster
+        from distributed import Client, LocalCluster  # late: the dask extra, for --executor dask only
     except ImportError:
         raise SystemExit('error: --executor dask needs Dask: pip install "mjflex[dask]"') from None
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
@@ -101,10 +99,10 @@ def peak_stroke(ds):
 
 def plot(ds, modes, path):
     """Stroke history at the reference damping, peak stroke vs leaf scale for every beta, first frequency."""
-    import matplotlib
+    import matplotlib  # late: matplotlib, only for the figure
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # late: after the Agg backend is chosen
 
     fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
     betas = ds["beta"].values
@@ -160,7 +158,7 @@ def run_arcade_sweep(out, *, leaf_scale, beta, duration, samples, executor="batc
     with ``provenance``: the command line and date) to folder ``out`` (created if missing). ``executor``
     as :func:`make_executor`; ``threads``, ``samples`` and ``progress`` as :func:`mjflex.sweep`.
     """
-    from .api import sweep
+    from .api import sweep  # late: xarray and tqdm, only when the sweep runs
 
     started = time.perf_counter()
     executor_name, (executor, close) = executor, make_executor(executor, workers, device)

@@ -120,7 +120,7 @@ class Recipe:
         """Raise ``TypeError`` if the recipe or ``observe`` cannot be sent to worker processes."""
         dumps = pickle.dumps
         if cloud:
-            import cloudpickle
+            import cloudpickle  # late: the dask extra's, only for recipes defined in __main__
 
             dumps = cloudpickle.dumps
         for what, obj in (("recipe edit", self.edit), ("observe", observe)):

@@ -17,6 +17,7 @@ flagged ``diverged``, with the element, the step and the world in its message, a
 observed again.
 """
 
+import dataclasses
 import math
 
 import mujoco
@@ -81,9 +82,7 @@ class _Group:
 
 
 def _batched_spec(name):
-    import dataclasses
-
-    from mujoco_warp._src import types
+    from mujoco_warp._src import types  # late: the warp extra, for the warp executor only
 
     for f in dataclasses.fields(types.Model):
         if f.name == name:
@@ -179,10 +178,10 @@ def _groups(sims, mw):
 
 def run_part(plan, rows, progress, stats):
     """Build, group, step and observe the variants ``rows`` (a list of ``(index, params)``); their outcomes."""
-    import mujoco_warp as mjw
-    import warp as wp
+    import mujoco_warp as mjw  # late: the warp extra, for the warp executor only
+    import warp as wp  # late: the warp extra, for the warp executor only
 
-    from ... import warp as mw
+    from ... import warp as mw  # late: imports warp (the warp extra)
 
     built = engine._build(plan, rows)
     sims = [s for s in built if isinstance(s, engine._Sim)]
