@@ -31,7 +31,7 @@ def _study_limit(r, variant="full", method="twist"):
 
 
 def _usable_step(lim):
-    """The step a study recommends for a (variant, method, integrator): checked (linear limit and perturbed run) or,
+    """The step a study recommends for a (variant, method, integrator): checked (advised limit and perturbed run) or,
     in a record made before those checks, the measured one."""
     return lim["recommended"] if lim.get("checked") else lim["largest_stable"]
 
@@ -70,7 +70,7 @@ def block_study_arcade(results):
         rows.append([name, f"{sci(x['largest_stable'], 3)} s", f"{sci(x['smallest_unstable'], 3)} s ({where})",
                      f"{sci(_usable_step(x), 3)} s"])  # fmt: skip
     width = max(x["smallest_unstable"] / x["largest_stable"] - 1 for x in lim.values())
-    use = "the step it recommends (no larger than its linear limit)" if checked else "the step to use"
+    use = "the step it recommends (no larger than its advised limit)" if checked else "the step to use"
     return (
         f"`{r['command']}` (recorded {r['date'][:10]}, {duration(r['wall_s'])} of wall time on 2 cores, the "
         f"{len(r['variants'])} default variants included):\n\n"
@@ -114,7 +114,7 @@ def _stable_step_note(others=True):
     also = f"; bushing {runs['bushing'] * 1e3:g} ms, cantilever {runs['cantilever'] * 1e3:g} ms" if others else ""
     return (
         f"stable RK4 step: the largest step at which the first {runs['arcade'] * 1e3:g} ms of ARCADE's paper run"
-        f"{also} run through, found by {STABLE_STEP_SEARCH}; a short scene's measured limit, not the model's linear "
+        f"{also} run through, found by {STABLE_STEP_SEARCH}; a short scene's measured limit, not the model's advised "
         "limit ({ref}`step-limits`)"
     )
 

@@ -9,7 +9,7 @@ mjflex forces, which every MuJoCo integrator takes explicitly), three numbers:
 
 * **modal limit** (undamped): ``h = 2 sqrt(2) / omega_max`` (RK4) and ``h = 2 / omega_max`` (Euler),
   with ``omega_max`` the highest natural frequency of :func:`mjflex.normal_modes` at ``qpos0``;
-* **linear limit** (any motion, the model's damping included): the largest step at which the
+* **advised limit** (any motion, the model's damping included): the largest step at which the
   model linearized at ``qpos0`` at rest stays stable. The linearization is MuJoCo's own: the
   Jacobians ``A = -d qacc / d qpos`` and ``D = -d qacc / d qvel`` from ``mujoco.mjd_transitionFD`` of
   one Euler step of 1e-6 s. RK4: every eigenvalue ``lambda`` of ``[[0, I], [-A, -D]]`` must keep
@@ -22,7 +22,7 @@ mjflex forces, which every MuJoCo integrator takes explicitly), three numbers:
   initial kinetic and elastic energy (a damped mechanism moving freely cannot gain energy); bisected
   to 0.1 %.
 
-The linear limit holds for any motion; a scene that leaves the mode that sets it unexcited (its
+The advised limit holds for any motion; a scene that leaves the mode that sets it unexcited (its
 initial energy in that mode is round-off) can run a little above it, until round-off has grown
 into a divergence: the measured limit depends on the scene and on how long it runs. Nothing is
 timed: the JSON is the same on every run on one machine.

@@ -17,9 +17,15 @@ controls of the scene's actuated run (``ctrl(t)``) and the keyframe that holds i
 * :func:`pusher_wrist`: gymnasium's pusher arm as the package ships it (10 ms, Euler), its wrist flexion made a
   compliant wrist (a series-elastic flexure, soft about the flexion axis).
 
-``replace_joints`` keeps the replaced joints' armature (issue 32 item 3); each scene still sets it, as it did
-before that change. The scenes turn the joints' ranges into element stops (``stops="element"``, 1.0.0's
-behaviour), which the reduction keeps as the element in the stopped direction.
+The library's defaults for ``replace_joints`` are the scenes': the replaced joints keep their armature, their
+ranges stay MuJoCo's joint limits (``stops="limits"``: constraints with the file's ``solref``, stable at its step),
+and a lone replaced hinge's axis is the element's z. Two scenes say more than that, on purpose:
+
+* the gripper places each notch's frame itself (:func:`_hinge_frame`): z along the pivot's axis, as the default, but
+  x along the finger link, the notch's beam axis in :mod:`mjflex.geometry` (the default x, the body axis most nearly
+  perpendicular to the hinge, is the body's y here, across the link);
+* the pusher's wrist turns its range into element stops (``stops="element"``): the scene that tests the element's
+  stops through a reduction (kept as the element in the stopped direction).
 """
 
 import math
@@ -94,7 +100,9 @@ def gripper_xml():
 
 
 def _hinge_frame(spec, body):
-    """``(pos, quat)`` in the parent's frame of an element frame whose z axis is the body's (only) hinge's axis."""
+    """``(pos, quat)`` in the parent's frame of an element frame whose z axis is the body's (only) hinge's axis, turned
+    there from the body's z by the shortest rotation (for the gripper's pivots, along the body's x, the element's x
+    is then the body's -z: along the finger link, the notch's beam axis)."""
     model = spec.compile()
     b = model.body(body).id
     j = model.body_jntadr[b]
@@ -122,10 +130,8 @@ def gripper(xml=None):
         for part in ("follower", "coupler"):
             body = f"{s}_{part}"
             pos, quat = _hinge_frame(full, body)
-            c = mjflex.make_compliant(full, body, K, pos=pos, quat=quat, frame="parent", replace_joints=True,
-                                      name=f"{body}_notch", damping_ratio=0.02, stops="element")  # fmt: skip
-            for j in c.replaced.joints:
-                full.joint(j).armature = PIVOT_ARMATURE
+            mjflex.make_compliant(full, body, K, pos=pos, quat=quat, frame="parent", replace_joints=True,
+                                  name=f"{body}_notch", damping_ratio=0.02)  # fmt: skip
     return rigid, full, {"ctrl": lambda t: [0.6 if t > 1.0 else 0.0, 0.1 if t > 3.0 else 0.0], "keyframe": "open"}
 
 
@@ -165,9 +171,7 @@ def spine():
     """``(rigid, full, info)``: the spine with muscles at 2 ms, and with L3's hinges replaced by a disc."""
     rigid = mujoco.MjSpec.from_string(spine_scene_xml())
     full = mujoco.MjSpec.from_string(spine_scene_xml())
-    c = mjflex.make_compliant(full, "L3", K_DISC, replace_joints=True, name="disc", damping_ratio=0.05, stops="element")
-    for j in c.replaced.joints:
-        full.joint(j).armature = FACET_ARMATURE
+    mjflex.make_compliant(full, "L3", K_DISC, replace_joints=True, name="disc", damping_ratio=0.05)
     return rigid, full, {"ctrl": lambda t: [0.3 * math.sin(3 * t), 0.1, 0.0, 0.5 + 0.4 * math.sin(2 * t), 0.3],
                          "keyframe": "bent"}  # fmt: skip
 
@@ -184,11 +188,10 @@ def pusher_wrist():
     full = mujoco.MjSpec.from_file(pusher_path())
     for spec in (rigid, full):  # the scene's load: the motors holding a pose against the arm's springs-free joints
         spec.add_key(name="push", qpos=spec.compile().qpos0, ctrl=PUSH)
-    pos, quat = _hinge_frame(full, "r_wrist_flex_link")
-    c = mjflex.make_compliant(full, "r_wrist_flex_link", K_WRIST, pos=pos, quat=quat, frame="parent",
-                              replace_joints=True, name="wrist", damping_ratio=0.05, stops="element")  # fmt: skip
-    for j in c.replaced.joints:
-        full.joint(j).armature = 0.04
+    # its range as element stops: the scene that tests them through a reduction (the module docstring)
+    mjflex.make_compliant(
+        full, "r_wrist_flex_link", K_WRIST, replace_joints=True, name="wrist", damping_ratio=0.05, stops="element"
+    )
     return rigid, full, {"ctrl": lambda t: [0.5 * math.sin(t + k) for k in range(7)], "keyframe": "push"}
 
 

@@ -8,6 +8,7 @@ agree with the full model in statics and in the modes the step resolves.
 """
 
 import contextlib
+import re
 import warnings
 
 import mujoco
@@ -56,7 +57,9 @@ def test_the_reduced_robot_runs_at_the_file_step_and_matches_the_full_model(reac
     assert step["timestep"] == full.opt.timestep == rigid.opt.timestep  # the file's own step, by default
     assert variant.model.opt.timestep == full.opt.timestep and variant.model.opt.integrator == full.opt.integrator
     assert step["reached"] and step["advised_step"] >= full.opt.timestep
-    assert mjflex.step_advice(full).recommended < full.opt.timestep / 10  # the full model cannot run there
+    at_rest = mjflex.static_equilibrium(full, keyframe=info["keyframe"], tol=1e-8)  # the notches: force noise ~1e-9 N
+    full_advice = mjflex.step_advice(full, keyframe=info["keyframe"], qpos=at_rest)
+    assert full_advice.recommended < full.opt.timestep / 10  # the full model cannot run there
     assert variant.details["modes"]["max_relative_error"] < 0.01
     assert len(variant.details["modes"]["reduced_hz"]) == len(variant.details["modes"]["full_hz"]) >= 1
     assert max(s["relative"] for s in variant.details["statics"]) < 0.01
@@ -175,10 +178,34 @@ def test_a_step_that_is_not_a_step_is_refused(timestep):
 
 
 def test_a_step_no_reduction_reaches_names_the_element_and_direction():
-    """The pusher's wrist flexion is driven by a motor (needed) and rings at 14 Hz: 50 ms cannot resolve it."""
+    """The pusher's wrist flexion is driven by a motor (needed) and rings at 1.9 Hz where the scene rests: 0.2 s cannot
+    resolve it. The largest step the error gives is the step advice's, and a reduction for it resolves it."""
     _, full_spec, _ = robot_scenes.pusher_wrist()
-    with pytest.raises(ValueError, match=r"element 'wrist', direction rz \(needed by actuator #5\).*largest step"):
-        mjflex.reduce(full_spec, timestep=0.05)
+    with pytest.raises(ValueError, match=r"element 'wrist', direction rz \(needed by actuator #5\).*largest step") as e:
+        mjflex.reduce(full_spec, timestep=0.2)
+    largest = float(re.search(r"the largest step with it is ([0-9.e-]+) s \(the step advice", str(e.value)).group(1))
+    assert 0.01 < largest < 0.2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mjflex.ReductionWarning)
+        at_largest = mjflex.reduce(full_spec, timestep=largest * (1 - 1e-3))  # the message rounds to 3 digits
+    assert at_largest.details["step"]["advised_step"] >= at_largest.model.opt.timestep
+
+
+def test_the_step_advice_is_asked_where_the_scene_rests():
+    """The gripper under gravity is not at rest at qpos0: reduce asks the reduced model's step advice at its static
+    equilibrium under the keyframe's controls (no NotAtRestWarning), the same advice mjflex.step_advice gives there."""
+    _, full_spec, info = robot_scenes.gripper()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mjflex.analysis.linearize.NotAtRestWarning)
+        variant = mjflex.reduce(full_spec)
+    m = variant.model
+    at_rest = mjflex.static_equilibrium(m, keyframe=info["keyframe"])
+    advice = mjflex.step_advice(m, keyframe=info["keyframe"], qpos=at_rest)
+    step = variant.details["step"]
+    assert step["advised_step"] == pytest.approx(advice.recommended, rel=1e-3)  # two Newton solves to 1e-8 and 1e-10
+    assert step["advice_state"] == "keyframe 'open'" and step["advice_states"][0]["at_rest"]
+    assert step["advised_step"] >= m.opt.timestep
+    assert "linearized where the scene rests" in variant.report and "'open', its rest" in variant.report
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered in divide:RuntimeWarning")  # a planar K's zero rows
@@ -250,6 +277,29 @@ def test_arcade_reduces_as_recorded():
         e: d["soft"] for e, d in recorded["elements"].items()
     }
     assert variant.details["modes"]["reduced_hz"] == pytest.approx(recorded["modes"]["reduced_hz"], rel=1e-6)
+
+
+@pytest.mark.parametrize("scene", ["gripper", "spine", "pusher_wrist"])
+def test_the_robots_reduce_as_recorded(scene):
+    """docs/results/reduce_robots.json is the scenes' reduction with today's code and defaults: the same degrees of
+    freedom, modes and advised step (at the scene's rest), and for the spine the same largest step that keeps what
+    its band needs."""
+    import json
+    import os
+
+    with open(os.path.join(os.path.dirname(__file__), "..", "docs", "results", "reduce_robots.json")) as f:
+        recorded = json.load(f)["rows"][scene]
+    _, full_spec, _ = robot_scenes.SCENES[scene]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mjflex.ReductionWarning)  # the spine's, recorded in the JSON too
+        variant = mjflex.reduce(full_spec)
+    assert variant.model.nv == recorded["nv"]["reduced"]
+    assert variant.details["modes"]["reduced_hz"] == pytest.approx(recorded["modes"]["reduced_hz"], rel=1e-6)
+    assert variant.details["step"]["advised_step"] == pytest.approx(recorded["reduced_advised_step"], rel=1e-3)
+    needed = variant.details["step"].get("needed")
+    assert (needed is None) == (recorded["needed"] is None)
+    if needed:
+        assert needed["largest_step"] == pytest.approx(recorded["needed"]["largest_step"], rel=1e-3)
 
 
 def test_a_plugin_other_than_mjflex_is_kept():

@@ -153,7 +153,8 @@ def test_the_recorded_arcade_report_is_what_its_json_gives():
             "open('docs/study/study_arcade.md', 'w').write(r.to_markdown())\""
         )
     lines = [x for x in again.to_markdown().splitlines() if x.startswith("- rk4, twist: ")]
-    assert len(lines) == 1 and "linear limit at or above 3.63e-05 s (the last stable step of its bisection" in lines[0]
+    assert len(lines) == 1 and "advised limit at or above 3.63e-05 s (the last stable step of its bisection" in lines[0]
+    assert "linear limit" not in again.to_markdown().lower()  # one name, step_advice's: the advised limit
 
 
 def test_stability_limits_match_closed_form():
@@ -176,10 +177,10 @@ def test_stability_limits_match_closed_form():
         div = limit.divergence
         assert div.element == "spring" and div.timestep == limit.smallest_unstable and div.time < 5.0
         assert "spring" in div.text() and f"{div.timestep:.3g}" in div.text()
-        # the scene excites the only mode: the linear limit is the same one, bracketed to limit_rtol
+        # the scene excites the only mode: the advised limit is the same one, bracketed to limit_rtol
         assert exact * 0.997 <= limit.linear_step <= exact * 1.002
         assert limit.linear_step < limit.linear_unstable <= limit.linear_step * 1.002 and exact <= limit.linear_unstable
-        said = re.search(r"linear limit between (\S+) s \(stable\) and (\S+) s \(unstable\), set by the 15.92 Hz mode",
+        said = re.search(r"advised limit between (\S+) s \(stable\) and (\S+) s \(unstable\), set by the 15.92 Hz mode",
                          limit.text())  # fmt: skip
         lo, hi = float(said[1]), float(said[2])  # as many digits as tell them apart (3 would not here)
         assert (
@@ -350,7 +351,7 @@ def test_linear_stability_limit_and_the_mode_the_scene_leaves_unexcited():
 
     Its measured limits (RK4 2.82e-4 s, Euler 1.84e-4 s) are 1.14x / 1.15x those of the model
     linearized at rest, where a 1e-6 velocity perturbation diverges. Independent reference of the
-    linear limits: mjflex's own stiffness and mass matrices and the elements' damping (central
+    advised limits: mjflex's own stiffness and mass matrices and the elements' damping (central
     differences of their generalized forces over the velocities), then RK4's stability polynomial
     on the eigenvalues of the first-order system, and the one-step map of MuJoCo's Euler
     (semi-implicit: v' = v + h a(q, v), q' = q + h v') in closed form. The study's bracket lies

@@ -6,8 +6,9 @@ plane, every element's stiffness and damping couple no in-plane direction (rotat
 principal axis of inertia (else its spin about ``n`` needs an out-of-plane moment), and the
 initial velocities are in-plane (angular velocity along ``n``, linear velocity normal to it).
 Then the out-of-plane modes are never excited, and a variant can put its free bodies on planar
-joints and its elements in 3x3 planar form. :func:`plane_of` checks all of it and says what
-fails.
+joints and its elements in 3x3 planar form, their rest poses and stops with them (a rest pose must
+lie in the plane, stops along its axes with the out-of-plane coordinates free at zero).
+:func:`plane_of` checks all of it and says what fails.
 """
 
 import mujoco
@@ -15,7 +16,9 @@ import numpy as np
 
 from ..analysis.directions import element_matrices
 from ..core import stiffness_in_frame
+from ..core.rest import REST_QUAT_TOLERANCE, rest_pose
 from ..mjcf import schema
+from ..mjcf.stops import Stops
 
 TOL = 1e-9  # relative: these are exact properties of a planar model, not approximations
 
@@ -86,6 +89,8 @@ def plane_of(model, flex, free_bodies, plane, state=None):
         R_EF = plane_frame(data.site_xmat[int(a)].reshape(3, 3), n)
         if any(_coupled(stiffness_in_frame(M, R_EF, np.zeros(3), check=False)) for M in element_matrices(rec)):
             return None, f"element {rec.name!r} couples in-plane and out-of-plane motion"
+        if planar_fit(rec, R_EF):
+            return None, planar_fit(rec, R_EF)
     for b in free_bodies:
         R = data.ximat[b].reshape(3, 3)
         I_n = R @ np.diag(model.body_inertia[b]) @ R.T @ n
@@ -128,9 +133,64 @@ def in_plane_modes(model, modes, n):
     return out_share < 0.5 * np.maximum(total, 1e-300)
 
 
+def _planar_rest(rec, R_EF):
+    """The rest pose in frame F (both sites turned by ``R_EF``: ``X_r -> R_EF^T X_r R_EF``) as an in-plane pose
+    (a rotation about z, a translation in x-y), or ``(None, why)`` when it leaves the plane."""
+    if rec.rest is None:
+        return None, None
+    p_r, _, R_r = rest_pose(rec.rest, f"rest of flexure {rec.name!r}")
+    R, p = R_EF.T @ R_r @ R_EF, R_EF.T @ p_r
+    size = max(float(np.linalg.norm(p)), 1e-300)
+    if np.abs(R[:, 2] - [0.0, 0.0, 1.0]).max() > REST_QUAT_TOLERANCE or abs(p[2]) > TOL * size:
+        return None, f"element {rec.name!r}'s rest pose leaves the plane"
+    half = 0.5 * np.arctan2(R[1, 0], R[0, 0])
+    return ((float(p[0]), float(p[1]), 0.0), (float(np.cos(half)), 0.0, 0.0, float(np.sin(half)))), None
+
+
+def _planar_stops(rec, R_EF):
+    """The element's stops in frame F's planar coordinates ``[theta, x, y]`` (limits, stiffness and damping carried
+    exactly), or ``(None, why)``: F's axes must be E's up to sign (the coordinates then map one to one) and the
+    out-of-plane coordinates, zero in the plane, must lie within their limits."""
+    stops = rec.stops
+    if not stops:
+        return None, None
+    P = np.asarray(R_EF)
+    if np.abs(np.abs(P) - np.round(np.abs(P))).max() > TOL or not np.allclose(np.abs(P).sum(axis=0), 1.0):
+        return None, f"element {rec.name!r}'s stops do not lie along the plane's axes"
+    lower, upper = stops.limits_for(6)
+    k, b = stops.stiffness_for(element_matrices(rec)[0]), stops.damping_for(6)
+    new = {key: np.empty(6) for key in ("lower", "upper", "stiffness", "damping")}
+    for f in range(6):  # coordinate f of F is sign s times coordinate j of E (twist coordinates turn with the frame)
+        j = 3 * (f // 3) + int(np.argmax(np.abs(P[:, f % 3])))
+        sign = float(np.sign(P[j % 3, f % 3]))
+        lo, hi = sorted((sign * lower[j], sign * upper[j]))
+        new["lower"][f], new["upper"][f], new["stiffness"][f], new["damping"][f] = lo, hi, k[j], b[j]
+    out = [f for f in range(6) if f not in schema.PLANAR_INDEX]
+    if np.any(new["lower"][out] > 0.0) or np.any(new["upper"][out] < 0.0):
+        return None, f"element {rec.name!r}'s stops hold an out-of-plane coordinate away from zero"
+    idx = list(schema.PLANAR_INDEX)
+
+    def limits(values):
+        return None if np.all(np.isinf(values[idx])) else [None if np.isinf(v) else float(v) for v in values[idx]]
+
+    damping = new["damping"][idx].tolist() if np.any(new["damping"][idx]) else None
+    return Stops(lower=limits(new["lower"]), upper=limits(new["upper"]), stiffness=new["stiffness"][idx].tolist(),
+                 damping=damping), None  # fmt: skip
+
+
+def planar_fit(rec, R_EF):
+    """Why the element's rest pose or stops cannot be planar in frame F, or None."""
+    return _planar_rest(rec, R_EF)[1] or _planar_stops(rec, R_EF)[1]
+
+
 def planar_record(rec, R_EF):
-    """The element's record as a planar (3x3) one in frame F (``z`` the normal)."""
+    """The element's record as a planar (3x3) one in frame F (``z`` the normal), its rest pose and stops carried
+    over (:func:`planar_fit` says when they cannot be; ValueError then)."""
+    why = planar_fit(rec, R_EF)
+    if why:
+        raise ValueError(f"{why}: it cannot be a planar record")
     idx = list(schema.PLANAR_INDEX)
     K, B = (stiffness_in_frame(M, R_EF, np.zeros(3), check=False)[np.ix_(idx, idx)] for M in element_matrices(rec))
     return schema.FlexureRecord(rec.name, rec.method, K, B if rec.B is not None else None, rec.enabled, rec.viscous,
-                                rec.strain_per_radian, rec.source)  # fmt: skip
+                                rec.strain_per_radian, rec.source, stops=_planar_stops(rec, R_EF)[0],
+                                rest=_planar_rest(rec, R_EF)[0])  # fmt: skip

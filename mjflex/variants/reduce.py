@@ -35,11 +35,17 @@ and armature, and the element becomes MuJoCo's springs where they are exact, els
 fewer directions; a direction that an actuator, a tendon or an equality moves is never held rigid.
 Free bodies nest under the model's own trees; elements between two bodies of the trees close loops.
 
-**A time step** (``timestep=``, by default the file's own when no band is given): the directions
+**A time step** (``timestep=``, by default the file's own when no band is given): the full model is
+linearized where the scene rests (:mod:`mjflex.variants.reduce_verify`: the static equilibrium under
+gravity and the first keyframe's controls, as :func:`mjflex.step_advice` wants it), and the directions
 carrying the modes that the step and integrator do not resolve with the step advice's margin are held
 rigid, the fewest that bring every mode below that band (:mod:`mjflex.variants.reduce_choice`); the
-modes below the band are checked as in the band mode, and the reduced model's own step advice and its
-statics against the full model's are reported.
+modes below the band are checked as in the band mode, and the reduced model's own step advice (at its
+rest under each keyframe's controls) and its statics against the full model's are reported. The band
+is set by undamped modes with the equalities rigid; the advice counts what MuJoCo's step counts (the
+damping, the constraints' softness, the actuators). Where the advice does not resolve the step, the
+band is lowered below the mode it names and the model reduced again (``ADVICE_ROUNDS`` at most), so that
+what stays compliant is what the step resolves as the advice says.
 
 How "stiff" is decided: the normal modes of the full model below ``keep_below_hz`` are
 computed, and each direction's modal strain-energy share is measured. Holding a direction
@@ -71,29 +77,20 @@ elements together), while every mode loses less than ``viscous_tol`` of damping 
 """
 
 import warnings
+from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
-from ..analysis.advice import SAFETY, mode_limit, step_advice
+from ..analysis.advice import SAFETY
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
-from ..analysis.linearize import normal_modes, state
-from ..analysis.statics import static_equilibrium
 from ..core import validation
 from ..mjcf.spec import compile_spec
 from ..runtime.flexures import Flexures
 from .planar import in_plane_modes, out_of_plane, plane_of
-from .reduce_build import Plan, build, closure_singularity, element_line, step_line, variant_modes
-from .reduce_choice import (
-    choose_for_step,
-    choose_rigid,
-    drop_damping,
-    rigid_floor,
-    scene_shares,
-    scene_state,
-    step_omega,
-)
-from .reduce_edges import edge_of, joint_users
+from .reduce_build import Plan, build, closure_singularity, element_line, step_line
+from .reduce_choice import choose_rigid, drop_damping, rigid_floor, scene_shares, scene_state, step_choice
+from .reduce_edges import edge_of, joint_users, preloaded
+from .reduce_verify import SceneState, modes_at, scene_states, state_line, verify_modes, verify_step
 from .tree import WORLD, free_world_bodies
 from .variant import Variant, body_names, keeps_element_kinds, polynomial_terms_lines, source_spec, stops_lines
 
@@ -103,8 +100,10 @@ COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directi
 #: that at 1e-2 rad or m the loop constraints, not the flexures, would decide the motion.
 SINGULARITY_LIMIT = 0.1
 LOOP_MODES = ("auto", "constraint", "element")
-_INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_RK4): "RK4", int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
-                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
+
+
+#: Rounds of :func:`reduce` at a time step: each lowers the target to what the reduced model's step advice resolves.
+ADVICE_ROUNDS = 4
 
 
 class ReductionWarning(UserWarning):
@@ -159,31 +158,28 @@ def _coupling(d, soft):
     return float(c.max()) if len(soft) > 1 else 0.0
 
 
-def _step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep, keep_below_hz, freq_tol):
-    """The target-step selection (:func:`choose_for_step`): rigid directions, band mask, info; ValueError when
-    no reduction reaches the step."""
-    integrator = _INTEGRATORS.get(int(model.opt.integrator), "Euler")
-    omega = step_omega(timestep, integrator)
-    band_hz = keep_below_hz if keep_below_hz is not None else omega / (2.0 * np.pi)
-    mask = (freq > rigid_floor(freq)) & (freq < band_hz)
-    candidate = reducible[:, None] & ~forced & ~needed
-    rigid, info = choose_for_step(dirs, freq, modes, candidate, omega, mask, freq_tol, forced, integrator)
-    info.update(timestep=timestep, integrator=integrator, band_hz=float(band_hz))
-    if not info["reached"]:
-        lim = info["limit"]
-        e, i = lim["index"]
-        why = ("needed by " + ", ".join(needs[e, i])) if needed[e, i] else "its element cannot be reduced"
-        largest = SAFETY * mode_limit(2 * np.pi * lim["frequency_hz"], 0.0, integrator)
-        raise ValueError(
-            f"timestep={timestep:g} s: no reduction reaches it with {integrator}: element {lim['element']!r}, "
-            f"direction {lim['direction']} ({why}) keeps a mode at {lim['frequency_hz']:.4g} Hz, above the "
-            f"{info['target_hz']:.4g} Hz "
-            f"the step resolves; the largest step with it is about {largest:.3g} s"
-        )
-    return rigid, mask, info
+@dataclass
+class _Base:
+    """What a reduction computes once, whatever its target: the source, where it is linearized (a time step: where
+    the scene rests, :mod:`.reduce_verify`), its modes there, and the elements' principal directions at ``qpos0``
+    (``dirs``: what the model is built from) and at that state (``seen``: what the selection reads with the
+    modes)."""
+
+    spec: object
+    model: object
+    flex: object
+    timestep: float | None
+    states: list | None
+    at: SceneState | None
+    freq: np.ndarray
+    modes: np.ndarray
+    normal: np.ndarray | None
+    plane_line: str | None
+    dirs: list
+    seen: list
 
 
-def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_joints, scene, plane):
+def _base(source, timestep, scene, plane):
     spec = source_spec(source)
     model = compile_spec(spec, why=None)
     flex = Flexures(model)
@@ -191,15 +187,26 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
         raise ValueError("the model has no mjflex elements: there is nothing to reduce")
     if timestep == "file":
         timestep = float(model.opt.timestep)
-    step_mode = timestep is not None
-    freq, modes = normal_modes(model, flex, joint_springs=True, actuator_stiffness=True,
-                               constraints="project" if model.neq else "ignore")  # fmt: skip
+    states = at = None
+    if timestep is not None:  # linearized where the scene rests, as the step advice is asked (reduce_verify)
+        states = scene_states(model, flex)
+        at = next((s for s in states if s.qpos is not None), None)
+    freq, modes = modes_at(model, flex, at)
     normal, plane_line = _plane(model, flex, plane, scene)
     dirs = element_directions(model, flex, normal)
+    seen = dirs if at is None else element_directions(model, flex, normal, qpos=at.qpos)
+    return _Base(spec, model, flex, timestep, states, at, freq, modes, normal, plane_line, dirs, seen)
+
+
+def _plan(base, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene, cap_hz=None, timestep=None):
+    spec, model, flex, freq, modes = base.spec, base.model, base.flex, base.freq, base.modes
+    timestep = base.timestep if timestep is None else timestep
+    normal, plane_line, dirs = base.normal, base.plane_line, base.seen
+    step_mode = timestep is not None
     n_el = len(dirs)
-    forced = np.zeros((n_el, 6), dtype=bool) if normal is None else out_of_plane(dirs, normal)
+    forced = np.zeros((n_el, 6), dtype=bool) if normal is None else out_of_plane(base.dirs, normal)
     in_plane = True if normal is None else in_plane_modes(model, modes, normal)
-    kinds = _classify(model, flex, dirs, normal is not None)
+    kinds = _classify(model, flex, base.dirs, normal is not None)
     reasons = [reason for _, reason, _ in kinds]
     edges = {e: edge for e, (kind, _, edge) in enumerate(kinds) if kind == "edge"}
     needs = {}
@@ -207,12 +214,17 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
         forced[e] |= ~edge.free  # directions its joints cannot move are rigid already
         for i, names in edge.needed.items():
             needs[e, i] = names
+    extent = float(model.stat.extent)
+    for e, rec in enumerate(flex.records):  # a rest pose away from the compiled one: not held rigid there
+        for i in preloaded(rec, base.dirs[e], extent):
+            if not forced[e, i]:
+                needs.setdefault((e, i), []).append("its rest pose")
     needed = np.zeros((n_el, 6), dtype=bool)
     for e, i in needs:
         needed[e, i] = True
     reducible = np.array([r is None for r in reasons], dtype=bool)
     limit = np.array([6 if e in edges else max_joints for e in range(n_el)])  # in place, any number of joints
-    used = scene_shares(model, flex, dirs, scene) if scene is not None else np.zeros((n_el, 6))
+    used = scene_shares(model, flex, base.dirs, scene) if scene is not None else np.zeros((n_el, 6))
     order = np.argsort(used, axis=None, kind="stable")
     allowed = np.zeros(used.size, dtype=bool)
     allowed[order[np.cumsum(used.ravel()[order]) <= 2.0 * freq_tol]] = True  # smallest first, within the budget
@@ -220,8 +232,8 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
     step = None
     restricted = np.zeros(n_el, dtype=bool)
     if step_mode:
-        rigid, mask, step = _step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep,
-                                         keep_below_hz, freq_tol)  # fmt: skip
+        rigid, mask, step = step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep,
+                                         keep_below_hz, freq_tol, cap_hz)  # fmt: skip
         keep_below_hz = step["band_hz"]
         mask &= in_plane
         active = reducible.copy()
@@ -248,6 +260,8 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
             continue
         if _coupling(dirs[e], soft) > COUPLING_TOL:  # joint springs are independent: the directions must not couple
             reasons[e] = f"its compliant directions are coupled ({_coupling(dirs[e], soft):.1e} > {COUPLING_TOL:g})"
+        elif flex.records[e].rest is not None and len(soft) and rigid[e].any():
+            restricted[e] = True  # new joints rest at the compiled pose: the element keeps its rest pose (a preload)
     keep = [{i for i in range(6) if not forced[e, i] and (reasons[e] or not rigid[e, i])} for e in range(n_el)]
     # damping: judged on every elastic mode the kept directions still carry, not only the resolved band (modes
     # above it stay in the model and would ring undamped; the viscous part costs little to keep)
@@ -275,11 +289,15 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
         "it holds its stiffness at rest K only (the modal analysis uses K in every case)",
     )
     report += stops_lines(
-        flex, "are kept if it stays a full 3-D element or an element in fewer directions; as joints, welds, a "
-        "one-direction spring or a planar record it has no range (the joints get no limits)",
+        flex, "are kept if it stays a full 3-D element, an element in fewer directions or a planar record (where they "
+        "fit the plane); as joints, welds or a one-direction spring it has no range (the joints get no limits)",
+        "is kept: the directions it moves stay compliant (all six unless it lies along one principal direction or "
+        "along translations); as MuJoCo's springs, their springref; else the element keeps it",
     )  # fmt: skip
     if plane_line:
         report.insert(1, plane_line)
+    if step_mode:
+        report.insert(1, state_line(base.states, base.at))
     if scene is not None:
         held = [f"{d.element} {d.labels[i]} {100 * used[e, i]:.2g} %" for e, d in enumerate(dirs) for i in range(6)
                 if not allowed[e, i] and rigid is not None]  # fmt: skip
@@ -304,7 +322,9 @@ def _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_
     details["actuator_stiffness"] = True  # a robot's servos hold its mechanism: their modes are elastic
     if step is not None:
         details["step"] = {k: v for k, v in step.items() if k != "limit"}
-    return Plan(spec, model, flex, dirs, freq, mask, reasons, keep, drop, report, details, normal, edges, restricted)
+    return Plan(
+        spec, model, flex, base.dirs, freq, mask, reasons, keep, drop, report, details, normal, edges, restricted
+    )
 
 
 def _check_arguments(keep_below_hz, timestep, scene, plane, freq_tol, viscous_tol, duration, loops, max_joints, verify,
@@ -425,7 +445,67 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
                      name)  # fmt: skip
     if timestep is None and keep_below_hz is None:
         timestep = "file"
-    plan = _plan(source, keep_below_hz, timestep, freq_tol, viscous_tol, duration, max_joints, scene, plane)
+    base = _base(source, timestep, scene, plane)
+    args = (keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scene)
+    cap, rounds, plan, variant = None, [], None, None
+    while True:  # at a time step: until the reduced model's own step advice resolves it (module docstring)
+        tried = _plan(base, *args, cap)
+        if plan is not None and _held(tried) == _held(plan):
+            break  # the lower target holds nothing more rigid: the last model stands
+        plan, variant = tried, _made(tried, loops, name, keep_below_hz, verify, base)
+        step = variant.details.get("step")
+        if step is None:
+            break
+        resolved = verify and step["advised_step"] >= step["timestep"] * (1.0 - 1e-9)
+        if not step["reached"] and not resolved:  # every candidate held, and the step still not resolved
+            largest = (
+                f"{step['advised_step']:.3g} s (the step advice of the model with every other direction held "
+                f"rigid, at {step['advice_state']})"
+                if verify
+                else f"about {step['undamped_largest']:.3g} s"
+            )
+            raise ValueError(step["unreachable"] + largest)
+        if resolved or not verify or len(rounds) == ADVICE_ROUNDS or not step["limiting_hz"] > 0:
+            break
+        cap = min(step["target_hz"] * step["advised_step"] / step["timestep"], step["limiting_hz"], step["top_hz"])
+        cap *= 1.0 - 1e-3  # below the mode the advice found, as the selection sees it: one more direction each round
+        rounds.append(f"the step advice of the model reduced for {step['target_hz']:.4g} Hz did not resolve the step "
+                      f"({step['advised_step']:.3g} s; its mode {step['limiting_hz']:.4g} Hz, damping ratio "
+                      f"{abs(step['damping_ratio']):.2g}): reduced again for {cap:.4g} Hz")  # fmt: skip
+    step = variant.details.get("step") or {}
+    if step and not step["reached"]:  # and yet resolved (else raised above)
+        rounds.append(f"every direction that may go rigid is held, and a mode at {step['top_hz']:.4g} Hz is left "
+                      f"above the {step['target_hz']:.4g} Hz an undamped mode needs; the step advice, which counts "
+                      "its damping, resolves the step")  # fmt: skip
+    if rounds:
+        lines = variant.report.split("\n")
+        variant.report = "\n".join([lines[0], *rounds, *lines[1:]])
+        variant.details["step"]["advice_rounds"] = rounds
+    needed = (variant.details.get("step") or {}).get("needed")
+    if needed and verify and np.isfinite(needed["largest_step"]):  # the step that keeps it, as the advice says
+        needed["largest_step"] = _largest_keeping(base, args, loops, name, keep_below_hz, needed["largest_step"])
+    _warn(variant, plan)
+    return variant
+
+
+def _largest_keeping(base, args, loops, name, keep_below_hz, h):
+    """The largest step at which the model reduced for it (one round: the direction the band needs kept) is resolved
+    by its own step advice: from the undamped modes' step ``h`` down to each model's advised step until one holds."""
+    for _ in range(ADVICE_ROUNDS):
+        advised = _made(_plan(base, *args, timestep=h), loops, name, keep_below_hz, True, base).details["step"]
+        if advised["advised_step"] >= h * (1.0 - 1e-9):
+            break
+        h = advised["advised_step"]
+    return h
+
+
+def _held(plan):
+    """What a plan holds rigid and keeps whole, per element."""
+    return {e: (tuple(d["soft"]), d["kept"]) for e, d in plan.details["elements"].items()}
+
+
+def _made(plan, loops, name, keep_below_hz, verify, base):
+    """The variant of ``plan``: built, its loops checked, at its step, and verified (``verify``)."""
     step = plan.details.get("step")
     name = name or (f"reduced({step['timestep']:g} s)" if step else f"reduced({keep_below_hz:g} Hz)")
     variant = build(plan, "constraint" if loops == "auto" else loops, name)
@@ -443,16 +523,21 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
         variant.model.opt.timestep = step["timestep"]
         if variant.spec is not None:
             variant.spec.option.timestep = step["timestep"]
-    if verify:
-        _verify(variant, plan.freq, plan.mask)
-        if step:
-            _verify_step(variant, plan)
-    _warn(variant, plan)
+    if not verify:
+        return variant
+    if not step:
+        verify_modes(variant, plan.freq, plan.mask)
+        return variant
+    own = scene_states(variant.model, Flexures(variant.model) if variant.has_flexures else None)
+    index = base.states.index(base.at) if base.at is not None else None
+    verify_modes(variant, plan.freq, plan.mask, None if index is None else own[index])
+    verify_step(variant, plan, base.states, own)
     return variant
 
 
 def _warn(variant, plan):
-    """A :class:`mjflex.ReductionWarning` for elements that could not be reduced and for directions the band needs."""
+    """A :class:`mjflex.ReductionWarning` for elements that could not be reduced, for directions the band needs, and
+    for a step the reduced model's advice does not resolve."""
     whole = [f"{d.element} ({r})" for d, r in zip(plan.dirs, plan.reasons, strict=True)
              if r and not r.startswith(("none of its directions", "more than"))]  # fmt: skip
     if whole:
@@ -468,86 +553,13 @@ def _warn(variant, plan):
             ReductionWarning,
             stacklevel=3,
         )
-
-
-def _statics(model, flex, keyframe):
-    qpos = static_equilibrium(model, flex, keyframe=keyframe, tol=1e-8)  # positions to 1e-8 of the load: enough for 1 %
-    data = state(model, keyframe, qpos)
-    mujoco.mj_kinematics(model, data)
-    return data
-
-
-def _verify_step(variant, plan):
-    """The variant's step advice, and its statics against the full model's under the scene's loads (each keyframe's
-    controls and gravity, or gravity at ``qpos0``): the largest error of a geom's centre (the parts, where they are:
-    positions and rotations of the bodies that carry them) over the largest displacement of one from ``qpos0``."""
-    flex = Flexures(variant.model) if variant.has_flexures else None
-    step = variant.details["step"] = dict(plan.details["step"])
-    try:
-        advice = step_advice(variant.model, flex)
-        step.update(advised_step=advice.recommended, advised_limit=advice.limit, limiting_hz=advice.frequency)
-    except ValueError as exc:  # no elastic mode at all: nothing limits the step
-        step.update(advised_step=float("inf"), advised_limit=float("inf"), limiting_hz=0.0, advice_note=str(exc))
-    ok = step["advised_step"] >= step["timestep"] * (1.0 - 1e-9)
-    variant.report += (
-        f"\nat {step['timestep']:g} s: the reduced model's step advice {step['advised_step']:.3g} s "
-        f"({'resolved' if ok else 'NOT resolved'}; limit {step['advised_limit']:.3g} s, mode "
-        f"{step['limiting_hz']:.4g} Hz)"
-    )
-    keys = list(range(plan.model.nkey)) or [None]
-    src_names = body_names(plan.model)
-    src = plan.model
-    errors = []
-    try:
-        ref = mujoco.MjData(src)
-        mujoco.mj_kinematics(src, ref)
-        for key in keys:
-            full = _statics(src, plan.flex, key)
-            red = _statics(variant.model, flex, key)
-            moved, err = 0.0, 0.0
-            for g in range(src.ngeom):  # every part's centre (and so the bodies' rotations), where it is
-                b = int(src.geom_bodyid[g])
-                vb, X_VS = variant.body_map.get(src_names[b], (None, None)) if b and src_names[b] else (None, None)
-                if vb is None:
-                    continue
-                v = variant.model.body(vb).id
-                r = full.xmat[b].reshape(3, 3).T @ (full.geom_xpos[g] - full.xpos[b])  # in the source body's frame
-                R_v = red.xmat[v].reshape(3, 3)
-                point = red.xpos[v] + R_v @ (X_VS[:3, :3] @ r + X_VS[:3, 3])
-                moved = max(moved, float(np.linalg.norm(full.geom_xpos[g] - ref.geom_xpos[g])))
-                err = max(err, float(np.linalg.norm(point - full.geom_xpos[g])))
-            scale = max(moved, 1e-9 * max(float(src.stat.extent), 1e-3))  # no load: judge against the model's size
-            errors.append({"keyframe": key, "moved": moved, "error": err, "relative": err / scale})
-    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # a scene without a rest (a free body)
-        variant.details["statics"] = {"failed": str(exc)}
-        variant.report += f"\nstatics not compared: {exc}"
-        return
-    variant.details["statics"] = errors
-    worst = max(errors, key=lambda r: r["relative"])
-    variant.report += (
-        f"\nstatics under the scene's loads ({len(errors)} state(s): gravity and each keyframe's controls): largest "
-        f"error of a part's position {worst['error']:.3g} m, {100 * worst['relative']:.3g} % of the largest "
-        f"displacement {worst['moved']:.3g} m"
-    )
-
-
-def _verify(variant, freq, mask):
-    """Compare the variant's modes with the kept modes of the full model (details and report)."""
-    f_var, _ = variant_modes(variant, variant.details.get("actuator_stiffness", False))
-    full = freq[mask]
-    reduced = f_var[f_var > rigid_floor(f_var)][: len(full)]
-    n = min(len(full), len(reduced))
-    err = np.abs(reduced[:n] - full[:n]) / full[:n] if n else np.zeros(0)
-    variant.details["modes"] = {
-        "full_hz": full.tolist(), "reduced_hz": reduced.tolist(), "max_relative_error": float(err.max(initial=0.0)),
-        "highest_hz": float(f_var.max(initial=0.0)), "highest_full_hz": float(freq.max()),
-    }  # fmt: skip
-    first = ", ".join(f"{a:.4g}/{b:.4g}" for a, b in zip(full[:4], reduced[:4], strict=False))
-    variant.report += (
-        f"\nmodes below {variant.details['keep_below_hz']:g} Hz: {len(full)} in the full model, {len(reduced)} here; "
-        f"largest relative change {100 * float(err.max(initial=0.0)):.3g} % (first, full/reduced Hz: {first}); "
-        f"highest mode {f_var.max(initial=0.0):.4g} Hz (full model {freq.max():.4g} Hz)"
-    )
+    step = variant.details.get("step") or {}
+    if step.get("advised_step", np.inf) < step.get("timestep", 0.0) * (1.0 - 1e-9):
+        why = " (report)"
+        warnings.warn(f"mjflex.reduce: the reduced model's step advice {step['advised_step']:.3g} s does not resolve "
+                      f"the step {step['timestep']:g} s at {step['advice_state']} (its mode {step['limiting_hz']:.4g} "
+                      f"Hz, damping ratio {abs(step['damping_ratio']):.2g}){why}", ReductionWarning,
+                      stacklevel=3)  # fmt: skip
 
 
 __all__ = ["ReductionWarning", "closure_singularity", "reduce", "scene_shares", "scene_state"]

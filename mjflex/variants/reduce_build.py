@@ -34,11 +34,12 @@ def springless(joints):
 
 
 def record_text(rec, K=None, B=None, viscous=None):
-    same = K is None  # the element stays whole: its polynomial terms too (restricted ones keep K's part only)
+    same = K is None  # the element stays whole: its polynomial terms too (restricted ones keep K's part only); the
+    # rest pose always (a restricted one rests there in its compliant directions, and in its rigid ones it is zero)
     out = schema.FlexureRecord(rec.name, rec.method, rec.K if K is None else K, rec.B if B is None else B,
                                rec.enabled, rec.viscous if viscous is None else viscous, rec.strain_per_radian,
                                rec.source, rec.terms if same else None, rec.order if same else 2,
-                               stops=rec.stops if same else None, rest=rec.rest if same else None)  # fmt: skip
+                               stops=rec.stops if same else None, rest=rec.rest)  # fmt: skip
     if out.B is None or not np.any(out.B):
         out.viscous = True  # nothing to switch off; keep the record minimal
     return out.to_text()

@@ -13,9 +13,19 @@ import scipy.linalg
 from ..analysis.advice import SAFETY, mode_limit
 from ..analysis.directions import energy_shares
 
+#: MuJoCo's integrators by the names the advice uses (the others: Euler's).
+INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_RK4): "RK4", int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
+                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
+_CAPPED = " (lowered by the reduced model's step advice, which counts the damping, constraints and actuators)"
+
 
 def rigid_floor(freq):
-    return max(1e-3, 1e-7 * float(np.max(freq, initial=0.0)))
+    """Frequency [Hz] below which a mode counts as a rigid-body mode: 1e-3 Hz, or 1e-6 of the highest.
+
+    The eigensolver leaves a zero ``omega^2`` at about ``n eps`` times the largest (1e-14 for a notch-hinge gripper,
+    nv 33: a free box came out at 1e-7 of the highest frequency); 1e-12 of it (1e-6 in frequency) is clear of that.
+    """
+    return max(1e-3, 1e-6 * float(np.max(freq, initial=0.0)))
 
 
 def _null_space(rows, n):
@@ -242,7 +252,10 @@ def choose_for_step(dirs, freq, modes, candidate, omega_band, band_mask, freq_to
     the band's frequencies only rise, so both prefixes of the stiffest-first order are found by
     bisection. The target never goes below the model with every element direction rigid (the
     rigid robot): a mode of the file's own that the step does not resolve is the author's
-    choice, not the elements'.
+    choice, not the elements'. A candidate that the held directions and the equalities already hold
+    (its modal row in their span: a notch's twist in a four-bar closed by a ``connect``) is held
+    too (``info["implied"]``): it changes no mode, and left compliant it would be held by the
+    equalities' softness alone.
     """
     lam = (2.0 * np.pi * freq) ** 2
     floor = rigid_floor(freq)
@@ -292,4 +305,50 @@ def choose_for_step(dirs, freq, modes, candidate, omega_band, band_mask, freq_to
     rigid = forced.copy()
     for e, i in cand[:n]:
         rigid[e, i] = True
+    held = np.vstack([fixed, rows[:n]])
+    info["implied"] = []
+    for k in range(n, len(cand)):  # directions the held ones and the equalities already hold: held too
+        if _implied(rows[k], held):
+            e, i = cand[k]
+            rigid[e, i] = True
+            info["implied"].append(f"{dirs[e].element} {dirs[e].labels[i]}")
     return rigid, info
+
+
+def _implied(row, held, rtol=1e-6) -> bool:
+    """Whether the modal row of a direction lies in the span of ``held`` (the rows held rigid): the loop's
+    equalities and those directions then hold it too, so holding it changes no mode. Left compliant, only the
+    equalities' softness would hold it (a stiff mode the step advice counts and the projected modes do not)."""
+    norm = float(np.linalg.norm(row))
+    if not len(held) or norm == 0.0:
+        return norm == 0.0
+    x = np.linalg.lstsq(held.T, row, rcond=None)[0]
+    return float(np.linalg.norm(held.T @ x - row)) <= rtol * norm
+
+
+def step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, timestep, keep_below_hz, freq_tol,
+                cap_hz=None):  # fmt: skip
+    """The target-step selection of :func:`mjflex.reduce` (:func:`choose_for_step`): rigid directions, band mask,
+    info (``"unreachable"``: why no reduction reaches the step, every candidate then held). ``cap_hz``: a lower
+    target [Hz] than the undamped modes' (the step advice of an earlier round did not resolve the step)."""
+    integrator = INTEGRATORS.get(int(model.opt.integrator), "Euler")
+    omega = step_omega(timestep, integrator)
+    if cap_hz is not None:
+        omega = min(omega, 2.0 * np.pi * cap_hz)
+    band_hz = keep_below_hz if keep_below_hz is not None else omega / (2.0 * np.pi)
+    mask = (freq > rigid_floor(freq)) & (freq < band_hz)
+    candidate = reducible[:, None] & ~forced & ~needed
+    rigid, info = choose_for_step(dirs, freq, modes, candidate, omega, mask, freq_tol, forced, integrator)
+    info.update(timestep=timestep, integrator=integrator, band_hz=float(band_hz))
+    if not info["reached"]:
+        lim = info["limit"]
+        e, i = lim["index"]
+        why = ("needed by " + ", ".join(needs[e, i])) if needed[e, i] else "its element cannot be reduced"
+        info["unreachable"] = (
+            f"timestep={timestep:g} s: no reduction reaches it with {integrator}: element {lim['element']!r}, "
+            f"direction {lim['direction']} ({why}) keeps a mode at {lim['frequency_hz']:.4g} Hz, above the "
+            f"{info['target_hz']:.4g} Hz the step resolves{_CAPPED if cap_hz is not None else ''}; the largest step "
+            "with it is "
+        )
+        info["undamped_largest"] = SAFETY * mode_limit(2 * np.pi * lim["frequency_hz"], 0.0, integrator)
+    return rigid, mask, info

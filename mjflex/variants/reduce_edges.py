@@ -17,7 +17,8 @@ reduction rewrites the body's joints instead of re-rooting it:
   **MuJoCo's own springs** where they are exact (one kept hinge whose angle is the element's
   rotation about a principal axis through its centre of stiffness, or slides alone along
   decoupled principal translations, twist method, no polynomial terms or stops, and no spring of
-  the joint's own: the energy is then exactly ``1/2 k q^2`` at any angle), or else **the element in
+  the joint's own: the energy is then exactly ``1/2 k q^2`` at any angle; a rest pose that the joints
+  reach alone becomes their ``springref``, :func:`spring_refs`), or else **the element in
   fewer directions**: its stiffness and damping restricted to the compliant ones (the stiff ones
   no longer ring at deflected poses), its stops kept with the stiffness they had.
 * sensors that read a joint that goes (``jointpos``, ...) are removed and reported by name.
@@ -32,6 +33,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from ..core.rest import rest_pose
+from ..core.transforms import twist_from_transform
 from ..mjcf import schema
 from .tree import WORLD, numbers
 
@@ -66,7 +69,7 @@ class EdgeResult:
     kept: list
     removed: list
     new: list  # Joint specs (tree.Joint) when the source joints do not fit
-    springs: dict  # kept joint id -> (stiffness, damping)
+    springs: dict  # kept joint id -> (stiffness, damping, springref)
     record: object  # FlexureRecord of the element in fewer directions, or None (dropped)
     lines: list
 
@@ -152,6 +155,64 @@ def _spring_exact(model, rec, d, edge, kept, soft):
     return True
 
 
+def _relative_pose(model, data, sites):
+    """``(R_ab, p_ab)``: frame b of an element in frame a (its sites) at ``data``'s kinematics."""
+    a, b = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name) for name in sites)
+    R_Wa, R_Wb = data.site_xmat[a].reshape(3, 3), data.site_xmat[b].reshape(3, 3)
+    return R_Wa.T @ R_Wb, R_Wa.T @ (data.site_xpos[b] - data.site_xpos[a])
+
+
+def rest_coordinates(rec, d) -> np.ndarray:
+    """The principal coordinates ``(6,)`` of an element's rest pose, ``T log X_r`` (zeros without one; rad, m)."""
+    if rec.rest is None:
+        return np.zeros(6)
+    p_r, _, R_r = rest_pose(rec.rest, f"rest of flexure {rec.name!r}")
+    return d.T @ twist_from_transform(R_r, p_r, check=False)
+
+
+def preloaded(rec, d, extent) -> list[int]:
+    """The principal directions an element's rest pose needs compliant: held rigid where the model compiled, a
+    direction would hold the preload forever. A rest pose along one direction (a rotation about a principal axis
+    through the centre of stiffness, a translation) or along translations only (they commute) needs those; any
+    other (a rotation off a hinge's axis: reaching it takes every rotation, to second order) needs all six, so the
+    element stays whole. Components below 1e-9 rad, or 1e-9 of the model's extent, count as none."""
+    delta = rest_coordinates(rec, d)
+    size = np.r_[np.ones(3), np.full(3, max(float(extent), 1e-3))]
+    moved = [int(i) for i in np.nonzero(np.abs(delta) > 1e-9 * size)[0]]
+    return moved if len(moved) <= 1 or min(moved) >= 3 else list(range(6))
+
+
+def spring_refs(model, rec, d, edge, kept):
+    """The ``springref`` of each kept joint (joint id -> qpos value) at which MuJoCo's springs rest where the
+    element does, or None when its rest pose is not one the kept joints reach (the element then stays).
+
+    Without a rest pose: ``qpos0`` (the element rests at the compiled pose). With one (``X_r``, the pose of b in a
+    at rest, :mod:`mjflex.core.rest`): its principal coordinates ``T log X_r`` give each joint's deflection (a
+    rotation about the hinge's axis through the centre of stiffness, translations along the slides), and the
+    joints set there must put frame b where the element rests, ``X_r X_res`` (``X_res``: the sites' rounding,
+    measured at ``qpos0``), to 1e-9: the exact case, where the energy is ``1/2 k (q - springref)^2``.
+    """
+    refs = {j: float(model.qpos0[model.jnt_qposadr[j]]) for j in kept}
+    if rec.rest is None:
+        return refs
+    p_r, _, R_r = rest_pose(rec.rest, f"rest of flexure {rec.name!r}")
+    delta = rest_coordinates(rec, d)
+    for j in kept:
+        col = edge.columns[:, _joint_dofs(model, edge, j)[0]]
+        i = int(np.argmax(np.abs(col)))
+        refs[j] += float(delta[i] / col[i])
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    R_res, p_res = _relative_pose(model, data, d.sites)
+    for j, ref in refs.items():
+        data.qpos[model.jnt_qposadr[j]] = ref
+    mujoco.mj_kinematics(model, data)
+    R_ab, p_ab = _relative_pose(model, data, d.sites)
+    size = max(float(np.linalg.norm(p_r)), float(model.stat.extent), 1e-3)
+    exact = np.abs(R_ab - R_r @ R_res).max() <= 1e-9 and np.linalg.norm(p_ab - (p_r + R_r @ p_res)) <= 1e-9 * size
+    return refs if exact else None
+
+
 def restricted_record(rec, d, soft, keep_damping):
     """``rec`` in the principal directions ``soft`` only: K and B restricted, stops kept with their stiffness, the rest
     pose kept."""
@@ -197,14 +258,20 @@ def edge_result(model, rec, d, edge, soft, keep_damping, new_joints):
     removed = [j for j in edge.joints if j not in kept]
     springs = {}
     record = None
-    if soft and spans and _spring_exact(model, rec, d, edge, kept, soft):
+    exact = soft and spans and _spring_exact(model, rec, d, edge, kept, soft)
+    refs = spring_refs(model, rec, d, edge, kept) if exact else None
+    if refs is not None:
         for j in kept:
             i = int(np.argmax(np.abs(edge.columns[:, _joint_dofs(model, edge, j)[0]])))
-            springs[j] = (float(d.k[i]), float(d.b[i]) if keep_damping else 0.0)
-        what = "MuJoCo's joint springs (exact: " + ", ".join(f"{name(j)} {springs[j][0]:.4g}" for j in kept) + ")"
+            springs[j] = (float(d.k[i]), float(d.b[i]) if keep_damping else 0.0, refs[j])
+        rest = "; springref " + ", ".join(f"{name(j)} {refs[j]:.6g}" for j in kept) if rec.rest is not None else ""
+        what = "MuJoCo's joint springs (exact: " + ", ".join(f"{name(j)} {springs[j][0]:.4g}" for j in kept) + rest
+        what += ")"
     elif soft:
         record = restricted_record(rec, d, soft, keep_damping)
         what = f"the element in {len(soft)} of 6 directions ({labels})"
+        if exact:  # the springs would be exact but for the preload
+            what += ": its rest pose is not a motion of the kept joints alone, which MuJoCo's springref could hold"
     else:
         what = f"nothing: {edge.child} is welded to {edge.parent}"
     kept_text = ", ".join(f"{name(j)} (armature {arm(j):.3g})" for j in kept) or "none"
@@ -231,12 +298,10 @@ def rejoint(tree, model, rec, edge, result, sites):
             if el.get("name"):
                 gone.add(el.get("name"))
         elif j in result.springs:
-            k, b = result.springs[j]
+            k, b, ref = result.springs[j]
             el.set("stiffness", numbers(k))
             el.set("damping", numbers(b + float(model.dof_damping[model.jnt_dofadr[j]])))
-            el.set(
-                "springref", numbers(model.qpos0[model.jnt_qposadr[j]])
-            )  # the element rests where the joint is at qpos0
+            el.set("springref", numbers(ref))  # where the element rests: qpos0, or its rest pose (spring_refs)
     tree.insert_joints(edge.child, result.new, rec.name)
     for section in tree.root.findall("sensor"):
         for sensor in list(section):
@@ -251,4 +316,15 @@ def rejoint(tree, model, rec, edge, result, sites):
     return lines
 
 
-__all__ = ["Edge", "EdgeResult", "edge_of", "edge_result", "joint_users", "rejoint", "restricted_record"]
+__all__ = [
+    "Edge",
+    "EdgeResult",
+    "edge_of",
+    "edge_result",
+    "joint_users",
+    "preloaded",
+    "rejoint",
+    "rest_coordinates",
+    "restricted_record",
+    "spring_refs",
+]

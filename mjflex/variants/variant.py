@@ -353,15 +353,17 @@ class PoseFit:
         return d.qpos.copy(), qvel
 
 
-def stops_lines(flex, fate: str) -> list[str]:
+def stops_lines(flex, fate: str, rest_fate: str | None = None) -> list[str]:
     """Report lines for the elements of ``flex`` with end stops or a rest pose, saying what a variant does with them
-    (never dropped silently; :class:`mjflex.Stops`)."""
+    (never dropped silently; :class:`mjflex.Stops`); ``rest_fate``: what it does with a rest pose (default: only an
+    element kept whole keeps it)."""
+    rest_fate = rest_fate or (
+        "is kept by an element kept whole only; a MuJoCo-native replacement (weld, bushing, joints) is at rest where "
+        "the model compiled it"
+    )
     pairs = list(zip(flex.names, flex.records, strict=True))
     return [f"{name}: its end stops {fate}" for name, rec in pairs if rec.stops] + [
-        f"{name}: its rest pose (a preload) is kept by an element kept whole only; a MuJoCo-native replacement (weld, "
-        "bushing, joints) is at rest where the model compiled it"
-        for name, rec in pairs
-        if rec.rest is not None
+        f"{name}: its rest pose (a preload) {rest_fate}" for name, rec in pairs if rec.rest is not None
     ]
 
 

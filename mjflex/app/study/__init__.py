@@ -103,7 +103,7 @@ StudyResult
     Everything measured (:class:`mjflex.app.study.StudyResult`): ``rows``, one
     :class:`~mjflex.app.study.Row` per candidate (variant, method, integrator, step, status, cost,
     pose, energy and frequency errors, divergence); ``limits``, one :class:`~mjflex.app.study.Limit`
-    per variant, method and integrator (the measured and the linear stability limit, the mode that
+    per variant, method and integrator (the measured and the advised stability limit, the mode that
     sets it, the step to use); ``reference`` (:class:`~mjflex.app.study.Reference`); the natural
     frequencies and the variants' reports. ``recommendation()`` and ``needs()`` choose;
     ``to_markdown()``, ``records()`` (for pandas) and ``write(dir)`` report. A study that cannot

@@ -66,7 +66,7 @@ class StudyResult:
     rows : list of Row
         One per candidate run, in the order they ran.
     limits : list of Limit
-        One per (variant, method, integrator): the measured and linear stability limits and the step to use.
+        One per (variant, method, integrator): the measured and advised stability limits and the step to use.
     frequencies : dict
         ``"variant/method"`` -> the first elastic natural frequencies of the linearized model [Hz].
     highest_frequency : float or None
@@ -341,9 +341,10 @@ class StudyResult:
             out += ["", "## Largest stable step", ""]
             if any(lim.checked for lim in self.limits):
                 out += [
-                    "Measured: the bisection of this scene's runs, its last stable and first diverged step. Linear "
-                    "limit: of the model linearized at the initial pose, for any motion, bracketed by a bisection "
-                    "between its last stable and first unstable step; the mode named is the one that diverges first "
+                    "Measured: the bisection of this scene's runs, its last stable and first diverged step. Advised "
+                    "limit: mjflex.step_advice's, MuJoCo's step linearized at the initial pose, for any motion, "
+                    "bracketed by a bisection between its last stable and first unstable step; the mode named is the "
+                    "one that diverges first "
                     "above it. Used: the smaller of the two stable steps, checked by a run of the scene with a random "
                     f"velocity perturbation of relative size {PERTURBATION:g}; candidates above it ran through only "
                     "because the scene leaves a mode unexcited and are never recommended.",

@@ -127,13 +127,14 @@ class Row:
 
 @dataclass
 class Limit:
-    """Largest stable step of one (variant, method, integrator): measured on the scene, linear, recommended.
+    """Largest stable step of one (variant, method, integrator): measured on the scene, advised, recommended.
 
     ``largest_stable``/``smallest_unstable`` bracket the limit of the study's own scene (measured
     runs). A mode the scene leaves unexcited cannot diverge in those runs, so the study also finds
-    the ``linear_step`` of the model linearized at the initial pose (any motion) and the mode
-    that diverges above it (:mod:`mjflex.app.study._stability`), and recommends the smaller of
-    the two, checked by a run of the scene with a random velocity perturbation (``checks``).
+    the advised limit (:func:`mjflex.step_advice`'s: MuJoCo's step linearized at the initial pose, for
+    any motion; its bisection's last stable step ``linear_step``) and the mode that diverges above it
+    (:mod:`mjflex.app.study._stability`), and recommends the smaller of the two, checked by a run of
+    the scene with a random velocity perturbation (``checks``).
 
     Attributes
     ----------
@@ -148,9 +149,9 @@ class Limit:
     steps_given : bool
         The candidate steps were given (``steps=``), not the default range.
     linear_step : float or None
-        The last stable step of the bisection of the linear limit [s]: the one-step map of the model linearized
-        at the initial pose at rest (the limit for any motion, with the model's damping) is stable there. The
-        linear limit itself lies between it and ``linear_unstable``.
+        The last stable step of the bisection of the advised limit [s]: the one-step map of MuJoCo's step
+        linearized at the initial pose at rest (:func:`mjflex.step_advice`: the limit for any motion, with the
+        model's damping) is stable there. The advised limit itself lies between it and ``linear_unstable``.
     linear_unstable : float or None
         The bisection's first unstable step above ``linear_step`` [s] (within the study's ``limit_rtol`` of it;
         None where there is no ``linear_step``, and in reports recorded before it was).
@@ -165,7 +166,7 @@ class Limit:
     recommended : float or None
         The smaller of the two limits, halved until a perturbed run went through [s].
     checked : bool
-        The linear limit and the perturbed runs were done.
+        The advised limit and the perturbed runs were done.
 
     Examples
     --------
@@ -184,7 +185,7 @@ class Limit:
     >>> limit = result.limits[0]
     >>> limit.integrator, limit.largest_stable, limit.smallest_unstable, limit.recommended
     ('rk4', 0.0002, None, 0.0002)
-    >>> limit.linear_note  # no linear limit below the search's end: this block's spring is soft
+    >>> limit.linear_note  # no advised limit below the search's end: this block's spring is soft
     'the linearized model is stable at every step up to 0.00291 s'
     """
 
@@ -200,7 +201,7 @@ class Limit:
     linear_mode: dict | None = None  # the mode diverging first above it: frequency_hz, where, share, scene_share
     checks: list = field(default_factory=list)  # perturbed runs: {"timestep", "diverged": text or None}
     recommended: float | None = None  # the smaller of the two limits, halved until a perturbed run went through
-    checked: bool = False  # the linear limit and the perturbed runs were done
+    checked: bool = False  # the advised limit and the perturbed runs were done
     linear_unstable: float | None = None  # the bisection's first unstable step above linear_step [s]
 
     def measured_text(self) -> str:
@@ -214,7 +215,7 @@ class Limit:
         return f"stable at {lo} s, diverges at {hi} s"
 
     def mode_text(self) -> str:
-        """The mode that diverges first above the linear limit, in words (empty without one)."""
+        """The mode that diverges first above the advised limit, in words (empty without one)."""
         mode = self.linear_mode
         if not mode:
             return ""
@@ -228,17 +229,17 @@ class Limit:
         return f"{what} ({where}, {100 * mode['share']:.3g} %; {mode['scene_share']:.1g} of the scene's initial energy)"
 
     def linear_text(self) -> str:
-        """The bisection's bracket of the linear limit, in words (or why there is none)."""
+        """The bisection's bracket of the advised limit, in words (or why there is none)."""
         if self.linear_step is None:
             return self.linear_note
         if self.linear_unstable is None:  # a report recorded before the bracket's upper end was
-            return (f"linear limit at or above {self.linear_step:.3g} s (the last stable step of its bisection; "
+            return (f"advised limit at or above {self.linear_step:.3g} s (the last stable step of its bisection; "
                     "the unstable end was not recorded)")  # fmt: skip
         lo, hi = _bracket(self.linear_step, self.linear_unstable)
-        return f"linear limit between {lo} s (stable) and {hi} s (unstable)"
+        return f"advised limit between {lo} s (stable) and {hi} s (unstable)"
 
     def text(self) -> str:
-        """The limit in one line: measured bracket, linear bracket and its mode, the step to use (the report's)."""
+        """The limit in one line: measured bracket, advised bracket and its mode, the step to use (the report's)."""
         head = f"{who(self.variant, self.integrator, self.method)}: {self.measured_text()}"
         if not self.checked:
             return head
