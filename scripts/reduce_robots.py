@@ -100,7 +100,7 @@ def reference_error(full, variant, info, h_full, seconds):
 
 def full_advised_step(full, info):
     """The full model's step advice where the scene rests (its keyframe's static equilibrium), as reduce asks it."""
-    at_rest = mjflex.static_equilibrium(full, keyframe=info["keyframe"], tol=1e-8)  # the notches' force noise ~1e-9 N
+    at_rest = mjflex.static_equilibrium(full, keyframe=info["keyframe"])
     return mjflex.step_advice(full, keyframe=info["keyframe"], qpos=at_rest).recommended
 
 

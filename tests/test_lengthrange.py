@@ -18,6 +18,7 @@ import subprocess
 
 import mujoco
 import numpy as np
+import pytest
 
 from tests.conftest import c_compiler
 from tests.native_cases import arm_xml, run_python
@@ -149,3 +150,29 @@ def test_with_passive_forces_on_the_elements_act_in_a_lengthrange_simulation_as_
     element, spring, plain = (_own_lengthranges(kind) for kind in ("element", "spring", "plain"))
     np.testing.assert_allclose(element, spring, rtol=1e-9)
     assert np.abs(element - plain).max() > 0.05 * np.ptp(plain[0]), (element, plain)
+
+
+def test_a_muscle_across_a_replaced_joint_keeps_the_rigid_models_length_range():
+    """With the elbow replaced by an element, the compiler's length-range simulation has nothing to hold the forearm
+    (elements exert no force there, above) and does not converge; make_compliant writes the rigid model's ranges
+    into the spec (Compliance.lengthranges), and make_rigid leaves them to the compiler again."""
+    import mjflex
+
+    spec = mujoco.MjSpec.from_string(arm_xml("plain"))
+    rigid = spec.compile()
+    bare = mujoco.MjSpec.from_string(arm_xml("plain"))
+    bare.compiler.LRopt.useexisting = False  # the compiler computes every range again: 1.0.0's failure, explained
+    with pytest.raises(ValueError, match=r"did not converge(.|\n)*give the actuator its lengthrange"):
+        mjflex.make_compliant(bare, "lower", np.diag([2, 2, 0.2, 500, 500, 500]), replace_joints=True)
+    assert not bare.plugins and bare.compile().nq == 2  # and left as it was
+    compliance = mjflex.make_compliant(spec, "lower", np.diag([2, 2, 0.2, 500, 500, 500]), replace_joints=True)
+    assert [(i, n) for i, n, _ in compliance.lengthranges] == [(0, "shoulder_muscle"), (1, "elbow_muscle")]
+    compliant = spec.compile()
+    np.testing.assert_array_equal(compliant.actuator_lengthrange, rigid.actuator_lengthrange)
+    data = mujoco.MjData(compliant)
+    data.ctrl[:] = 1.0
+    mujoco.mj_step(compliant, data, 200)
+    assert np.all(np.isfinite(data.qpos)) and np.all(data.actuator_force < 0)  # muscles pull
+    mjflex.make_rigid(spec, compliance)
+    assert all(not np.any(a.lengthrange) for a in spec.actuators)
+    np.testing.assert_array_equal(spec.compile().actuator_lengthrange, rigid.actuator_lengthrange)

@@ -379,7 +379,8 @@ def test_attach_with_prefix_and_suffix_and_two_copies_of_one_child():
 
 
 def test_an_attached_frame_site_is_found_under_the_prefix():
-    """add_flexure(site=...) stores the frame site unprefixed; the plugin finds it as prefix + site + suffix."""
+    """add_flexure(site=...) stores the frame site; mjflex.attach renames it with the sites (prefix + site + suffix),
+    and the plugin finds it (a configuration attached by mjflex 1.0, unprefixed: tests/test_schema.py)."""
     from tests.robots import K_HAND, arm_spec
 
     arm = arm_spec()
@@ -392,7 +393,7 @@ def test_an_attached_frame_site_is_found_under_the_prefix():
     mjflex.attach(scene, arm, prefix="r-", suffix="-1", frame=scene.worldbody.add_frame())
     with pytest.warns(UserWarning):  # contacts of the arm's neighbours: not this test's subject
         flex = mjflex.Flexures(scene.compile())
-    assert flex.names == ("r-wrist-1",) and flex.records[0].site == "wrist"
+    assert flex.names == ("r-wrist-1",) and flex.records[0].site == "r-wrist-1"
 
 
 # ------------------------------------------------------------------ 6. the command line, the study, the sweep

@@ -21,10 +21,10 @@ import pytest
 import mjflex
 from mjflex.core import validation
 from mjflex.mjcf import schema
-from mjflex.mjcf.config import attached_name, config_from_record, record_from_config
+from mjflex.mjcf.config import attached_names, config_from_record, record_from_config
 from mjflex.native import library
 from mjflex.runtime.files import same_record
-from tests import stop_models
+from tests import native_cases, stop_models
 from tests.models import K_DEMO, hinge_chain_spec, two_body_spec
 from tests.plugin_models import MODELS, planar_spec, polynomial_terms
 from tests.spine import spine_spec
@@ -376,31 +376,71 @@ def _bound(model, flex):
     return names, flex.element_table.sites[0]
 
 
-def test_attach_binds_the_elements_own_sites_not_a_parents_namesake():
-    """Issue 33 item 13: l/e's site_a "a" is l/a, not the parent's own site a (1.0.0 joined the parent's body
-    to l/B, silently), in C (the plugin's init, and the frame site "site") and in Python (attached_name)."""
+def _attach_as_1_0(parent, child, prefix, frame):
+    """``mjflex.attach`` as mjflex 1.0 did it: the instances added back with their configurations as the child
+    wrote them (files saved then hold these)."""
+    kept = [(p.name, dict(p.config)) for p in child.plugins]
+    parent.attach(child, prefix=prefix, frame=frame)
+    parent.activate_plugin("mjflex.flexure")
+    for name, config in kept:
+        parent.add_plugin(name=prefix + name, plugin_name="mjflex.flexure", active=True).config = config
+
+
+def test_attach_writes_the_attached_site_names():
+    """mjflex.attach renames an instance's sites with the sites (the frame site too): the file names the sites the
+    element joins, and a parent's own site a is not l/e's site a."""
+    parent = _parent(["a", "b"])
+    mjflex.attach(parent, _child(), prefix="l/", frame=parent.worldbody.add_frame())
+    config = {k: v for k, v in parent.plugin("l/e").config.items() if k in ("site_a", "site_b", "site")}
+    assert config == {"site_a": "l/a", "site_b": "l/b", "site": "l/a"}
+    model = parent.compile()
+    assert _bound(model, mjflex.Flexures(model)) == (["l/A", "l/B"], ("l/a", "l/b"))
+
+
+def test_a_1_0_attached_configuration_binds_the_elements_own_sites_not_a_parents_namesake():
+    """Issue 33 item 13, for files that mjflex 1.0 attached (configurations as the child wrote them): l/e's site_a
+    "a" is l/a, not the parent's own site a (1.0.0 joined the parent's body to l/B, silently), in C (the plugin's
+    init, and the frame site "site") and in Python (attached_names)."""
     parent = _parent(["a"])
-    frame = parent.worldbody.add_frame()
-    mjflex.attach(parent, _child(), prefix="l/", frame=frame)
+    _attach_as_1_0(parent, _child(), "l/", parent.worldbody.add_frame())
+    assert parent.plugin("l/e").config["site_a"] == "a"
     model = parent.compile()
     flex = mjflex.Flexures(model)
     assert _bound(model, flex) == (["l/A", "l/B"], ("l/a", "l/b"))
-    assert attached_name("a", "l/e", ["a", "l/a", "l/b"]) == "l/a"
-    assert attached_name("a", "e", ["a", "l/a"]) == "a"  # no prefix: the value itself
+    assert attached_names(("a", "b"), "l/e", ["a", "l/a", "l/b"]) == ("l/a", "l/b")
+    assert attached_names(("a", "b"), "e", ["a", "b", "l/a", "l/b"]) == ("a", "b")  # no prefix: the names
 
 
 def test_nested_prefixes_bind_the_innermost_site():
-    """l/r/e's site a is l/r/a, not l/a (a site of the middle spec), in C and in Python."""
-    middle = _parent(["a"])
-    frame = middle.worldbody.add_frame()
-    mjflex.attach(middle, _child(), prefix="r/", frame=frame)
-    top = _parent([])
-    mjflex.attach(top, middle, prefix="l/", frame=top.worldbody.add_frame())
-    model = top.compile()
+    """l/r/e's site a is l/r/a, not l/a (a site of the middle spec), in C and in Python, attached now or by 1.0."""
+    for attach in (lambda parent, child, prefix, frame: mjflex.attach(parent, child, prefix=prefix, frame=frame),
+                   _attach_as_1_0):  # fmt: skip
+        middle = _parent(["a"])
+        attach(middle, _child(), "r/", middle.worldbody.add_frame())
+        top = _parent([])
+        attach(top, middle, "l/", top.worldbody.add_frame())
+        model = top.compile()
+        flex = mjflex.Flexures(model)
+        assert flex.names == ("l/r/e",)
+        assert _bound(model, flex) == (["l/r/A", "l/r/B"], ("l/r/a", "l/r/b"))
+    assert attached_names(("a", "b"), "l/r/e", ["l/a", "l/b", "l/r/a", "l/r/b", "a"]) == ("l/r/a", "l/r/b")
+
+
+def test_a_name_that_ends_like_an_affix_binds_its_own_sites():
+    """Element j1 joins s0 and t1, not t11 (j1 = "j" + suffix "1" would make t1 read t11), when the model has
+    both: a chain of 13 links, in C and in Python; an element's sites share one affix (e1: a, b; not b1 alone)."""
+    model = mujoco.MjModel.from_xml_string(native_cases.chain_xml(13))
     flex = mjflex.Flexures(model)
-    assert flex.names == ("l/r/e",)
-    assert _bound(model, flex) == (["l/r/A", "l/r/B"], ("l/r/a", "l/r/b"))
-    assert attached_name("a", "l/r/e", ["l/a", "l/r/a", "a"]) == "l/r/a"
+    sites = dict(zip(flex.names, flex.element_table.sites, strict=True))
+    assert sites["j1"] == ("s0", "t1") and sites["j11"] == ("s10", "t11")
+    table = flex.element_table.elements
+    for k, name in enumerate(flex.names):
+        a, b = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) for s in sites[name])
+        assert (table[k]["site_a"], table[k]["site_b"]) == (a, b), name
+    assert attached_names(("a", "b"), "e1", ["a", "b", "b1"]) == ("a", "b")
+    assert attached_names(("a", "b"), "e1", ["a1", "b", "b1"]) == ("a1", "b1")  # not a1 with b
+    assert attached_names(("a", "b"), "e1", ["a1", "b"]) is None
+    assert attached_names(("a", "b", ""), "x/e", ["x/a", "x/b"]) == ("x/a", "x/b", "")  # no frame site: ""
 
 
 # ------------------------------------------------------------------ lossless conversion of every model

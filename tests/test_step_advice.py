@@ -171,6 +171,37 @@ def test_static_equilibrium_converges_to_the_constraint_solvers_noise():
         np.testing.assert_allclose(q[-1], reference[-1], rtol=0, atol=1e-6)
 
 
+def test_static_equilibrium_converges_to_the_forces_round_off():
+    """The compliant gripper's notch hinges (tests.robot_scenes), stiff in translation in a 0.4 m model: Newton's
+    residual stops near 3e-9 N, above 1e-10 of the 13 N force scale but at the forces' round-off (statics'
+    docstring). Converged at the default tolerance, where the residual is within 10 times its spread under shifts
+    of the configuration by a rounding error (eps times the model's extent, eps rad), measured here."""
+    from mjflex.analysis import statics
+    from tests import robot_scenes
+
+    _, full, info = robot_scenes.SCENES["gripper"]()
+    model = full.compile()
+    q = mjflex.static_equilibrium(model, keyframe=info["keyframe"])
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, info["keyframe"]))
+    data.qpos[:] = q
+    moving = np.arange(model.nv)
+    r = statics._residual(model, data, moving)
+    kind = model.jnt_type[model.dof_jntid]
+    first = model.jnt_dofadr[model.dof_jntid]
+    rotation = (kind != mujoco.mjtJoint.mjJNT_SLIDE) & ~(
+        (kind == mujoco.mjtJoint.mjJNT_FREE) & (np.arange(model.nv) < first + 3)
+    )
+    rng, spread = np.random.default_rng(0), np.zeros(model.nv)
+    for _ in range(20):
+        shift = np.finfo(float).eps * np.where(rotation, 1.0, model.stat.extent) * rng.choice([-1.0, 1.0], model.nv)
+        data.qpos[:] = q
+        mujoco.mj_integratePos(model, data.qpos, shift, 1.0)
+        spread = np.maximum(spread, np.abs(statics._residual(model, data, moving) - r))
+    assert np.abs(r).max() > 1e-10 * 12.0  # above the plain tolerance: the case this is about
+    assert np.all(np.abs(r) <= 10 * spread + 1e-10 * 12.9)
+
+
 def test_static_equilibrium_that_fails_says_by_how_much_and_where():
     """A block on a slide that nothing holds, under gravity along it: the message gives the residual, its dof (in
     words, with its unit) and how far above the tolerance it is."""
@@ -195,7 +226,8 @@ def test_the_studys_limit_is_step_advices():
     from mjflex.app.study import study
 
     spec = arm_spec()
-    mjflex.make_compliant(spec, "link3", K_WRIST, replace_joints=True)
+    with pytest.warns(mjflex.LikelyMistakeWarning, match="replaces hinge 'j3'"):  # stiffer about j3, on purpose
+        mjflex.make_compliant(spec, "link3", K_WRIST, replace_joints=True)
     model = spec.compile()
     result = study(spec, keyframe="up", duration=0.05, samples=20, methods=("twist",), integrators=("euler", "rk4"),
                    steps=(2e-3, 1e-3, 5e-4), bisect=4, variants=[], repeat=1, progress=False)  # fmt: skip

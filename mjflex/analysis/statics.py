@@ -1,12 +1,17 @@
 """Where a model rests under its loads and actuator commands: :func:`static_equilibrium`.
 
 Newton's method on MuJoCo's own residual, its Jacobian by :func:`.linearize.central_differences`.
-The residual cannot fall below the noise of what computes it: round-off of the forces, and the
-constraint solver, which stops at its ``tolerance`` (MuJoCo's ``opt.tolerance``, 1e-8 by default,
-relative to its own cost), so that the constraint forces of two solves at one configuration differ
-by that much. The convergence test measures that noise at the configuration reached (the residual
-from a cold start against the residual warm-started from the last solve) and accepts a residual
-within ``NOISE_FACTOR`` of it.
+The residual cannot fall below the noise of what computes it, and the convergence test accepts a
+residual within ``NOISE_FACTOR`` of that noise:
+
+* the constraint solver stops at its ``tolerance`` (MuJoCo's ``opt.tolerance``, 1e-8 by default,
+  relative to its own cost), so that the constraint forces of two solves at one configuration differ
+  by that much; measured at the configuration reached (the residual from a cold start against the
+  residual warm-started from the last solve);
+* round-off: the world positions that the forces are computed from carry a rounding error of about
+  ``eps`` times the model's size (``model.stat.extent``), and a stiff element turns it into force,
+  ``eps * sum_j |G_ij| s_j`` on dof ``i`` (``G``: the residual's Jacobian, ``s_j``: the extent for a
+  translation, 1 rad for a rotation). Notch hinges of 1e8 N/m in a model of 0.1 m: ~1e-9 N.
 """
 
 import mujoco
@@ -37,6 +42,21 @@ def _noise(model, data, moving, r):
         model.opt.disableflags = flags
         data.qacc_warmstart[:] = warm
     return float(np.abs(cold - r).max(initial=0.0))
+
+
+def _roundoff(model, G, moving):
+    """``(len(moving),)``: each residual's round-off, ``eps * |G| @ s`` (module docstring)."""
+    if G is None:
+        return np.zeros(len(moving))
+    rotation = np.zeros(model.nv, dtype=bool)
+    for j in range(model.njnt):
+        adr, kind = model.jnt_dofadr[j], model.jnt_type[j]
+        if kind == mujoco.mjtJoint.mjJNT_FREE:
+            rotation[adr + 3 : adr + 6] = True
+        elif kind in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_HINGE):
+            rotation[adr : adr + (3 if kind == mujoco.mjtJoint.mjJNT_BALL else 1)] = True
+    s = np.where(rotation[moving], 1.0, max(float(model.stat.extent), 1e-300))
+    return np.finfo(float).eps * (np.abs(G) @ s)
 
 
 def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None, xfrc_applied=None,
@@ -109,10 +129,11 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
     with evaluating(model, flex):
         r = _residual(model, data, moving)
         scale = max(np.abs(r).max(initial=0.0), np.abs(data.qfrc_bias).max(initial=0.0), 1e-300)
-        noise = 0.0
+        noise, G = 0.0, None
         for iteration in range(max_iterations + 1):
             noise = _noise(model, data, moving, r)
-            if np.abs(r).max(initial=0.0) <= max(tol * scale, NOISE_FACTOR * noise):
+            bound = np.maximum(max(tol * scale, NOISE_FACTOR * noise), NOISE_FACTOR * _roundoff(model, G, moving))
+            if np.all(np.abs(r) <= bound):
                 return data.qpos.copy()
             if iteration == max_iterations:
                 break
@@ -128,13 +149,11 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
                     break
                 dq *= 0.5
             r = rr
-    worst = int(moving[np.argmax(np.abs(r))])
-    size = float(np.abs(r).max())
-    bound = max(tol * scale, NOISE_FACTOR * noise)
+    i = int(np.argmax(np.abs(r) / bound))
     raise RuntimeError(
         f"static_equilibrium did not converge in {max_iterations} iterations: the largest residual force is "
-        f"{r[np.argmax(np.abs(r))]:.3g} on {dof_name(model, worst)}, {size / bound:.3g} times the tolerance "
-        f"{bound:.3g} (tol {tol:g} of the force scale {scale:.3g}; the constraint solver's noise there "
-        f"{noise:.3g}). Either nothing holds that dof against the load (no element, spring, actuator or constraint "
+        f"{r[i]:.3g} on {dof_name(model, int(moving[i]))}, {abs(r[i]) / bound[i]:.3g} times the tolerance "
+        f"{bound[i]:.3g} (tol {tol:g} of the force scale {scale:.3g}; the constraint solver's noise there "
+        f"{noise:.3g}, the forces' round-off {_roundoff(model, G, moving)[i]:.3g}). Either nothing holds that dof against the load (no element, spring, actuator or constraint "
         "stiffens it: leave it out with dofs=), or the load exceeds what the model can hold at rest there"
     )

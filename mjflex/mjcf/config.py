@@ -48,29 +48,30 @@ def config_from_record(record: FlexureRecord, site_a: str, site_b: str) -> dict[
     return {"site_a": site_a, "site_b": site_b} | schema.config_of(record)
 
 
-def attached_name(value: str, element: str, names) -> str | None:
-    """The site name a plugin configuration's ``value`` stands for among ``names``, or None.
+def attached_names(values, element: str, names) -> tuple[str, ...] | None:
+    """The site names that a plugin configuration's ``values`` (``""``: none given) stand for among ``names``.
 
-    In a model composed with ``MjSpec.attach`` (which prefixes and suffixes every name but leaves configuration
-    strings as written), ``P + value + S`` where the instance's name ``element`` is ``P + E + S``: the element's
-    own prefix and suffix win (the longest ``P + S``, for nested attaches), ``value`` itself comes last. The
-    plugin's ``init`` applies the same rule.
+    The names themselves when all exist (:func:`mjflex.attach` writes the attached names). Else, for a
+    configuration that mjflex 1.0's ``attach`` wrote (names as the child wrote them, the instance renamed
+    ``P + E + S``), ``P + value + S`` for the affix of ``element`` under which all exist: the longest ``P + S``
+    first, then the longest ``P`` (nested attaches). None when no affix binds them all. The plugin's ``init``
+    applies the same rule (``config_site_ids`` in ``native/instances.c``).
     """
-    best, longest = None, -1
-    for name in sorted(names) if isinstance(names, set | frozenset) else names:  # ties: the first, as C's model order
-        at = name.find(value) if value else -1
-        while at >= 0:
-            pre, suf = name[:at], name[at + len(value) :]
-            fits = len(pre) + len(suf) < len(element) and element.startswith(pre) and element.endswith(suf)
-            if fits and len(pre) + len(suf) > longest:
-                best, longest = name, len(pre) + len(suf)
-            at = name.find(value, at + 1)
-    return best
+    names = names if isinstance(names, set | frozenset | dict) else set(names)
+    n = len(element)
+    for pre, suf in [(0, 0)] + [(p, t - p) for t in range(n - 1, 0, -1) for p in range(t, -1, -1)]:
+        found = tuple(element[:pre] + v + element[n - suf :] if v else "" for v in values)
+        if all(f in names for f, v in zip(found, values, strict=True) if v):
+            return found
+    return None
 
 
 def config_sites(config: dict, element: str, names) -> tuple[str, str]:
-    """The names of a plugin instance's two sites among ``names`` (:func:`attached_name`), else as written."""
-    return tuple(attached_name(config.get(k, ""), element, names) or config.get(k, "") for k in ("site_a", "site_b"))
+    """The names of a plugin instance's two sites among ``names`` (:func:`attached_names`, with its frame site as the
+    plugin reads them), else as written."""
+    written = tuple(config.get(k, "") for k in ("site_a", "site_b", "site"))
+    found = attached_names(written, element, names) or attached_names(written[:2], element, names)
+    return found[:2] if found else written[:2]
 
 
 def config_text(config: dict) -> str:

@@ -25,8 +25,13 @@ from .spec import check_spec, keep_joined_trees_awake
 # ----------------------------------------------------------------------------- copies and composition
 
 
+#: The configuration keys that name sites: MjSpec.attach renames the sites, so attach renames these with them
+SITE_KEYS = ("site_a", "site_b", "site")
+
+
 def _restore_instances(target, instances, prefix="", suffix=""):
-    """Add to ``target`` the instances (name, config) it lacks, named ``prefix + name + suffix``."""
+    """Add to ``target`` the instances (name, config) it lacks, named ``prefix + name + suffix``, their site names
+    (:data:`SITE_KEYS`) as attached too."""
     present = {p.name for p in target.plugins}
     added = []
     for name, config in instances:
@@ -34,7 +39,8 @@ def _restore_instances(target, instances, prefix="", suffix=""):
         if new not in present:
             target.activate_plugin(schema.PLUGIN_NAME)
             plugin = target.add_plugin(name=new, plugin_name=schema.PLUGIN_NAME, active=True)
-            plugin.config = config
+            renamed = {k: prefix + config[k].strip() + suffix for k in SITE_KEYS if config.get(k, "").strip()}
+            plugin.config = config | renamed
             added.append(new)
     return added
 
@@ -73,8 +79,10 @@ def attach(parent, child, *, prefix="", suffix="", **where):
     ``MjSpec.attach`` prefixes and suffixes every name of the child, its text records and plugin
     instances too, but (MuJoCo 4.0) drops the plugin instances no body references, i.e. the
     child's ``mjflex.flexure`` elements (:func:`copy_spec` says why). This attaches, then adds
-    them back as ``prefix + name + suffix`` with their configurations unchanged: the plugin and
-    :class:`mjflex.Flexures` find their sites ``prefix + site + suffix`` by the instance's name.
+    them back as ``prefix + name + suffix``, their configurations naming the sites as attached
+    (``prefix + site + suffix``). A configuration that mjflex 1.0 attached (its site names as the
+    child wrote them) still reads: the plugin and :class:`mjflex.Flexures` find those sites under the
+    instance's own prefix and suffix (:func:`mjflex.mjcf.config.attached_names`).
     Returns what ``MjSpec.attach`` returns. For several copies of one child, attach a copy each
     time (:func:`copy_spec`; MuJoCo attaches a spec once by reference) with different prefixes.
 

@@ -97,27 +97,33 @@ static const char* record_of(const mjModel* m, const char* name) {
   return NULL;
 }
 
-// Id of the site a configuration names: in a model composed with MjSpec.attach (which prefixes and suffixes every
-// name but leaves configuration strings as written), P + value + S where the element's name is P + E + S; the
-// element's own prefix and suffix win (the longest P + S: nested attaches), `value` itself (no P, S) comes last
-// (mjflex.mjcf.config.attached_name, the same rule). -1: none.
-static int config_site(const mjModel* m, const char* instance_name, const char* value) {
-  if (!value[0]) return -1;
-  size_t nlen = strlen(instance_name), vlen = strlen(value);
-  int best = -1;
-  size_t longest = 0;
-  for (int i = 0; i < m->nsite; i++) {
-    const char* s = m->names + m->name_siteadr[i];
-    size_t slen = strlen(s);
-    for (const char* at = strstr(s, value); at; at = strstr(at + 1, value)) {
-      size_t pre = (size_t)(at - s), suf = slen - pre - vlen;
-      if (pre + suf < nlen && !strncmp(instance_name, s, pre) && !strcmp(instance_name + nlen - suf, at + vlen) &&
-          (best < 0 || pre + suf > longest)) {
-        best = i, longest = pre + suf;
-      }
+// Whether the sites P + values[k] + S exist (P, S: the first pre and last suf characters of element); their ids.
+static int sites_under(const mjModel* m, const char* element, int pre, int suf, const char* const* values, int n,
+                       int* ids) {
+  int nlen = (int)strlen(element);
+  char name[2048];
+  for (int k = 0; k < n; k++) {
+    ids[k] = -1;
+    if (!values[k][0]) continue;
+    int len = snprintf(name, sizeof(name), "%.*s%s%s", pre, element, values[k], element + nlen - suf);
+    if (len >= (int)sizeof(name) || (ids[k] = mj_name2id(m, mjOBJ_SITE, name)) < 0) return 0;
+  }
+  return 1;
+}
+
+// The ids of the sites an element's configuration names (values[k], "" for none: id -1), in one rule with
+// mjflex.mjcf.config.attached_names: the names themselves when all exist (mjflex.attach writes the attached names);
+// else, for a configuration written by mjflex 1.0's attach (names as the child wrote them), P + value + S for the
+// affix of the element's name P + E + S (E not empty) under which all exist, the longest P + S first, then the
+// longest P. 0, or -1 when no affix binds them all.
+static int config_site_ids(const mjModel* m, const char* element, const char* const* values, int n, int* ids) {
+  if (sites_under(m, element, 0, 0, values, n, ids)) return 0;
+  for (int total = (int)strlen(element) - 1; total > 0; total--) {
+    for (int pre = total; pre >= 0; pre--) {
+      if (sites_under(m, element, pre, total - pre, values, n, ids)) return 0;
     }
   }
-  return best;
+  return -1;
 }
 
 // The value of attribute row as given (white space around it left out: its span in v) into out.
@@ -162,11 +168,10 @@ static const struct {
 // The optional frame site (attribute "site", written by add_flexure(..., site=...)): it must exist and
 // coincide with frame a at qpos0 (d holds the kinematics at qpos0). Returns 0 or -1 with a message.
 static int check_frame_site(const mjModel* m, const mjData* d, const char* name, int form, const char* value,
-                            int site_a, double tol, char* err, int errsz) {
+                            int id, int site_a, double tol, char* err, int errsz) {
   if (!value[0]) return 0;
   char head[300];
   mjfx_element_head(name, form, head, sizeof(head));
-  int id = config_site(m, name, value);
   if (id < 0) {
     snprintf(err, errsz, "%s%s the frame site '%.200s', which the model does not have. Restore the site, or %s %s",
              head, WORDS[form].names, value, WORDS[form].drop, WORDS[form].drop_if);
@@ -188,27 +193,34 @@ static int check_frame_site(const mjModel* m, const mjData* d, const char* name,
   return 0;
 }
 
-// the two sites of an element (ids into sites[2]); 0 or -1 with a message
+// the sites of an element (config_site_ids): its two sites into sites[0..1], its frame site into sites[2] (-1:
+// none given, or none of that name: check_frame_site says so); 0 or -1 with a message
 static int read_sites(const mjModel* m, const char* name, int form, const char* const* values, const mjfxValues* v,
-                      int sites[2], char* err, int errsz) {
-  char head[300], site[1000];
+                      int sites[3], char* err, int errsz) {
+  char head[300], text[3][1000];
+  const char* named[3];
   mjfx_element_head(name, form, head, sizeof(head));
+  for (int k = 0; k < 3; k++) named[k] = value_text(values, v, k < 2 ? MJFX_A_SITE_A + k : MJFX_A_SITE, text[k], 1000);
   for (int k = 0; k < 2; k++) {
-    const char* key = WORDS[form].site[k];
-    value_text(values, v, MJFX_A_SITE_A + k, site, sizeof(site));
-    if (!site[0]) {
+    if (!named[k][0]) {
       snprintf(err, errsz,
                "%s%s is missing. Add <config key=\"%s\" value=\"SITE\"/> naming the site of the element frame on "
-               "body %s", head, key, key, k ? "B" : "A");
+               "body %s", head, WORDS[form].site[k], WORDS[form].site[k], k ? "B" : "A");
       return -1;
     }
-    sites[k] = config_site(m, name, site);
-    if (sites[k] < 0) {
-      snprintf(err, errsz,
-               "%s%s '%.200s' is not a site of the model. Add <site name=\"%.200s\"/> at the element frame (body %s) "
-               "or fix the name", head, key, site, site, k ? "B" : "A");
-      return -1;
-    }
+  }
+  if (!config_site_ids(m, name, named, 3, sites)) {
+    // all found (a frame site not given: -1)
+  } else if (!config_site_ids(m, name, named, 2, sites)) {
+    // the frame site alone (a record's is written as in the record: under the element's affix); none: -1, and
+    // check_frame_site says so
+    if (config_site_ids(m, name, named + 2, 1, sites + 2)) sites[2] = -1;
+  } else {
+    int k = mj_name2id(m, mjOBJ_SITE, named[0]) < 0 ? 0 : 1;
+    snprintf(err, errsz,
+             "%s%s '%.200s' is not a site of the model. Add <site name=\"%.200s\"/> at the element frame (body %s) "
+             "or fix the name", head, WORDS[form].site[k], named[k], named[k], k ? "B" : "A");
+    return -1;
   }
   if (m->site_bodyid[sites[0]] == m->site_bodyid[sites[1]]) {
     snprintf(err, errsz,
@@ -223,7 +235,8 @@ static int read_sites(const mjModel* m, const char* name, int form, const char* 
 // The rest offset of the sites (d holds the kinematics of the reference configuration): it must be the
 // identity within the coincidence tolerance. 0 or -1 with a message.
 static int read_rest_offset(const mjModel* m, const mjData* d, const char* name, int form,
-                            const char* const* values, const mjfxValues* v, mjfxElement* e, char* err, int errsz) {
+                            const char* const* values, const mjfxValues* v, mjfxElement* e, int frame, char* err,
+                            int errsz) {
   double dist, angle;
   mjfx_rest_offset(d, e->site_a, e->site_b, e->R0, e->p0, &dist, &angle);
   double scale = mjfx_length_scale(m, e->site_a, e->site_b);
@@ -244,8 +257,8 @@ static int read_rest_offset(const mjModel* m, const mjData* d, const char* name,
     return -1;
   }
   char site[1000];
-  return check_frame_site(m, d, name, form, value_text(values, v, MJFX_A_SITE, site, sizeof(site)), e->site_a, tol,
-                          err, errsz);
+  return check_frame_site(m, d, name, form, value_text(values, v, MJFX_A_SITE, site, sizeof(site)), frame,
+                          e->site_a, tol, err, errsz);
 }
 
 int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int form, const char* const* values,
@@ -258,7 +271,7 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
   p->values = parsed.values;
   mjfxElement* e = &p->el;
   const char* record = form == MJFX_FORM_PLUGIN ? record_of(m, name) : NULL;
-  int sites[2];
+  int sites[3];
   if (record) {
     snprintf(err, errsz,
              "mjflex: flexure '%.200s' is both a plugin instance and the text record '%.200s': its forces would be "
@@ -267,7 +280,7 @@ int mjfx_read_element(const mjModel* m, const mjData* d, const char* name, int f
   } else if (!read_sites(m, name, form, values, &p->values, sites, err, errsz)) {
     e->site_a = sites[0], e->site_b = sites[1];
     e->body_a = m->site_bodyid[sites[0]], e->body_b = m->site_bodyid[sites[1]];
-    if (!read_rest_offset(m, d, name, form, values, &p->values, e, err, errsz)) {
+    if (!read_rest_offset(m, d, name, form, values, &p->values, e, sites[2], err, errsz)) {
       e->rest = parsed.has_rest;
       if (e->rest) mjfx_compose_rest(parsed.rest_pos, parsed.rest_quat, e->R0, e->p0);
       mjfx_element_prepare(m, e);

@@ -83,6 +83,11 @@ class Compliance:
     rest : tuple (pos, quat) or None
         The element's rest pose (frame b in frame a; m, w-first quaternion): given (``rest=``),
         or where the replaced joints' springs rested (their ``springref``); None: the compiled pose.
+    lengthranges : tuple of (int, str, (float, float))
+        The actuators (id, name) whose length range [m or rad] MuJoCo's compiler computed for the
+        rigid model, now written into the spec: its simulation need not converge with the body
+        held by an element, and muscles keep the range they were tuned with. :func:`make_rigid`
+        leaves them to the compiler again.
 
     Examples
     --------
@@ -116,6 +121,7 @@ class Compliance:
     closures: tuple[Closure, ...] = ()
     closure_note: str | None = None
     rest: tuple | None = None
+    lengthranges: tuple = ()
 
     def __repr__(self):
         replaced = ""
@@ -339,6 +345,7 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
             raise ValueError(too_many)
         coordinates.axis_mismatch(rigid, name, replaced, R_BE, K6, dirs, stacklevel=2)
     saved, joints, excludes, element, replacement = keyframes.stash_keys(spec), [], [], None, None
+    pinned = placement.pin_length_ranges(spec, rigid)
     try:
         if plan is not None:
             limited = any(rigid.jnt_limited[j] for _, j in replaced)
@@ -383,10 +390,11 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
         if element is not None and any(e.name == element for e in spec_elements(spec)):
             remove_flexure(spec, element)
         keyframes.restore_keys(spec, saved)
+        placement.unpin_length_ranges(spec, pinned)
         raise
     return Compliance(name, target.name, parent_name, dirs, tuple(j.name for j in joints), frame, K6, B6, ratios,
                       tuple((e.bodyname1, e.bodyname2) for e in excludes), tuple(p for p in exposed
-                      if placement.kept(p, wanted)), edits, replacement, closed, note, rest_pose)  # fmt: skip
+                      if placement.kept(p, wanted)), edits, replacement, closed, note, rest_pose, pinned)  # fmt: skip
 
 
 def _refuse_second_element(spec, body):
@@ -580,6 +588,7 @@ def make_rigid(spec, compliance: Compliance) -> None:
     keyframes.restore_keys(spec, shrunk)
     remove_flexure(spec, compliance.element)
     _delete_excludes(spec, compliance.excludes)
+    placement.unpin_length_ranges(spec, compliance.lengthranges)
 
 
 def _delete_excludes(spec, pairs):

@@ -219,3 +219,27 @@ def kept(pair, wanted):
     """Whether the body pair ``pair`` is one of ``wanted`` (:func:`pairs`): to keep colliding."""
     a, b = pair
     return frozenset((a, b)) in wanted or frozenset((a, "*")) in wanted or frozenset((b, "*")) in wanted
+
+
+def pin_length_ranges(spec, rigid) -> tuple[tuple[int, str, tuple[float, float]], ...]:
+    """Write into ``spec`` the actuator length ranges that MuJoCo's compiler computed for ``rigid`` (those the file
+    leaves to it: ``lengthrange="0 0"``); returns ``(actuator id, name, (low, high))`` of each [m or rad].
+
+    A muscle's force-length curve is scaled by its length range. The compiler finds it by simulating the model, and
+    with a body held by an element instead of a joint that simulation need not converge ("Lengthrange computation
+    did not converge"); the rigid model's range is the one the muscle was tuned with.
+    """
+    pinned = []
+    for i, act in enumerate(spec.actuators):
+        computed = rigid.actuator_lengthrange[i]
+        if i < rigid.nu and not np.any(act.lengthrange) and np.any(computed):
+            act.lengthrange = computed.tolist()
+            pinned.append((i, act.name or f"#{i}", (float(computed[0]), float(computed[1]))))
+    return tuple(pinned)
+
+
+def unpin_length_ranges(spec, pinned) -> None:
+    """Leave the ranges :func:`pin_length_ranges` wrote (and not changed since) to the compiler again."""
+    for i, _, value in pinned:
+        if i < len(spec.actuators) and np.array_equal(spec.actuators[i].lengthrange, value):
+            spec.actuators[i].lengthrange = [0.0, 0.0]
