@@ -151,9 +151,10 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
             r = rr
     i = int(np.argmax(np.abs(r) / bound))
     raise RuntimeError(
-        f"static_equilibrium did not converge in {max_iterations} iterations: the largest residual force is "
-        f"{r[i]:.3g} on {dof_name(model, int(moving[i]))}, {abs(r[i]) / bound[i]:.3g} times the tolerance "
-        f"{bound[i]:.3g} (tol {tol:g} of the force scale {scale:.3g}; the constraint solver's noise there "
-        f"{noise:.3g}, the forces' round-off {_roundoff(model, G, moving)[i]:.3g}). Either nothing holds that dof against the load (no element, spring, actuator or constraint "
-        "stiffens it: leave it out with dofs=), or the load exceeds what the model can hold at rest there"
+        f"static_equilibrium did not converge in {max_iterations} iterations: the residual force farthest above its "
+        f"tolerance is {r[i]:.3g} on {dof_name(model, int(moving[i]))}, {abs(r[i]) / bound[i]:.3g} times the "
+        f"tolerance {bound[i]:.3g} (tol {tol:g} of the force scale {scale:.3g}; the constraint solver's noise "
+        f"there {noise:.3g}, the forces' round-off {_roundoff(model, G, moving)[i]:.3g}). Either nothing holds that "
+        "dof against the load (no element, spring, actuator or constraint stiffens it: leave it out with dofs=), or "
+        "the load exceeds what the model can hold at rest there"
     )

@@ -85,8 +85,8 @@ def compile_spec(spec, why: str | None = "place flexures in world coordinates") 
     """``spec.compile()``, also while a Python passive callback is installed (MuJoCo cannot compile then).
 
     ``why``: what the spec had to compile for; a failure raises ValueError saying so (with a hint
-    when MuJoCo's error is about a body's mass or inertia, or an actuator's length range). ``why=None``: MuJoCo's own error
-    passes through unchanged (the variants, which compile models they built themselves).
+    when MuJoCo's error is about a body's mass or inertia, or an actuator's length range).
+    ``why=None``: MuJoCo's own error passes through unchanged (the variants, which compile models they built themselves).
     """
     try:
         with python_callback_lifted():
@@ -97,9 +97,11 @@ def compile_spec(spec, why: str | None = "place flexures in world coordinates") 
         text = str(exc)
         hint = "; add the bodies' geoms or inertias before the flexures" if _about_inertia(text) else ""
         if "lengthrange computation did not converge" in text.lower():
-            hint = ("; elements exert no force in the compiler's length-range simulation: give the actuator its "
-                    "lengthrange, or keep <compiler><lengthrange useexisting=\"true\"/> (mjflex.make_compliant "
-                    "then writes the rigid model's ranges)")
+            hint = (
+                "; elements exert no force in the compiler's length-range simulation: give the actuator its "
+                'lengthrange, or keep <compiler><lengthrange useexisting="true"/> (mjflex.make_compliant '
+                "then writes the rigid model's ranges)"
+            )
         raise ValueError(f"the spec must compile to {why} ({text.strip()}){hint}") from None
 
 
