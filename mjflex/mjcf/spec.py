@@ -86,7 +86,8 @@ def compile_spec(spec, why: str | None = "place flexures in world coordinates") 
 
     ``why``: what the spec had to compile for; a failure raises ValueError saying so (with a hint
     when MuJoCo's error is about a body's mass or inertia, or an actuator's length range).
-    ``why=None``: MuJoCo's own error passes through unchanged (the variants, which compile models they built themselves).
+    ``why=None``: MuJoCo's own error passes through unchanged (the variants, which compile models
+    they built themselves).
     """
     try:
         with python_callback_lifted():
