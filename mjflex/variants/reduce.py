@@ -160,8 +160,8 @@ def _coupling(d, soft):
 
 @dataclass
 class _Base:
-    """What a reduction computes once, whatever its target: the source, where it is linearized (a time step: where
-    the scene rests, :mod:`.reduce_verify`), its modes there, and the elements' principal directions at ``qpos0``
+    """What a reduction computes once, whatever its target: the source, where it is linearized (where the scene
+    rests, :mod:`.reduce_verify`), its modes there, and the elements' principal directions at ``qpos0``
     (``dirs``: what the model is built from) and at that state (``seen``: what the selection reads with the
     modes)."""
 
@@ -187,10 +187,8 @@ def _base(source, timestep, scene, plane):
         raise ValueError("the model has no mjflex elements: there is nothing to reduce")
     if timestep == "file":
         timestep = float(model.opt.timestep)
-    states = at = None
-    if timestep is not None:  # linearized where the scene rests, as the step advice is asked (reduce_verify)
-        states = scene_states(model, flex)
-        at = next((s for s in states if s.qpos is not None), None)
+    states = scene_states(model, flex)  # linearized where the scene rests, as the step advice is asked
+    at = next((s for s in states if s.qpos is not None), None)
     freq, modes = modes_at(model, flex, at)
     normal, plane_line = _plane(model, flex, plane, scene)
     dirs = element_directions(model, flex, normal)
@@ -296,8 +294,7 @@ def _plan(base, keep_below_hz, freq_tol, viscous_tol, duration, max_joints, scen
     )  # fmt: skip
     if plane_line:
         report.insert(1, plane_line)
-    if step_mode:
-        report.insert(1, state_line(base.states, base.at))
+    report.insert(1, state_line(base.states, base.at))
     if scene is not None:
         held = [f"{d.element} {d.labels[i]} {100 * used[e, i]:.2g} %" for e, d in enumerate(dirs) for i in range(6)
                 if not allowed[e, i] and rigid is not None]  # fmt: skip
@@ -368,8 +365,9 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
     source : str, os.PathLike, mujoco.MjSpec or mujoco.MjModel
         The full model (see :func:`mjflex.variants.variant.source_spec`); it is not modified.
     keep_below_hz : float, optional
-        Upper end of the band to resolve [Hz]: modes of the full model below it are kept. Alone, it
-        selects the band mode: everything the band does not need is held rigid.
+        Upper end of the band to resolve [Hz]: modes of the full model below it are kept (its modes
+        where the scene rests, as for a time step). Alone, it selects the band mode: everything the
+        band does not need is held rigid.
     timestep : float, optional
         The step the reduced model must run at [s] (its ``opt.timestep``) with the source's integrator: directions whose
         modes the step does not resolve with the advice's margin (:func:`mjflex.step_advice`,
@@ -430,7 +428,7 @@ def reduce(source, keep_below_hz=None, *, timestep=None, scene=None, plane=None,
     >>> reduced = mjflex.reduce(spec, keep_below_hz=15)
     >>> reduced.name, reduced.model.nv
     ('reduced(15 Hz)', 3)
-    >>> print(reduced.report.splitlines()[1])
+    >>> print(reduced.report.splitlines()[2])
     leaf: 3 joints (rx 19 Hz, ry 19 Hz, rz 14 Hz local) ; rigid: x 0.65 %, y 0.65 %, z 0 %
 
     At the file's step (MuJoCo's default, 2 ms, Euler) the step resolves the rotations and the axial stretch (71 Hz
@@ -525,13 +523,11 @@ def _made(plan, loops, name, keep_below_hz, verify, base):
             variant.spec.option.timestep = step["timestep"]
     if not verify:
         return variant
-    if not step:
-        verify_modes(variant, plan.freq, plan.mask)
-        return variant
     own = scene_states(variant.model, Flexures(variant.model) if variant.has_flexures else None)
     index = base.states.index(base.at) if base.at is not None else None
-    verify_modes(variant, plan.freq, plan.mask, None if index is None else own[index])
-    verify_step(variant, plan, base.states, own)
+    verify_modes(variant, plan.freq, plan.mask, None if index is None else own[index])  # where each rests
+    if step:
+        verify_step(variant, plan, base.states, own)
     return variant
 
 

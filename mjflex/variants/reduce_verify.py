@@ -1,10 +1,11 @@
-"""Where a reduction for a time step looks at the scene, and what :func:`mjflex.reduce` checks of the model it made.
+"""Where a reduction looks at the scene, and what :func:`mjflex.reduce` checks of the model it made.
 
 **The scene's states.** Each keyframe (its pose and controls), or ``qpos0`` with zero controls when the
 model has none, under gravity and the applied loads: the model rests at their static equilibria
-(:func:`mjflex.static_equilibrium`). A reduction for a time step linearizes the full model at the
-first of them (its modes are what the selection holds rigid or keeps), and asks the reduced
-model's step advice (:func:`mjflex.step_advice`) at each of its own equilibria under the same
+(:func:`mjflex.static_equilibrium`). A reduction, for a band or a time step, linearizes the full
+model at the first of them (its modes are what the selection holds rigid or keeps) and compares the
+reduced model's modes at its own rest there; for a time step it also asks the reduced model's step
+advice (:func:`mjflex.step_advice`) at each of its own equilibria under the same
 controls: the advice linearizes a rest, where the scene runs, not ``qpos0`` (which under gravity is
 not at rest). Where no rest exists (a free body that nothing holds), the state is linearized at its
 keyframe or ``qpos0`` without gravity, and the report says so.
@@ -77,7 +78,7 @@ def modes_at(model, flex, at, actuator_stiffness=True):
 
 
 def state_line(states, at):
-    """Report line: where the full model was linearized for a time step."""
+    """Report line: where the full model was linearized."""
     if at is not None:
         controls = "zero controls" if at.keyframe is None else "its controls"
         return (f"linearized where the scene rests, as the step advice is asked: the static equilibrium from "
