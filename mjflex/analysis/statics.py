@@ -44,19 +44,17 @@ def _noise(model, data, moving, r):
     return float(np.abs(cold - r).max(initial=0.0))
 
 
-def _roundoff(model, G, moving):
-    """``(len(moving),)``: each residual's round-off, ``eps * |G| @ s`` (module docstring)."""
-    if G is None:
-        return np.zeros(len(moving))
-    rotation = np.zeros(model.nv, dtype=bool)
-    for j in range(model.njnt):
-        adr, kind = model.jnt_dofadr[j], model.jnt_type[j]
-        if kind == mujoco.mjtJoint.mjJNT_FREE:
-            rotation[adr + 3 : adr + 6] = True
-        elif kind in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_HINGE):
-            rotation[adr : adr + (3 if kind == mujoco.mjtJoint.mjJNT_BALL else 1)] = True
-    s = np.where(rotation[moving], 1.0, max(float(model.stat.extent), 1e-300))
-    return np.finfo(float).eps * (np.abs(G) @ s)
+def _coordinate_scales(model, moving) -> np.ndarray:
+    """``s_j`` of each dof of ``moving``: the model's extent [m] for a translation, 1 rad for a rotation."""
+    kind = model.jnt_type[model.dof_jntid]
+    k = np.arange(model.nv) - model.jnt_dofadr[model.dof_jntid]
+    translation = (kind == mujoco.mjtJoint.mjJNT_SLIDE) | ((kind == mujoco.mjtJoint.mjJNT_FREE) & (k < 3))
+    return np.where(translation, max(float(model.stat.extent), 1e-300), 1.0)[moving]
+
+
+def _roundoff(G, scales):
+    """Each residual's round-off, ``eps * |G| @ s`` (module docstring)."""
+    return np.finfo(float).eps * (np.abs(G) @ scales)
 
 
 def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None, xfrc_applied=None,
@@ -129,15 +127,16 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
     with evaluating(model, flex):
         r = _residual(model, data, moving)
         scale = max(np.abs(r).max(initial=0.0), np.abs(data.qfrc_bias).max(initial=0.0), 1e-300)
-        noise, G = 0.0, None
+        noise, roundoff, scales = 0.0, np.zeros(len(moving)), _coordinate_scales(model, moving)  # no G yet
         for iteration in range(max_iterations + 1):
             noise = _noise(model, data, moving, r)
-            bound = np.maximum(max(tol * scale, NOISE_FACTOR * noise), NOISE_FACTOR * _roundoff(model, G, moving))
+            bound = np.maximum(max(tol * scale, NOISE_FACTOR * noise), NOISE_FACTOR * roundoff)
             if np.all(np.abs(r) <= bound):
                 return data.qpos.copy()
             if iteration == max_iterations:
                 break
             G = central_differences(model, data, lambda d: _residual(model, d, moving), dofs=moving, step=step)
+            roundoff = _roundoff(G, scales)  # of the next iterate, which is close
             dq = np.zeros(model.nv)
             dq[moving] = -np.linalg.lstsq(G, r, rcond=None)[0]
             q0 = data.qpos.copy()
@@ -154,7 +153,7 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
         f"static_equilibrium did not converge in {max_iterations} iterations: the residual force farthest above its "
         f"tolerance is {r[i]:.3g} on {dof_name(model, int(moving[i]))}, {abs(r[i]) / bound[i]:.3g} times the "
         f"tolerance {bound[i]:.3g} (tol {tol:g} of the force scale {scale:.3g}; the constraint solver's noise "
-        f"there {noise:.3g}, the forces' round-off {_roundoff(model, G, moving)[i]:.3g}). Either nothing holds that "
+        f"there {noise:.3g}, the forces' round-off {roundoff[i]:.3g}). Either nothing holds that "
         "dof against the load (no element, spring, actuator or constraint stiffens it: leave it out with dofs=), or "
         "the load exceeds what the model can hold at rest there"
     )

@@ -232,7 +232,7 @@ def pin_length_ranges(spec, rigid) -> tuple[tuple[int, str, tuple[float, float]]
     pinned = []
     for i, act in enumerate(spec.actuators):
         computed = rigid.actuator_lengthrange[i]
-        if i < rigid.nu and not np.any(act.lengthrange) and np.any(computed):
+        if not np.any(act.lengthrange) and np.any(computed):
             act.lengthrange = computed.tolist()
             pinned.append((i, act.name or f"#{i}", (float(computed[0]), float(computed[1]))))
     return tuple(pinned)
