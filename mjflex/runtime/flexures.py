@@ -12,7 +12,6 @@ from ..mjcf.notices import warn_likely_mistake
 from ..mjcf.schema import PLUGIN
 from ..native import library
 from . import plausibility, registry, tables
-from .contacts import neighbour_message
 from .divergence import Divergence, divergences_of, model_name, step_index
 from .tables import ModelError
 
@@ -43,12 +42,8 @@ def _snapshot(model) -> np.ndarray:
 def _restore(model, copies, enabled, viscous, methods):
     """Unpickle a :class:`Flexures`: rebuilt from its model, with its switches and served copies."""
     flex = Flexures(model)
-    el = flex._elements
-    el["enabled"][: len(enabled)], el["viscous"][: len(viscous)], el["method"][: len(methods)] = (
-        enabled,
-        viscous,
-        methods,
-    )
+    for key, values in (("enabled", enabled), ("viscous", viscous), ("method", methods)):
+        flex._elements[key][: len(values)] = values
     return flex.serve(copies) if copies else flex
 
 
@@ -171,17 +166,16 @@ class Flexures:
         self.model = model
         self._copies = ()
         self._depth = 0
-        self._tables = tables.derive(model)
-        t = self._tables
+        self._tables = t = tables.derive(model)
         self.names, self.records = t.names, t.records
         self._index = {name: i for i, name in enumerate(self.names)}
         self._elements = t.elements  # the C loop's table (one row per element; switches live here)
-        self._fingerprints = {}
-        self._warn_contacts(model)
+        self._fingerprints = {model._address: tables.fingerprint(model)}
+        for message in tables.contact_warnings(model, t):
+            warnings.warn(message, UserWarning, stacklevel=2)
         for message in plausibility.implausible_stiffness(model, t.records, t.elements[: len(self.names)]):
             warn_likely_mistake(message, stacklevel=plausibility.outside_stacklevel())  # the user's line
         self._sleep_policy(model)
-        self._fingerprints[model._address] = tables.fingerprint(model)
         self._snapshot = _snapshot(model)  # what the queries compare flex.model with (an in-place edit since)
         self._watches = {}  # model address -> the native per-mjData divergence watches of a served model (a buffer)
 
@@ -221,38 +215,6 @@ class Flexures:
         return self._tables.served
 
     # ------------------------------------------------------------------ building
-
-    def _warn_contacts(self, model):
-        """Warn once about elements whose bodies touch, or touch neighbours they were welded away from
-        (:func:`.tables.contacts_at_rest`)."""
-        touching = tables.contacts_at_rest(model, self._tables)
-        own = [t for t in touching if t.own]
-        if own:
-            t = own[0]
-            a, b = (
-                mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
-                for i in self._elements[self._index[t.element]][["body_a", "body_b"]].tolist()
-            )
-            more = f" (and {len(own) - 1} more elements: {', '.join(t[0] for t in own[1:4])}...)"
-            warnings.warn(
-                f"mjflex: the bodies '{a}' and '{b}' joined by flexure '{t.element}'{more if len(own) > 1 else ''} "
-                f"are in contact in {t.where} (geoms '{t.geom1}' and '{t.geom2}'): MuJoCo's contact pushes them "
-                "apart while the element holds them together, which usually diverges. Exclude the pair: "
-                f'<contact><exclude body1="{a}" body2="{b}"/></contact> (mjflex.add_flexure does this by default), '
-                "or give the geoms contype/conaffinity that cannot collide.",
-                UserWarning,
-                stacklevel=3,
-            )
-        neighbours = [t for t in touching if not t.own]
-        if neighbours:
-            joined = {
-                t.element: [
-                    mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(i)) or f"#{i}"
-                    for i in self._elements[self._index[t.element]][["body_a", "body_b"]].tolist()
-                ]
-                for t in neighbours
-            }
-            warnings.warn(neighbour_message(neighbours, joined), UserWarning, stacklevel=3)
 
     def _sleep_policy(self, model):
         """Keep trees joined to another tree awake (see the class notes); returns what stays sleepy."""
@@ -419,9 +381,8 @@ class Flexures:
         if not isinstance(data, mujoco.MjData):
             raise TypeError(f"expected a mujoco.MjData of flex.model; got {type(data).__name__}")
         m = self.model
-        sizes, expected = (data.qpos.size, data.qvel.size, data.xpos.shape[0], data.site_xpos.shape[0]), (
-            m.nq, m.nv, m.nbody, m.nsite,
-        )  # fmt: skip
+        sizes = (data.qpos.size, data.qvel.size, data.xpos.shape[0], data.site_xpos.shape[0])
+        expected = (m.nq, m.nv, m.nbody, m.nsite)
         if sizes != expected:
             raise ValueError(
                 f"data belongs to another model: (nq, nv, nbody, nsite) = {sizes}, but flex.model has {expected}; "
@@ -431,15 +392,14 @@ class Flexures:
             self._check_model(m, "flex.model")  # ModelError where an in-place edit changed the elements
             self._snapshot = _snapshot(m)
 
-    def _evaluate(self, data, mode, out6=None, out1=None, qfrc=None, model=None):
-        """Evaluate the elements on ``data``; returns -1 or the index of the first non-finite wrench."""
-        t, model = self._tables, model or self.model
-        return library.evaluate(model, data, t.elements, t.chain, t.exps, t.coefs, mode, qfrc=qfrc, out6=out6,
-                                out1=out1, n=len(self))  # fmt: skip
-
-    def _query(self, data, mode, out6=None, out1=None, qfrc=None):
+    def _query(self, data, mode) -> np.ndarray:
+        """What the C loop gives in ``mode`` on ``data``: ``(nv,)`` for APPLY, ``(n, 6)`` for WRENCH and COORDS, else
+        ``(n,)``; FatalError naming the first element whose wrench is not finite."""
         self._check_data(data)
-        status = self._evaluate(data, mode, out6, out1, qfrc)
+        n, t = len(self), self._tables
+        slot = {library.APPLY: "qfrc", library.WRENCH: "out6", library.COORDS: "out6"}.get(mode, "out1")
+        out = np.zeros(self.model.nv) if slot == "qfrc" else np.empty((n, 6) if slot == "out6" else n)
+        status = library.evaluate(self.model, data, t.elements, t.chain, t.exps, t.coefs, mode, n=n, **{slot: out})
         if status >= 0:
             h = self.model.opt.timestep
             raise mujoco.FatalError(
@@ -448,6 +408,7 @@ class Flexures:
                 "is NaN or infinite, or the forces overflow float64. Check the qpos/qvel you set, or reduce the time "
                 "step (mjflex.step_advice(model) gives the largest stable one)."
             )
+        return out
 
     def divergences(self, data) -> dict[str, Divergence]:
         """The divergences of each element in the current run of ``data`` (those that diverged at least once).
@@ -481,21 +442,15 @@ class Flexures:
 
     def wrenches(self, data) -> np.ndarray:
         """Wrench of each element on its body B, ``(n, 6)``: ``[moment about site b; force]``, world axes [N m; N]."""
-        out = np.empty((len(self), 6))
-        self._query(data, library.WRENCH, out6=out)
-        return out
+        return self._query(data, library.WRENCH)
 
     def generalized_forces(self, data) -> np.ndarray:
         """Generalized forces ``(nv,)`` the elements add to ``qfrc_passive`` in this state."""
-        out = np.zeros(self.model.nv)
-        self._query(data, library.APPLY, qfrc=out)
-        return out
+        return self._query(data, library.APPLY)
 
     def potential_energies(self, data) -> np.ndarray:
         """Elastic energy of each element, ``(n,)`` [J]."""
-        out = np.empty(len(self))
-        self._query(data, library.ENERGY, out1=out)
-        return out
+        return self._query(data, library.ENERGY)
 
     def potential_energy(self, data) -> float:
         """Total elastic energy of the elements [J]."""
@@ -503,9 +458,7 @@ class Flexures:
 
     def dissipation_powers(self, data) -> np.ndarray:
         """Power dissipated by each element's damping, ``(n,)`` [W] (non-negative)."""
-        out = np.empty(len(self))
-        self._query(data, library.POWER, out1=out)
-        return out
+        return self._query(data, library.POWER)
 
     def dissipation_power(self, data) -> float:
         """Total power dissipated by the elements [W]: the rate at which they remove energy."""
@@ -513,9 +466,7 @@ class Flexures:
 
     def displacements(self, data) -> np.ndarray:
         """Finite twist ``[tau; t]`` of frame b relative to frame a for each element, ``(n, 6)`` [rad; m]."""
-        out = np.empty((len(self), 6))
-        self._query(data, library.COORDS, out6=out)
-        return out
+        return self._query(data, library.COORDS)
 
     def stop_coordinates(self, data) -> np.ndarray:
         """The coordinates end stops act on, ``(n, 6)``: ``[rx, ry, rz, x, y, z]`` of each element [rad; m].

@@ -257,6 +257,31 @@ def contacts_at_rest(model, tables: Tables) -> list[Touch]:
     return found
 
 
+def contact_warnings(model, tables: Tables) -> list[str]:
+    """The warnings about elements whose bodies touch, or touch neighbours they were welded away from
+    (:func:`contacts_at_rest`): one for the elements' own pairs, one for the neighbours."""
+    touching, out, index = contacts_at_rest(model, tables), [], {name: e for e, name in enumerate(tables.names)}
+
+    def bodies(element):
+        return [contacts.body_name(model, b) for b in tables.elements[index[element]][["body_a", "body_b"]].tolist()]
+
+    own = [t for t in touching if t.own]
+    if own:
+        t, (a, b) = own[0], bodies(own[0].element)
+        more = f" (and {len(own) - 1} more elements: {', '.join(t[0] for t in own[1:4])}...)"
+        out.append(
+            f"mjflex: the bodies '{a}' and '{b}' joined by flexure '{t.element}'{more if len(own) > 1 else ''} "
+            f"are in contact in {t.where} (geoms '{t.geom1}' and '{t.geom2}'): MuJoCo's contact pushes them "
+            "apart while the element holds them together, which usually diverges. Exclude the pair: "
+            f'<contact><exclude body1="{a}" body2="{b}"/></contact> (mjflex.add_flexure does this by default), '
+            "or give the geoms contype/conaffinity that cannot collide."
+        )
+    neighbours = [t for t in touching if not t.own]
+    if neighbours:
+        out.append(contacts.neighbour_message(neighbours, {t.element: bodies(t.element) for t in neighbours}))
+    return out
+
+
 STRUCTURE = ["site_a", "site_b", "body_a", "body_b", "free_a", "free_b", "chain_a0", "chain_a1", "chain_b0",
              "chain_b1"]  # fmt: skip
 
