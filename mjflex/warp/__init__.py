@@ -28,6 +28,7 @@ data from the MuJoCo model given to :func:`put_model`. The functions are the API
 
 import copy
 import logging
+import re
 
 import mujoco
 import mujoco_warp as mjw
@@ -60,8 +61,49 @@ __all__ = [
 #: Precisions of the element math: MuJoCo Warp's own float32, or float64 inside the kernels.
 PRECISIONS = ("float32", "float64")
 log = logging.getLogger("mjflex.warp")
+#: What the functions' docstrings share, filled in by _shared_doc for a line ``{name}``: the Parameters entries of
+#: ``m`` and ``d``, and the examples' set-up (the two-body model; its body B turned by 0.1 rad; two worlds so).
+_SHARED = {
+    "m_and_d": """\
+    Parameters
+    ----------
+    m : mujoco_warp.Model
+        A model made by :func:`put_model`.
+    d : mujoco_warp.Data
+        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+""",
+    "model": """\
+    >>> import mujoco, mujoco_warp as mjw, numpy as np
+    >>> import mjflex.warp
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
+    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
+    >>> m = mjflex.warp.put_model(mjmodel)
+""",
+    "turned": """\
+    {model}
+    >>> mjdata = mujoco.MjData(mjmodel)
+    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
+    >>> mujoco.mj_forward(mjmodel, mjdata)
+""",
+    "two_turned_worlds": """\
+    {turned}
+    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+""",
+}
 
 
+def _filled(text):
+    """``text``, each line ``{name}`` replaced by ``_SHARED[name]`` (itself filled)."""
+    return re.sub(r"    \{(\w+)\}\n", lambda found: _filled(_SHARED[found[1]]), text)
+
+
+def _shared_doc(f):
+    """``f`` with its docstring filled (:func:`_filled`): what it renders and what its doctest runs."""
+    f.__doc__ = _filled(f.__doc__ or "")  # None under python -OO
+    return f
+
+
+@_shared_doc
 def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_sizes: dict | None = None):
     """MuJoCo Warp's model of ``mjmodel``, with the forces of mjflex's flexure elements as its passive callback.
 
@@ -106,11 +148,7 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
+    {model}
     >>> mjflex.warp.flexures(m)
     WarpFlexures(1 elements: hinge; float32)
     >>> d = mjw.make_data(mjmodel, nworld=1024)  # mjw.step(m, d) steps 1024 worlds with the element's forces
@@ -201,6 +239,7 @@ def flexures(m) -> WarpFlexures:
     return forces
 
 
+@_shared_doc
 def set_parameters(
     m, *, K=None, B=None, enabled=None, viscous=None, stop_lower=None, stop_upper=None, stop_stiffness=None
 ) -> None:
@@ -254,14 +293,7 @@ def set_parameters(
     Four worlds, the hinge turned by 0.1 rad in each, its rotation about z stopped at 0.05, 0.08
     and 0.12 rad in the first three (the stops' stiffness derived from K: 100 K_zz = 25 N m/rad):
 
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
+    {turned}
     >>> d = mjw.put_data(mjmodel, mjdata, nworld=4)
     >>> lower, upper = np.full((4, 1, 6), -np.inf), np.full((4, 1, 6), np.inf)  # (worlds, elements, 6)
     >>> upper[:3, 0, 2] = [0.05, 0.08, 0.12]
@@ -273,15 +305,11 @@ def set_parameters(
                                stop_upper=stop_upper, stop_stiffness=stop_stiffness)  # fmt: skip
 
 
+@_shared_doc
 def wrenches(m, d) -> np.ndarray:
     """Wrench of each element on its body B in each world.
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -291,30 +319,18 @@ def wrenches(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> print(mjflex.warp.wrenches(m, d)[0, 0].round(4) + 0.0)  # -K_zz 0.1 about z
     [ 0.     0.    -0.025  0.     0.     0.   ]
     """
     return flexures(m)._wrenches(m, d)
 
 
+@_shared_doc
 def generalized_forces(m, d) -> np.ndarray:
     """The generalized forces the elements add to ``qfrc_passive`` in each world.
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -323,30 +339,18 @@ def generalized_forces(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> print(mjflex.warp.generalized_forces(m, d)[0, [5, 11]].round(4) + 0.0)  # on A's and B's rotation about z
     [ 0.025 -0.025]
     """
     return flexures(m)._generalized_forces(m, d)
 
 
+@_shared_doc
 def potential_energies(m, d) -> np.ndarray:
     """Elastic energy of each element in each world, end stops included.
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -355,30 +359,18 @@ def potential_energies(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> print(mjflex.warp.potential_energies(m, d)[:, 0].round(6))  # K_zz 0.1^2 / 2
     [0.00125 0.00125]
     """
     return flexures(m)._potentials_and_twists(m, d)[0]
 
 
+@_shared_doc
 def dissipation_powers(m, d) -> np.ndarray:
     """Power dissipated by each element's damping in each world.
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -387,15 +379,7 @@ def dissipation_powers(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> B = np.array([1e-3, 1e-3, 1e-3, 1.0, 1.0, 1.0])  # damping (diagonal) of the one element
     >>> mjflex.warp.set_parameters(m, B=[[B], [2 * B]], viscous=[True])  # world 1's twice world 0's
     >>> mjdata.qvel[11] = 2.0  # B turning about z at 2 rad/s
@@ -407,15 +391,11 @@ def dissipation_powers(m, d) -> np.ndarray:
     return flexures(m)._dissipation_powers(m, d)
 
 
+@_shared_doc
 def displacements(m, d) -> np.ndarray:
     """Finite twist ``[tau; t]`` of frame b relative to frame a of each element in each world.
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -424,21 +404,14 @@ def displacements(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> print(mjflex.warp.displacements(m, d)[0, 0].round(6) + 0.0)
     [0.  0.  0.1 0.  0.  0. ]
     """
     return flexures(m)._potentials_and_twists(m, d)[1]
 
 
+@_shared_doc
 def stop_coordinates(m, d) -> np.ndarray:
     """The coordinates end stops act on, ``[rx, ry, rz, x, y, z]`` of each element in each world.
 
@@ -448,12 +421,7 @@ def stop_coordinates(m, d) -> np.ndarray:
     ``flexures(m).parameters()["stop_lower"]`` and ``["stop_upper"]`` to see which stops are
     engaged; their energy is part of :func:`potential_energies`.
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -462,21 +430,14 @@ def stop_coordinates(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> print(mjflex.warp.stop_coordinates(m, d)[0, 0].round(6) + 0.0)
     [0.  0.  0.1 0.  0.  0. ]
     """
     return flexures(m)._potentials_and_twists(m, d)[2]
 
 
+@_shared_doc
 def divergences(m, d) -> list[WorldDivergence]:
     """The worlds of ``d`` that diverged in their current run: world, element blamed, step index, message.
 
@@ -486,12 +447,7 @@ def divergences(m, d) -> list[WorldDivergence]:
     element. From then on the world's forces are NaN, so its state is too: a diverged world never
     looks like a result. A world's run restarts when its time runs backwards (a reset).
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -500,15 +456,7 @@ def divergences(m, d) -> list[WorldDivergence]:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> qvel = d.qvel.numpy()
     >>> qvel[1, 0] = np.nan  # world 1 blew up
     >>> d.qvel.assign(qvel)
@@ -519,15 +467,11 @@ def divergences(m, d) -> list[WorldDivergence]:
     return flexures(m)._divergences(m, d)
 
 
+@_shared_doc
 def diverged(m, d) -> np.ndarray:
     """Which worlds of ``d`` diverged in their current run (see :func:`~mjflex.warp.divergences`).
 
-    Parameters
-    ----------
-    m : mujoco_warp.Model
-        A model made by :func:`put_model`.
-    d : mujoco_warp.Data
-        Its data, read as it is (after ``mujoco_warp.forward`` or a step, or ``mujoco_warp.put_data``).
+    {m_and_d}
 
     Returns
     -------
@@ -535,15 +479,7 @@ def diverged(m, d) -> np.ndarray:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL  # two free bodies joined by the element "hinge"
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
-    >>> mjdata = mujoco.MjData(mjmodel)
-    >>> mjdata.qpos[10:14] = [np.cos(0.05), 0, 0, np.sin(0.05)]  # B turned by 0.1 rad about z
-    >>> mujoco.mj_forward(mjmodel, mjdata)
-    >>> d = mjw.put_data(mjmodel, mjdata, nworld=2)  # two worlds in that state
+    {two_turned_worlds}
     >>> qvel = d.qvel.numpy()
     >>> qvel[0, 0] = 1e12  # beyond MuJoCo's bound on a sane velocity
     >>> d.qvel.assign(qvel)
@@ -556,6 +492,7 @@ def diverged(m, d) -> np.ndarray:
     return forces._diverged(d)
 
 
+@_shared_doc
 def clear_divergences(m, d) -> None:
     """Forget the divergence records of ``d``: every world starts a new run.
 
@@ -571,11 +508,7 @@ def clear_divergences(m, d) -> None:
 
     Examples
     --------
-    >>> import mujoco, mujoco_warp as mjw, numpy as np
-    >>> import mjflex.warp
-    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL
-    >>> mjmodel = mujoco.MjModel.from_xml_string(EXAMPLE_MODEL)
-    >>> m = mjflex.warp.put_model(mjmodel)
+    {model}
     >>> d = mjw.put_data(mjmodel, mujoco.MjData(mjmodel), nworld=2)
     >>> qvel = d.qvel.numpy()
     >>> qvel[0, 0] = np.nan
