@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 
 import mjflex
 from mjflex.core.series import JL_INV_COEFFS, JL_INV_RATE_COEFFS
-from mjflex.mjcf import config, schema
+from mjflex.mjcf import schema
 from mjflex.native import library as _native
 from tests.helpers import exact_rotation, random_spd
 
@@ -189,7 +189,7 @@ def test_twist_of_the_loop_matches_the_core():
 def test_element_struct_matches_numpy_and_the_plugin_attributes_match_the_schema():
     native = _native.lib()
     assert native.mjfx_element_field(None) == _native.ELEMENT_DTYPE.itemsize
-    assert _native.plugin_attributes() == config.PLUGIN_ATTRIBUTES
+    assert _native.plugin_attributes() == tuple(a.key for a in schema.attributes())
     assert ctypes.sizeof(_native.Verdict) == 40
 
 

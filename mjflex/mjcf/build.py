@@ -9,7 +9,7 @@ import numpy as np
 from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
-from . import schema
+from . import naming, schema
 from .elements import add_plugin_element, detach_instance, find_element, require_native_library
 from .notices import warn_likely_mistake
 from .schema import PLUGIN
@@ -191,7 +191,7 @@ def add_flexure(
     _check_arguments(spec, name, enabled, viscous, source, exclude_contact)
     if kind not in ("plugin", "record"):
         raise ValueError(f'kind must be "plugin" or "record"; got {validation.shorten(kind)}')
-    site_names = schema.site_names(name)
+    site_names = naming.site_names(name)
     if (
         spec.text(schema.PREFIX + name) is not None
         or any(spec.site(s) is not None for s in site_names)

@@ -31,12 +31,6 @@ from . import schema
 from .schema import PLUGIN, FlexureRecord
 
 
-def __getattr__(name):
-    if name == "PLUGIN_ATTRIBUTES":  # the plugin's attributes, from the C table (read on first use)
-        return tuple(a.key for a in schema.attributes())
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def record_from_config(element: str, config: dict) -> FlexureRecord:
     """The record of a plugin instance from its configuration strings (attribute -> text; missing ones empty),
     checked by the C library (the plugin's own rules and messages); raises ValueError saying what to fix."""

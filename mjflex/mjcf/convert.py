@@ -209,7 +209,7 @@ def record_text_name(element: str, site_a: str, site_b: str) -> str:
     Raises ValueError naming the element and the fix when the sites are not named that way.
     """
     n = len(element)
-    for i in range(n + 1):  # the longest E first, as schema.match_record reads it back
+    for i in range(n + 1):  # the longest E first, as naming.match_record reads it back
         for j in range(n, i - 1, -1):
             head, core, tail = element[:i], element[i:j], element[j:]
             for sep in schema.SITE_SEPARATORS:

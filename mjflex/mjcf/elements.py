@@ -75,7 +75,7 @@ def _site_names(spec):
 
 def _record_element(text, sites):
     """The element that text ``text`` records, or None when it is not an element's record."""
-    match = schema.match_record(text.name, sites)
+    match = naming.match_record(text.name, sites)
     return None if match is None else SpecElement(match[0], RECORD, match[1], match[2], text, match[3])
 
 

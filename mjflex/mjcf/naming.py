@@ -1,4 +1,5 @@
-"""Close-name suggestions for every "not found" message of the MuJoCo layer (one wording everywhere).
+"""Names: close-name suggestions for every "not found" message of the MuJoCo layer (one wording everywhere), and
+the names of an element's text record and sites (:func:`match_record`; the convention: :mod:`mjflex.mjcf.schema`).
 
 A name that is not found gets the close names (:func:`close_names`: the same letters and digits
 in any case and with any separators, difflib's close matches, names that contain it), never the
@@ -8,6 +9,8 @@ expected) is said to be that (:func:`spec_hint`).
 
 import difflib
 import re
+
+from .schema import PREFIX, SITE_A_SUFFIX, SITE_B_SUFFIX, SITE_SEPARATORS
 
 #: Kinds of named MjSpec elements: the spec's look-up method and list (``spec.body(name)``, ``spec.bodies``).
 PLURALS = {"body": "bodies", "joint": "joints", "site": "sites", "geom": "geoms"}
@@ -96,3 +99,58 @@ def spec_hint(spec, name, kind) -> str:
     return other_kind(spec, name, kind) or suggestion(
         name, [e.name for e in getattr(spec, PLURALS[kind]) if e.name], PLURALS[kind]
     )
+
+
+def site_names(element: str) -> tuple[str, str]:
+    """The canonical site names ``E/a``, ``E/b`` of element ``E`` (what ``add_flexure`` writes)."""
+    return element + SITE_A_SUFFIX, element + SITE_B_SUFFIX
+
+
+def match_record(text_name: str, sites) -> tuple[str, str, str, bool] | None:
+    """The element a text record describes: ``(element, site a, site b, found)``, or None.
+
+    ``text_name`` is ``P + "mjflex:" + E + S`` (``P``, ``S``: prefix and suffix added by
+    ``MjSpec.attach`` or dm_control, usually empty); ``sites`` is the set of the model's site
+    names. The sites are ``P + E + sep + "a" + S`` and ``... "b" + S`` for a separator in
+    ``SITE_SEPARATORS``; the longest ``E`` whose two sites exist wins. When none exist,
+    ``found`` is False and the canonical names (empty suffix, ``/``) are returned for the error.
+    Raises ValueError when both spellings of one element exist.
+    """
+    i = text_name.find(PREFIX)
+    if i < 0:
+        return None
+    head, rest = text_name[:i], text_name[i + len(PREFIX) :]
+    for j in range(len(rest), -1, -1):
+        element, tail = rest[:j], rest[j:]
+        both = [
+            (head + element + sep + "a" + tail, head + element + sep + "b" + tail)
+            for sep in SITE_SEPARATORS
+            if head + element + sep + "a" + tail in sites and head + element + sep + "b" + tail in sites
+        ]
+        if len(both) > 1:
+            raise ValueError(f"both {both[0]} and {both[1]} exist; keep one spelling of the element's sites")
+        if both:
+            return head + element + tail, both[0][0], both[0][1], True
+    return head + rest, head + rest + SITE_A_SUFFIX, head + rest + SITE_B_SUFFIX, False
+
+
+def near_miss(text_name: str) -> bool:
+    """Whether a text name without ``mjflex:`` looks like a misspelt record (``mjflx:``, ``MJFLEX:``, ``mjflex-``)."""
+    if PREFIX in text_name:
+        return False
+    lower = text_name.lower()
+    if "mjflex" in lower:
+        return True
+    windows = {lower[i : i + n] for n in (6, 7, 8) for i in range(max(len(lower) - n + 1, 1))}
+    return any(difflib.SequenceMatcher(None, w, PREFIX).ratio() >= 0.8 for w in windows)
+
+
+def orphan_site_pairs(sites, elements_sites) -> list[str]:
+    """Names ``E`` with sites ``E/a`` and ``E/b`` (or ``E.a``, ``E.b``) that no record claims."""
+    out = []
+    for name in sorted(sites):
+        for sep in SITE_SEPARATORS:
+            if name.endswith(sep + "a") and name[:-1] + "b" in sites:
+                if name not in elements_sites:
+                    out.append(name[: -len(sep) - 1])
+    return out

@@ -28,7 +28,7 @@ rounded to 6 digits by those writers; the element takes the measured residual as
 
 Composed models: ``MjSpec.attach(child, prefix=P, suffix=S)`` renames the child's records to
 ``P + "mjflex:" + E + S`` and its sites to ``P + E + "/a" + S``; such a record is matched to its sites by the name
-around ``mjflex:`` (:func:`match_record`), and the element is called ``P + E + S``.
+around ``mjflex:`` (:func:`mjflex.mjcf.naming.match_record`), and the element is called ``P + E + S``.
 
 Example (hand-written)::
 
@@ -41,7 +41,6 @@ Example (hand-written)::
 """
 
 import dataclasses
-import difflib
 import functools
 import json
 from typing import NamedTuple
@@ -124,12 +123,6 @@ def display_fields() -> set[str]:
 def keys() -> tuple[str, ...]:
     """The keys a record's JSON object may have: ``"mjflex"`` (the version) and :func:`record_fields`."""
     return ("mjflex", *record_fields())
-
-
-def __getattr__(name):
-    if name == "KEYS":  # the record's keys, from the C table (read on first use: it needs the native library)
-        return keys()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _group(field) -> list[Attribute]:
@@ -261,7 +254,7 @@ def _default(a: Attribute):
 # ------------------------------------------------------------------------------ groups of attributes
 
 
-def _group_values(field, value, record) -> dict:
+def _group_values(field, value) -> dict:
     """The members of a group field's Python value (``terms``, ``stops``, ``rest``, another: a dict)."""
     if field == "terms":
         return {"exponents": value.exponents, "coefficients": value.coefficients} if len(value) else {}
@@ -297,17 +290,14 @@ def _rows_of(record) -> dict:
         if value is None:
             continue
         if _members(field):
-            members = _group_values(field, value, record)
+            members = _group_values(field, value)
             out.update({a.key: members[a.json.partition(".")[2]] for a in group if a.json.partition(".")[2] in members})
             continue
         a = group[0]
-        if a.flags & _WRITTEN or not _same(value, _default(a)):
+        default = _default(a)
+        if a.flags & _WRITTEN or default is None or isinstance(value, np.ndarray) or value != default:
             out[a.key] = value
     return out
-
-
-def _same(x, y):
-    return y is not None and not isinstance(x, np.ndarray) and x == y
 
 
 # ------------------------------------------------------------------------------ the record
@@ -560,64 +550,6 @@ def parse_text(element: str, data: str) -> FlexureRecord:
     except ValueError as exc:  # what only JSON can get wrong: with the head of the C library's messages
         raise ValueError(f"flexure '{element}': {exc}") from None
     return read_config(element, config, RECORD)
-
-
-# ------------------------------------------------------------------------------ names of records and sites
-
-
-def site_names(element: str) -> tuple[str, str]:
-    """The canonical site names ``E/a``, ``E/b`` of element ``E`` (what ``add_flexure`` writes)."""
-    return element + SITE_A_SUFFIX, element + SITE_B_SUFFIX
-
-
-def match_record(text_name: str, sites) -> tuple[str, str, str, bool] | None:
-    """The element a text record describes: ``(element, site a, site b, found)``, or None.
-
-    ``text_name`` is ``P + "mjflex:" + E + S`` (``P``, ``S``: prefix and suffix added by
-    ``MjSpec.attach`` or dm_control, usually empty); ``sites`` is the set of the model's site
-    names. The sites are ``P + E + sep + "a" + S`` and ``... "b" + S`` for a separator in
-    ``SITE_SEPARATORS``; the longest ``E`` whose two sites exist wins. When none exist,
-    ``found`` is False and the canonical names (empty suffix, ``/``) are returned for the error.
-    Raises ValueError when both spellings of one element exist.
-    """
-    i = text_name.find(PREFIX)
-    if i < 0:
-        return None
-    head, rest = text_name[:i], text_name[i + len(PREFIX) :]
-    for j in range(len(rest), -1, -1):
-        element, tail = rest[:j], rest[j:]
-        both = [
-            (head + element + sep + "a" + tail, head + element + sep + "b" + tail)
-            for sep in SITE_SEPARATORS
-            if head + element + sep + "a" + tail in sites and head + element + sep + "b" + tail in sites
-        ]
-        if len(both) > 1:
-            raise ValueError(f"both {both[0]} and {both[1]} exist; keep one spelling of the element's sites")
-        if both:
-            return head + element + tail, both[0][0], both[0][1], True
-    return head + rest, head + rest + SITE_A_SUFFIX, head + rest + SITE_B_SUFFIX, False
-
-
-def near_miss(text_name: str) -> bool:
-    """Whether a text name without ``mjflex:`` looks like a misspelt record (``mjflx:``, ``MJFLEX:``, ``mjflex-``)."""
-    if PREFIX in text_name:
-        return False
-    lower = text_name.lower()
-    if "mjflex" in lower:
-        return True
-    windows = {lower[i : i + n] for n in (6, 7, 8) for i in range(max(len(lower) - n + 1, 1))}
-    return any(difflib.SequenceMatcher(None, w, PREFIX).ratio() >= 0.8 for w in windows)
-
-
-def orphan_site_pairs(sites, elements_sites) -> list[str]:
-    """Names ``E`` with sites ``E/a`` and ``E/b`` (or ``E.a``, ``E.b``) that no record claims."""
-    out = []
-    for name in sorted(sites):
-        for sep in SITE_SEPARATORS:
-            if name.endswith(sep + "a") and name[:-1] + "b" in sites:
-                if name not in elements_sites:
-                    out.append(name[: -len(sep) - 1])
-    return out
 
 
 def embed_planar(M: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ import xml.etree.ElementTree as ET
 import mujoco
 
 from ..core.validation import shorten
-from ..mjcf import schema
+from ..mjcf import naming, schema
 from ..mjcf.config import config_from_record, record_from_config
 from ..mjcf.convert import record_text_name
 from ..mjcf.schema import KINDS, PLUGIN, RECORD
@@ -177,7 +177,7 @@ def _to_plugins(source, root, records):
     expected, plugin, unit = {}, None, _unit(root)
     for custom, node, name, data in records:
         try:
-            match = schema.match_record(name, sites)
+            match = naming.match_record(name, sites)
         except ValueError as exc:
             raise ConversionError(f"text record {name!r}: {exc}") from None
         element, site_a, site_b, _ = match

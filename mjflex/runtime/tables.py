@@ -89,11 +89,11 @@ def _text_records(model, site_ids, claimed_sites=()):
     out = []
     for i, tname in enumerate(names(model, mujoco.mjtObj.mjOBJ_TEXT, model.ntext)):
         try:
-            match = schema.match_record(tname, site_ids)
+            match = naming.match_record(tname, site_ids)
         except ValueError as exc:
             raise ModelError(f"flexure record '{tname}': {exc}") from None
         if match is None:
-            if schema.near_miss(tname):
+            if naming.near_miss(tname):
                 warnings.warn(
                     f"mjflex: text record '{tname}' looks like a flexure record but is not one (records are "
                     f"named '{schema.PREFIX}<element>'); rename it if it should be an element",
@@ -104,7 +104,7 @@ def _text_records(model, site_ids, claimed_sites=()):
         adr, size = model.text_adr[i], model.text_size[i]
         out.append((*match[:1], bytes(model.text_data[adr : adr + size - 1]).decode("utf-8"), *match[1:]))
     claimed = {r[2] for r in out} | set(claimed_sites)
-    for element in schema.orphan_site_pairs(site_ids, claimed):
+    for element in naming.orphan_site_pairs(site_ids, claimed):
         warnings.warn(
             f"mjflex: sites of an element '{element}' have no text record '{schema.PREFIX}{element}' and no "
             f"{schema.PLUGIN_NAME} instance: the element is not simulated. Add it (mjflex.add_flexure writes both), "
