@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from ...analysis.advice import first_order
-from ...analysis.linearize import STEP, Options, linearize
+from ...analysis.linearize import Options, linearize
 from ...variants.variant import homogeneous
 
 #: Eigenvalues of ``M^-1 K`` below this fraction of the largest count as rigid-body modes. The
@@ -176,7 +176,7 @@ class Linearization(NamedTuple):
     rate: float  # largest |eigenvalue| of the first-order system with damping [1/s]
 
 
-def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=STEP):
+def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None):
     """Natural frequencies [Hz] and fastest rate of a model linearized at ``qpos``, at rest.
 
     The model as MuJoCo steps it (:func:`mjflex.analysis.linearize.linearize` with everything on: the
@@ -202,7 +202,7 @@ def linearized_frequencies(model, flex, qpos, *, ctrl=None, act=None, step=STEP)
         base.ctrl[:] = ctrl
     if act is not None:
         base.act[:] = act
-    lin = linearize(model, flex, base, Options(True, "spring", True, True), step=step, damping=True, dynamics=True)
+    lin = linearize(model, flex, base, Options(True, "spring", True, True), damping=True, dynamics=True)
     lam = np.sort(np.linalg.eigvals(np.linalg.solve(lin.M, lin.K)).real)
     top = float(lam[-1])
     rate = float(np.max(np.abs(first_order(lin)[0])))

@@ -95,9 +95,7 @@ class Row:
     integrator: str
     timestep: float  # [s]
     status: str  # "ok", "diverged" or "skipped"
-    # Cost: median over interleaved timing repeats of the mj_step wall time per simulated second
-    # (for a diverged or skipped row: over the steps it took before it stopped, one measurement).
-    wall_per_sim_s: float | None = None
+    wall_per_sim_s: float | None = None  # median over interleaved repeats (diverged, skipped: the steps taken, once)
     cpu_per_sim_s: float | None = None  # the same with this thread's CPU time (robust to machine load)
     cost: float | None = None  # the one of the two the study ranks by (its ``clock``)
     wall_range: tuple[float, float] | None = None  # min and max over the repeats
@@ -112,8 +110,7 @@ class Row:
     source: str = "grid"  # "grid", "bisection" (stability search) or "model" (the file's own setting)
     model_setting: bool = False  # the model file's own integrator, step and methods
     pareto: bool = False
-    # ran through, but above the step its Limit recommends: stable only for this scene (never recommended)
-    beyond_limit: bool = False
+    beyond_limit: bool = False  # ran through above the step its Limit recommends: never recommended
 
     @property
     def label(self) -> str:

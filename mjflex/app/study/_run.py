@@ -78,10 +78,6 @@ class Outcome:
     def ok(self) -> bool:
         return self.divergence is None and self.skipped is None
 
-    @property
-    def wall_per_step(self) -> float:
-        return self.wall / max(self.steps, 1)
-
 
 class Sim:
     """One model of the scene (the source model or a variant), ready to run from the same start.
@@ -106,10 +102,10 @@ class Sim:
         self.spec = spec  # what the model compiles from: plugin elements change method there (None: unknown)
         self.state = {k: np.asarray(v, dtype=float).copy() for k, v in state.items() if v is not None}
         self._models = {}  # method of the plugin elements (None: as in the file) -> (model, flex, reader, data)
-        self._key = None
         self._use(None, model)
         self.file_methods = tuple(r.method for r in self.flex.records)
         self.kinds = self.flex.kinds
+        self._plugin_methods = [m for m, k in zip(self.file_methods, self.kinds, strict=True) if k == "plugin"]
         self._element_bodies = [{int(b) for b in bodies} for bodies in self.flex.body_ids]
 
     def _use(self, key, model=None):
@@ -122,7 +118,6 @@ class Sim:
             self._models[key] = (model, flex, PoseReader(model, self.body_map, self.items, self.frame_body),
                                  mujoco.MjData(model))  # fmt: skip
         self.model, self.flex, self.reader, self.data = self._models[key]
-        self._key = key
 
     def _compiled(self, method):
         spec = copy_spec(self.spec)
@@ -132,8 +127,7 @@ class Sim:
 
     def method_switch_problem(self, methods) -> str | None:
         """Why this model cannot run ``methods`` (its plugin elements change method only in a spec), or None."""
-        plugin = [m for m, k in zip(self.file_methods, self.kinds, strict=True) if k == "plugin"]
-        if self.spec is None and any(m != f for m in methods for f in plugin):
+        if self.spec is None and any(m != f for m in methods for f in self._plugin_methods):
             return (
                 f"{self.name}: its elements are mjflex.flexure plugin instances, whose method is part of the model: "
                 "the study compiles a copy per method from the MJCF file or MjSpec, which it was not given (an "
@@ -158,8 +152,7 @@ class Sim:
         Text records switch at run time; plugin elements switch with a copy of the model compiled
         from the spec with that method (built once per method).
         """
-        plugin = [f for f, k in zip(self.file_methods, self.kinds, strict=True) if k == "plugin"]
-        self._use(method if method is not None and any(f != method for f in plugin) else None)
+        self._use(method if method is not None and any(f != method for f in self._plugin_methods) else None)
         configure(self.model, integrator=integrator, timestep=h)
         for name, file_method, kind in zip(self.flex.names, self.file_methods, self.kinds, strict=True):
             if kind == "record":
@@ -274,8 +267,7 @@ def run_sampled(sim, integrator, method, h, *, samples, every, energy_limit=None
             if wall / steps * total > max_wall and k < samples:
                 skipped = f"projected {wall / steps * total:.0f} s of stepping exceeds the run budget of {max_wall:g} s"
                 break
-    p, R, E, KE, EL = zip(*rows, strict=True)
-    traj = Trajectory(np.array(times), np.array(p), np.array(R), np.array(E), np.array(KE), np.array(EL))
+    traj = Trajectory(np.array(times), *map(np.array, zip(*rows, strict=True)))  # p, R, energy, kinetic, elastic
     return Outcome(traj, steps, wall, cpu, divergence, skipped)
 
 

@@ -82,7 +82,7 @@ def limiting_mode(sim, advice):
     """
     m = sim.model
     lam, mode = advice.eigenvalue, advice.mode
-    lin = linearization(sim)
+    lin = linearize(m, sim.flex, sim.reset(rest=True), EVERYTHING, dynamics=True)  # at the initial pose at rest
     M, K = lin.M, lin.K
     parts = {}
     if sim.has_flexures:
@@ -107,12 +107,6 @@ def limiting_mode(sim, advice):
     return {"frequency_hz": float(abs(lam) / (2.0 * np.pi)), "oscillating": bool(abs(lam.imag) >= abs(lam.real)),
             "where": where, "share": float(share), "kind": kind,
             "scene_share": _scene_share(sim, k, w2, phi, M)}  # fmt: skip
-
-
-def linearization(sim):
-    """The model linearized at the initial pose at rest with everything its step counts (the element methods as
-    configured): :class:`mjflex.analysis.linearize.Linearization`."""
-    return linearize(sim.model, sim.flex, sim.reset(rest=True), EVERYTHING, dynamics=True)
 
 
 def perturbation(sim, energy, seed=0):

@@ -158,9 +158,9 @@ class _Study:
             )
         elif not ref.converged:
             self.result.notes.append(
-                "the reference did not converge to the requested tolerance"
-                + ("" if ref.agreement is None else f" (its last refinements agree to {ref.agreement:.2g})")
-                + "; errors below that are not resolved. Shorten --duration or allow more refinements."
+                f"the reference did not converge to the requested tolerance (its last refinements agree to "
+                f"{ref.agreement:.2g}); errors below that are not resolved. Shorten --duration or allow more "
+                "refinements."
             )
         self._timed.append((ref, full, "rk4", None, ref.timestep, out))
         self.ref_traj = out.trajectory
@@ -176,12 +176,12 @@ class _Study:
         length) and is timed with both the wall clock and this thread's CPU clock; the medians
         per simulated second go into the rows (wall: the cost; CPU: a check on a loaded machine).
         """
-        slices = [min(out.steps, max(1, int(TIMING_SLICE / max(out.wall_per_step, 1e-9)))) for *_, out in self._timed]
+        slices = [min(out.steps, max(1, int(TIMING_SLICE / max(out.wall / max(out.steps, 1), 1e-9))))
+                  for *_, out in self._timed]  # fmt: skip
         samples = [[] for _ in self._timed]
         for _ in range(self.repeat):
             self.bar.set_description("timing (interleaved)")
-            for entry, steps, times in zip(self._timed, slices, samples, strict=True):
-                _, sim, integrator, method, h, _ = entry
+            for (_, sim, integrator, method, h, _), steps, times in zip(self._timed, slices, samples, strict=True):
                 t = time_steps(sim, integrator, method, h, steps)
                 if t is not None:
                     times.append(t)
@@ -266,21 +266,18 @@ class _Study:
         guess = limit.largest_stable or limit.smallest_unstable
         if guess is None:
             return
-        who = f"{sim.name} {integrator} {sim.methods_label(method)}"
-        self.bar.set_description(f"{who} advised limit")
-        if sim.model.nv > MAX_NV:
-            limit.checked, limit.linear_note = True, f"advised limit not computed (nv = {sim.model.nv} > {MAX_NV})"
-            self._check_recommended(sim, method, integrator, limit, None, rtol)
-            return
-        advice, last, none = advised_limit(sim, integrator, method, guess, rtol, self.plan.duration)
+        self.bar.set_description(f"{sim.name} {integrator} {sim.methods_label(method)} advised limit")
         limit.checked = True
-        if advice is not None:
-            limit.linear_step, limit.linear_unstable = advice.limit, advice.unstable
-            limit.linear_mode = limiting_mode(sim, advice)
+        if sim.model.nv > MAX_NV:
+            limit.linear_note = f"advised limit not computed (nv = {sim.model.nv} > {MAX_NV})"
         else:
-            limit.linear_note = (
-                f"the linearized model is {none} at every step {'down' if none == 'unstable' else 'up'} to {last:.3g} s"
-            )
+            advice, last, none = advised_limit(sim, integrator, method, guess, rtol, self.plan.duration)
+            if advice is not None:
+                limit.linear_step, limit.linear_unstable = advice.limit, advice.unstable
+                limit.linear_mode = limiting_mode(sim, advice)
+            else:
+                way = "down" if none == "unstable" else "up"
+                limit.linear_note = f"the linearized model is {none} at every step {way} to {last:.3g} s"
         self._check_recommended(sim, method, integrator, limit, limit.linear_step, rtol)
 
     def _check_recommended(self, sim, method, integrator, limit, h_lin, rtol):
@@ -288,13 +285,12 @@ class _Study:
         if limit.largest_stable is None:
             return
         dv = perturbation(sim, self.scales.energy)
-        h = min(limit.largest_stable, h_lin) if h_lin is not None else limit.largest_stable
+        h = min(limit.largest_stable, h_lin or math.inf)
         for _ in range(MAX_HALVINGS + 1):
             out = self._perturbed_run(sim, method, integrator, h, dv, limit)
             if out.ok:
                 limit.recommended = h
-                break
-            if out.skipped:
+            if not out.divergence:
                 break
             h *= 0.5
         if h_lin is not None and limit.largest_stable > h_lin * (1.0 + rtol):  # show what the scene hides

@@ -51,12 +51,7 @@ _HELD = [0]  # providers this module has installed in this process
 
 @dataclass(frozen=True)
 class Plan:
-    """What every chunk of one sweep needs (picklable).
-
-    ``observe_steps`` are the step counts after which ``observe`` runs, as multiples of the
-    block ``duration / (samples - 1)`` (or the whole run); ``threads`` is the ``Batch`` thread
-    count (0: all CPUs).
-    """
+    """What every chunk of one sweep needs (picklable); ``threads`` is the ``Batch`` thread count (0: all CPUs)."""
 
     recipe: Recipe
     observe: object
@@ -361,8 +356,7 @@ def _build(plan, rows):
         try:
             sims.append(_Sim(plan, index, params))
         except Exception as exc:
-            failed = Outcome(index, "failed", f"building the variant raised {_exc_text(exc)}")
-            sims.append(failed)
+            sims.append(Outcome(index, "failed", f"building the variant raised {_exc_text(exc)}"))
     return sims
 
 
