@@ -3,9 +3,9 @@
 This module (and :mod:`._planar_kernels` for the planar versions) is the single
 implementation of the math; the public functions in
 :mod:`mjflex.core.transforms` and :mod:`mjflex.core.elements` validate and broadcast their
-arguments and then call the ``*_batch`` loops below, and the MuJoCo passive-force provider
-calls the per-element kernels directly. Everything works on one element at a time with
-3-vectors held in tuples, so nothing is allocated per element.
+arguments and then call the ``*_batch`` loops below (the spatial elements' in :mod:`._poly_kernels`,
+which run the per-element kernels here unchanged without terms). Everything works on one element
+at a time with 3-vectors held in tuples, so nothing is allocated per element.
 
 Conventions (see the package docstring): 6-vectors angular first; quaternions w-first;
 ``R`` row-major ``(3, 3)`` with ``R @ x_B = x_A`` for ``R_AB``.
@@ -82,22 +82,12 @@ def lin3(ca, a, cb, b, cc, c):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _mat_vec(R, v):
-    """``R @ v`` for a row-major 9-tuple ``R``."""
+def _mat_vec(R, v, r=3, c=1):
+    """``R @ v`` for a row-major 9-tuple ``R``; ``R.T @ v`` with the strides ``r=1, c=3``."""
     return (
-        R[0] * v[0] + R[1] * v[1] + R[2] * v[2],
-        R[3] * v[0] + R[4] * v[1] + R[5] * v[2],
-        R[6] * v[0] + R[7] * v[1] + R[8] * v[2],
-    )
-
-
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
-def _mat_t_vec(R, v):
-    """``R.T @ v`` for a row-major 9-tuple ``R``."""
-    return (
-        R[0] * v[0] + R[3] * v[1] + R[6] * v[2],
-        R[1] * v[0] + R[4] * v[1] + R[7] * v[2],
-        R[2] * v[0] + R[5] * v[1] + R[8] * v[2],
+        R[0] * v[0] + R[c] * v[1] + R[2 * c] * v[2],
+        R[r] * v[0] + R[r + c] * v[1] + R[r + 2 * c] * v[2],
+        R[2 * r] * v[0] + R[2 * r + c] * v[1] + R[2 * r + 2 * c] * v[2],
     )
 
 
@@ -266,7 +256,7 @@ def relative_quat(R_WA, R_WB):
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def relative_position(R_WA, p_WA, p_WB):
     """``p_ab = R_WA^T (p_WB - p_WA)``: origin of b in a coordinates (tuples)."""
-    return _mat_t_vec(R_WA, (p_WB[0] - p_WA[0], p_WB[1] - p_WA[1], p_WB[2] - p_WA[2]))
+    return _mat_vec(R_WA, (p_WB[0] - p_WA[0], p_WB[1] - p_WA[1], p_WB[2] - p_WA[2]), 1, 3)
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -408,10 +398,10 @@ def spatial_potential(method, R_WA, p_WA, R_WB, p_WB, K):
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _rate(method, e1, e2, aux, R_WA, R_WB, w_WA, v_WA, w_WB, v_WB):
     """Rate of the displacement coordinates from world-frame velocities."""
-    wa = _mat_t_vec(R_WA, w_WA)
-    va = _mat_t_vec(R_WA, v_WA)
-    wb = _mat_t_vec(R_WB, w_WB)
-    vb = _mat_t_vec(R_WB, v_WB)
+    wa = _mat_vec(R_WA, w_WA, 1, 3)
+    va = _mat_vec(R_WA, v_WA, 1, 3)
+    wb = _mat_vec(R_WB, w_WB, 1, 3)
+    vb = _mat_vec(R_WB, v_WB, 1, 3)
     if method == TWIST:
         return _twist_rate(e1, e2, aux[0], aux[1], wa, va, wb, vb)
     w, s_d = aux
@@ -454,11 +444,11 @@ def force_map(method, e1, e2, aux, y1, y2):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"}, inline="always")
-def to_world(scale, m, f, R_WB):
-    """``scale * [R_WB m; R_WB f]``."""
+def to_world(method, m, f, scale, R_WB, power):
+    """``(scale R_WB m, scale R_WB f, power)``, the power times 4 for the dual-quaternion method."""
     m = _mat_vec(R_WB, m)
     f = _mat_vec(R_WB, f)
-    return lin(scale, m, 0.0, m), lin(scale, f, 0.0, f)
+    return lin(scale, m, 0.0, m), lin(scale, f, 0.0, f), power if method == TWIST else 4.0 * power
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -472,10 +462,7 @@ def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_
         method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB
     )
     m, f, scale = force_map(method, e1, e2, aux, y1, y2)
-    if method != TWIST:
-        power *= 4.0
-    m, f = to_world(scale, m, f, R_WB)
-    return m, f, power
+    return to_world(method, m, f, scale, R_WB, power)
 
 
 # --------------------------------------------------------------------------- batch loops
@@ -486,43 +473,6 @@ def spatial_wrench(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_
 def row_of(a, i):
     """The row of a batch-first array `a` for item i: i, or 0 where `a` holds one row (broadcast)."""
     return i if a.shape[0] > 1 else 0
-
-
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
-def spatial_wrench_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB, out, power):
-    R_WA, R_WB, K, B = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K), flat_rows(B)
-    for i in range(out.shape[0]):
-        m, f, power[i] = spatial_wrench(
-            method,
-            load9(R_WA, row_of(R_WA, i)),
-            load3(p_WA, row_of(p_WA, i)),
-            load9(R_WB, row_of(R_WB, i)),
-            load3(p_WB, row_of(p_WB, i)),
-            load36(K, row_of(K, i)),
-            load36(B, row_of(B, i)),
-            viscous,
-            load3(w_WA, row_of(w_WA, i)),
-            load3(v_WA, row_of(v_WA, i)),
-            load3(w_WB, row_of(w_WB, i)),
-            load3(v_WB, row_of(v_WB, i)),
-        )
-        for j in range(3):
-            out[i, j] = m[j]
-            out[i, 3 + j] = f[j]
-
-
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
-def spatial_potential_batch(method, R_WA, p_WA, R_WB, p_WB, K, out):
-    R_WA, R_WB, K = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K)
-    for i in range(out.shape[0]):
-        out[i] = spatial_potential(
-            method,
-            load9(R_WA, row_of(R_WA, i)),
-            load3(p_WA, row_of(p_WA, i)),
-            load9(R_WB, row_of(R_WB, i)),
-            load3(p_WB, row_of(p_WB, i)),
-            load36(K, row_of(K, i)),
-        )
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})

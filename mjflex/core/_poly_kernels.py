@@ -141,10 +141,7 @@ def spatial_wrench_terms(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_
     nvar = fill_powers(method, e1, e2, aux, pw, top)
     terms_eval(nvar, exps, coefs, lo, hi, pw, grad, True)
     m, f, scale = _terms_wrench_b(method, e1, e2, aux, y1, y2, grad)
-    if method != TWIST:
-        power *= 4.0
-    m, f = to_world(scale, m, f, R_WB)
-    return m, f, power
+    return to_world(method, m, f, scale, R_WB, power)
 
 
 # --------------------------------------------------------------------------- batch loops

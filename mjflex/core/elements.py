@@ -69,11 +69,10 @@ import math
 
 import numpy as np
 
-from . import _kernels as _k
 from . import _planar_kernels as _pk
 from . import _poly_kernels as _polyk
 from ._batch import flatten
-from .polynomial import PolynomialTerms
+from .polynomial import PolynomialTerms, no_terms
 from .rest import frame_at_rest
 from .validation import as_array, check_psd_matrix, check_rotation, method_code
 
@@ -186,40 +185,28 @@ def _with_rest(values, rest, check):
     return values, shift
 
 
-def _wrench_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL, rest=None):
-    """Run a wrench kernel; returns (wrench (..., n), dissipated power (...)), the moment about p_WB."""
+_NONE = no_terms("dualquat")  # the polynomial kernels' arguments without terms (read-only, as terms' are)
+_NO_TERMS = (_NONE.exponents, _NONE.coefficients, *_polyk.work_arrays(_NONE.exponents))
+
+
+def _run(spec, kernel, values, method, check, terms=None, rest=None, optional=_OPTIONAL):
+    """Run a batch kernel: the energy (...), or (wrench (..., n) with the moment about p_WB, dissipated power (...))
+    where ``values`` holds ``B``. Without terms the polynomial kernels run the quadratic ones unchanged."""
     values, shift = _with_rest(values, rest, check)
-    W, power = _wrench_kernel_call(spec, kernel, values, method, check, terms, optional)
-    if shift is not None:
-        W = W + np.concatenate(np.broadcast_arrays(np.cross(shift, W[..., 3:]), np.zeros(3)), axis=-1)
-    return W, power
-
-
-def _wrench_kernel_call(spec, kernel, values, method, check, terms=None, optional=_OPTIONAL):
     code = method_code(method)
     shape, f, viscous = _prepare(spec, values, check, optional)
-    extra = _terms_args(terms, method, f[4], check)
-    n = math.prod(shape)
-    out, power = np.empty((n, spec["K"][0][0])), np.empty(n)
-    if extra is None:
-        kernel(code, *f[:6], viscous, *f[6:], out, power)
-    else:
-        _polyk.spatial_wrench_terms_batch(code, *f[:6], viscous, *f[6:], *extra, out, power)
-    return out.reshape((*shape, spec["K"][0][0])), power.reshape(shape)
-
-
-def _energy_call(spec, kernel, values, method, check, terms=None, rest=None):
-    """Run a potential kernel; returns the energy (...)."""
-    values, _ = _with_rest(values, rest, check)
-    code = method_code(method)
-    shape, f, _ = _prepare(spec, values, check)
-    extra = _terms_args(terms, method, f[4], check)
-    out = np.empty(math.prod(shape))
-    if extra is None:
-        kernel(code, *f, out)
-    else:
-        _polyk.spatial_potential_terms_batch(code, *f, *extra, out)
-    return out.reshape(shape)[()]
+    extra = () if spec is _PLANAR else (_terms_args(terms, method, f[4], check) or _NO_TERMS)
+    n, width = math.prod(shape), spec["K"][0][0]
+    if "B" not in values:
+        out = np.empty(n)
+        kernel(code, *f, *extra, out)
+        return out.reshape(shape)[()]
+    out, power = np.empty((n, width)), np.empty(n)
+    kernel(code, *f[:6], viscous, *f[6:], *extra, out, power)
+    W = out.reshape((*shape, width))
+    if shift is not None:
+        W = W + np.concatenate(np.broadcast_arrays(np.cross(shift, W[..., 3:]), np.zeros(3)), axis=-1)
+    return W, power.reshape(shape)
 
 
 def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, rest=None, check=True):
@@ -263,7 +250,7 @@ def potential(R_WA, p_WA, R_WB, p_WB, K, *, method="twist", terms=None, rest=Non
     0.010000 J
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K}
-    return _energy_call(_SPATIAL, _k.spatial_potential_batch, values, method, check, terms, rest)
+    return _run(_SPATIAL, _polyk.spatial_potential_terms_batch, values, method, check, terms, rest)
 
 
 def wrench_on_b(
@@ -324,7 +311,7 @@ def wrench_on_b(
     """
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, terms, rest=rest)[0]
+    return _run(_SPATIAL, _polyk.spatial_wrench_terms_batch, values, method, check, terms, rest=rest)[0]
 
 
 def dissipation_power(
@@ -376,7 +363,7 @@ def dissipation_power(
         raise ValueError("B is required: dissipation_power needs the damping matrix.")
     values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_SPATIAL, _k.spatial_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"},
+    return _run(_SPATIAL, _polyk.spatial_wrench_terms_batch, values, method, check, optional=_OPTIONAL | {"K"},
                         rest=rest)[1][()]  # fmt: skip
 
 
@@ -415,7 +402,7 @@ def planar_potential(theta_WA, p_WA, theta_WB, p_WB, K, *, method="twist", check
     0.010000 J
     """
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K}
-    return _energy_call(_PLANAR, _pk.planar_potential_batch, values, method, check)
+    return _run(_PLANAR, _pk.planar_potential_batch, values, method, check)
 
 
 def planar_wrench_on_b(
@@ -450,7 +437,7 @@ def planar_wrench_on_b(
     """
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_PLANAR, _pk.planar_wrench_batch, values, method, check)[0]
+    return _run(_PLANAR, _pk.planar_wrench_batch, values, method, check)[0]
 
 
 def planar_dissipation_power(
@@ -493,4 +480,4 @@ def planar_dissipation_power(
         raise ValueError("B is required: planar_dissipation_power needs the damping matrix.")
     values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": None, "B": B,
               "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
-    return _wrench_call(_PLANAR, _pk.planar_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"})[1][()]
+    return _run(_PLANAR, _pk.planar_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"})[1][()]
