@@ -156,10 +156,7 @@ def one_step_map(model, flex, base, h, integrator, options, step=STEP) -> np.nda
     """``(2 nv, 2 nv)``: the Jacobian of one ``mj_step`` of ``h`` [s] with ``integrator`` over ``(qpos tangent,
     qvel)`` at the state of ``base`` (its velocity taken as zero; activations, controls, mocap poses held), with the
     forces of ``options`` (:func:`.linearize.evaluating`)."""
-    data = data_at(model, base)
-    data.qvel[:] = 0.0
-    if options.load is not None:
-        data.xfrc_applied[:], data.qfrc_applied[:] = options.load
+    data = data_at(model, base, options.load)
     q0, nv = data.qpos.copy(), model.nv
 
     def after_step(d):

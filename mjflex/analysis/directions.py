@@ -132,7 +132,7 @@ def _centre(K, extent):
     return c if np.linalg.norm(c) <= extent else np.zeros(3)
 
 
-def _relative_jacobian(model, data, body_a, body_b, point, R_WE):
+def relative_jacobian(model, data, body_a, body_b, point, R_WE):
     """Twist rate of body b relative to body a at ``point``, element axes, per unit qvel (6, nv)."""
     J = np.zeros((6, model.nv))
     for body, sign in ((body_b, 1.0), (body_a, -1.0)):
@@ -184,7 +184,7 @@ def element_directions(model, flex, normal=None, qpos=None) -> list[Directions]:
         )
         centre_world = p_WE + R_WE @ c
         ba, bb = int(model.site_bodyid[sa]), int(model.site_bodyid[sb])
-        J = T @ _relative_jacobian(model, data, ba, bb, p_WE, R_WE)
+        J = T @ relative_jacobian(model, data, ba, bb, p_WE, R_WE)
         inv_inertia = np.einsum("ij,jk,ik->i", J, Minv, J)
         local = np.sqrt(np.maximum(k, 0.0) * inv_inertia) / (2.0 * np.pi)
         names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i) for i in (sa, sb))

@@ -283,10 +283,14 @@ def saved_state(model, data) -> np.ndarray:
     return out
 
 
-def data_at(model, base) -> mujoco.MjData:
-    """A fresh ``MjData`` of ``model`` in the integration state of ``base`` (another ``MjData``)."""
+def data_at(model, base, load=None) -> mujoco.MjData:
+    """A fresh ``MjData`` of ``model`` in the integration state of ``base`` (another ``MjData``) at zero velocity,
+    with the checked dead loads ``load`` (:func:`loads`) when given."""
     data = mujoco.MjData(model)
     mujoco.mj_setState(model, data, saved_state(model, base), _STATE)
+    data.qvel[:] = 0.0
+    if load is not None:
+        data.xfrc_applied[:], data.qfrc_applied[:] = load
     return data
 
 
@@ -304,10 +308,7 @@ def linearize(model, flex, base, options, *, step=STEP, damping=False, dynamics=
     :func:`central_differences`; ``damping``: also ``C``. ``dynamics``: differentiate the accelerations instead,
     ``K = -M d qacc / d q`` and ``C = -M d qacc / d qvel`` (``M`` at ``base``): the same at rest, and away from it
     the motion's own linearization (the inertia changing with the configuration, ``(dM/dq) qacc``, counts)."""
-    data = data_at(model, base)
-    data.qvel[:] = 0.0
-    if options.load is not None:
-        data.xfrc_applied[:], data.qfrc_applied[:] = options.load
+    data = data_at(model, base, options.load)
     with evaluating(model, flex, options):
         f, _ = forces(model, data, options.constraints)
         scale = _scale(data, f)

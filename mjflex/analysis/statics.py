@@ -52,11 +52,6 @@ def _coordinate_scales(model, moving) -> np.ndarray:
     return np.where(translation, max(float(model.stat.extent), 1e-300), 1.0)[moving]
 
 
-def _roundoff(G, scales):
-    """Each residual's round-off, ``eps * |G| @ s`` (module docstring)."""
-    return np.finfo(float).eps * (np.abs(G) @ scales)
-
-
 def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None, xfrc_applied=None,
                        qfrc_applied=None, dofs=None, tol=1e-10, max_iterations=60,
                        step=1e-7) -> np.ndarray:  # fmt: skip
@@ -136,7 +131,7 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
             if iteration == max_iterations:
                 break
             G = central_differences(model, data, lambda d: _residual(model, d, moving), dofs=moving, step=step)
-            roundoff = _roundoff(G, scales)  # of the next iterate, which is close
+            roundoff = np.finfo(float).eps * (np.abs(G) @ scales)  # eps |G| s (module docstring), of the next iterate
             dq = np.zeros(model.nv)
             dq[moving] = -np.linalg.lstsq(G, r, rcond=None)[0]
             q0 = data.qpos.copy()

@@ -35,12 +35,11 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
-from ..analysis.directions import element_directions, element_matrices
+from ..analysis.directions import element_directions, element_matrices, relative_jacobian
 from ..mjcf import schema
 from ..mjcf.spec import compile_spec
-from ..runtime.flexures import Flexures
 from .assemble import assemble, hinge_closure
-from .tree import WORLD, Joint, Link, free_world_bodies, retired_sites
+from .tree import free_world_bodies, joints_of, link_of, retired_sites
 from .variant import (
     PoseFit,
     Variant,
@@ -48,7 +47,7 @@ from .variant import (
     identity_body_map,
     keeps_element_kinds,
     polynomial_terms_lines,
-    source_spec,
+    source_elements,
     stops_lines,
 )
 
@@ -60,15 +59,6 @@ WELD_MATCHES = ("compliant", "mean", "stiff", "rigid")
 #: then also absorbs this fraction of the unconstrained acceleration along the weld).
 WELD_IMPEDANCE = 1e-4
 TORQUESCALE = 10  # index of torquescale in a weld's eq_data (after anchor and relpose)
-
-
-def _source(source):
-    spec = source_spec(source)
-    model = compile_spec(spec, why=None)
-    flex = Flexures(model)
-    if not len(flex):
-        raise ValueError("the model has no mjflex elements: there is nothing to replace")
-    return spec, model, flex
 
 
 def _pick(values, match):
@@ -179,7 +169,7 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
     """
     if match not in WELD_MATCHES:
         raise ValueError(f"match={match!r}: use one of {WELD_MATCHES}")
-    spec, model, flex = _source(source)
+    spec, model, flex = source_elements(source, "replace")
     if match == "rigid":
         for n in flex.names:
             _add_weld(spec, n, _retire(spec, flex, n), [2.0 * model.opt.timestep, 1.0], [0.9, 0.95, 0.001, 0.5, 2.0])
@@ -211,14 +201,7 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
 
 def _links(model, dirs, choose):
     names = body_names(model)
-    out = []
-    for d in dirs:
-        idx = choose(d)
-        joints = [
-            Joint(d.kind(i), d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]), float(d.b[i])) for i in idx
-        ]
-        out.append(Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites, joints=joints))
-    return out
+    return [link_of(d, names, joints_of(d, choose(d))) for d in dirs]
 
 
 def _check_free(model, dirs):
@@ -254,13 +237,7 @@ class _TendonSprings:
         lines = []
         for link in self.pending:
             j = link.joints[0]
-            jac = np.zeros((3, model.nv))
-            for body, sign in ((link.body_b, 1.0), (link.body_a, -1.0)):
-                if body != WORLD:
-                    jr = np.zeros((3, model.nv))
-                    mujoco.mj_jac(model, data, None, jr, j.point, ids[body])
-                    jac += sign * jr
-            coef = j.axis @ jac
+            coef = j.axis @ relative_jacobian(model, data, ids[link.body_a], ids[link.body_b], j.point, np.eye(3))[:3]
             fixed = tree.add(
                 "tendon",
                 "fixed",
@@ -312,7 +289,7 @@ def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
     >>> print(variant.report.splitlines()[1])  # one hinge about the element's z axis, 1 N m/rad
     leaf: hinge rz, stiffness 1
     """
-    spec, model, flex = _source(source)
+    spec, model, flex = source_elements(source, "replace")
     dirs = element_directions(model, flex)
     _check_free(model, dirs)
     links = _links(model, dirs, lambda d: [int(np.argmin(np.where(d.k > 0, d.local_hz, np.inf)))])
@@ -368,7 +345,7 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
     >>> variant.name, variant.model.njnt, variant.model.nv
     ('bushing', 6, 6)
     """
-    spec, model, flex = _source(source)
+    spec, model, flex = source_elements(source, "replace")
     dirs = element_directions(model, flex)
     _check_free(model, dirs)
     order = [3, 4, 5, 0, 1, 2]  # slides first, then hinges, all through the centre of stiffness

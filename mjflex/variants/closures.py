@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from ..analysis.linearize import state
 from ..analysis.statics import static_equilibrium
 from ..mjcf.notices import warn_likely_mistake
 from ..runtime.flexures import Flexures
@@ -110,10 +111,7 @@ def at_rest(model, keyframe=None) -> tuple[mujoco.MjData | None, str | None]:
             qpos = static_equilibrium(model, flex if flex.names else None, keyframe=keyframe, dofs=dofs)
         except (RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             return None, str(exc)
-    data = mujoco.MjData(model)
-    if keyframe is not None:
-        mujoco.mj_resetDataKeyframe(model, data, model.key(keyframe).id)
-    data.qpos[:], data.qvel[:] = qpos, 0.0
+    data = state(model, keyframe, qpos)
     with flex:
         mujoco.mj_forward(model, data)
     return data, None

@@ -38,15 +38,6 @@ def _coupled(M):
     return np.abs(M[np.ix_(inside, outside)]).max() > TOL * max(np.abs(M).max(), 1e-300)
 
 
-def _candidate_normal(model, flex):
-    """The common z axis of all element frames (mjflex's compliant axis), or None."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    axes = [data.site_xmat[int(a)].reshape(3, 3)[:, 2] for a, _ in flex.site_ids]
-    n = axes[0]
-    return n if all(abs(abs(a @ n) - 1.0) < TOL for a in axes) else None
-
-
 def _velocities_in_plane(model, data, n, bodies):
     worst, scale = 0.0, 1e-300
     for b in bodies:
@@ -74,7 +65,13 @@ def plane_of(model, flex, free_bodies, plane, state=None):
     -------
     (normal, reason) : (ndarray or None, str or None)
     """
-    n = _candidate_normal(model, flex) if isinstance(plane, str) else np.asarray(plane, dtype=float)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    if isinstance(plane, str):  # the common z axis of all element frames (mjflex's compliant axis), if there is one
+        axes = [data.site_xmat[int(a)].reshape(3, 3)[:, 2] for a, _ in flex.site_ids]
+        n = axes[0] if all(abs(abs(a @ axes[0]) - 1.0) < TOL for a in axes) else None
+    else:
+        n = np.asarray(plane, dtype=float)
     if n is None:
         return None, "the element frames do not share one z axis"
     if n.shape != (3,) or not np.linalg.norm(n) > 0:
@@ -83,8 +80,6 @@ def plane_of(model, flex, free_bodies, plane, state=None):
     g = model.opt.gravity
     if abs(g @ n) > TOL * max(np.linalg.norm(g), 1e-300):
         return None, f"gravity {g.tolist()} has a component along the normal {np.round(n, 6).tolist()}"
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
     for rec, (a, _) in zip(flex.records, flex.site_ids, strict=True):
         R_EF = plane_frame(data.site_xmat[int(a)].reshape(3, 3), n)
         if any(_coupled(stiffness_in_frame(M, R_EF, np.zeros(3), check=False)) for M in element_matrices(rec)):

@@ -84,7 +84,6 @@ import numpy as np
 from ..analysis.advice import SAFETY
 from ..analysis.directions import damping_ratios, element_directions, energy_shares
 from ..core import validation
-from ..mjcf.spec import compile_spec
 from ..runtime.flexures import Flexures
 from .planar import in_plane_modes, out_of_plane, plane_of
 from .reduce_build import Plan, build, closure_singularity, element_line, step_line
@@ -92,7 +91,7 @@ from .reduce_choice import choose_rigid, drop_damping, rigid_floor, scene_shares
 from .reduce_edges import edge_of, joint_users, preloaded
 from .reduce_verify import SceneState, modes_at, scene_states, state_line, verify_modes, verify_step
 from .tree import WORLD, free_world_bodies
-from .variant import Variant, body_names, keeps_element_kinds, polynomial_terms_lines, source_spec, stops_lines
+from .variant import Variant, body_names, keeps_element_kinds, polynomial_terms_lines, source_elements, stops_lines
 
 COUPLING_TOL = 1e-3  # largest normalized stiffness coupling between the directions that become joint springs
 #: Largest :func:`closure_singularity` (at 1e-3 amplitude) for which loops="auto" closes loops by
@@ -180,11 +179,7 @@ class _Base:
 
 
 def _base(source, timestep, scene, plane):
-    spec = source_spec(source)
-    model = compile_spec(spec, why=None)
-    flex = Flexures(model)
-    if not len(flex):
-        raise ValueError("the model has no mjflex elements: there is nothing to reduce")
+    spec, model, flex = source_elements(source, "reduce")
     if timestep == "file":
         timestep = float(model.opt.timestep)
     states = scene_states(model, flex)  # linearized where the scene rests, as the step advice is asked

@@ -10,20 +10,15 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..analysis.linearize import normal_modes
 from ..mjcf import schema
 from ..runtime.flexures import Flexures
 from .assemble import assemble, hinge_closure, rigid_closure
 from .planar import planar_record, plane_frame
 from .reduce_choice import rigid_floor
 from .reduce_edges import edge_result, rejoint, restricted_record
-from .tree import WORLD, Joint, Link, free_world_bodies
+from .reduce_verify import modes_at
+from .tree import free_world_bodies, joints_of, link_of
 from .variant import body_names, equality_rows
-
-
-def joints_of(d, soft, keep_damping):
-    return [Joint(d.kind(i), d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]),
-                  float(d.b[i]) if keep_damping else 0.0) for i in soft]  # fmt: skip
 
 
 def springless(joints):
@@ -122,8 +117,7 @@ def build(plan, loops, name):
         if plan.reasons[e] is not None or e in plan.edges:
             continue
         soft = sorted(plan.keep[e])
-        link = Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites,
-                    joints=joints_of(d, soft, not plan.drop[e]))  # fmt: skip
+        link = link_of(d, names, joints_of(d, soft, not plan.drop[e]))
         if plan.restricted[e]:  # joints without springs; the element acts in the compliant directions only
             springless(link.joints)
             link.info["record"] = restricted_record(plan.flex.records[e], d, soft, not plan.drop[e]).to_text()
@@ -166,14 +160,6 @@ def build(plan, loops, name):
                     inplace=in_place)  # fmt: skip
 
 
-def variant_modes(variant, actuator_stiffness=False):
-    """The variant's normal modes as :func:`mjflex.reduce` takes the full model's (springs, equalities projected)."""
-    model = variant.model
-    flex = Flexures(model) if variant.has_flexures else None
-    return normal_modes(model, flex, joint_springs=True, actuator_stiffness=actuator_stiffness,
-                        constraints="project" if model.neq else "ignore")  # fmt: skip
-
-
 def closure_singularity(variant, count, amplitude=1e-3):
     """How far the variant's loop constraints are from moving along its first ``count`` modes.
 
@@ -187,7 +173,7 @@ def closure_singularity(variant, count, amplitude=1e-3):
     model = variant.model
     if model.neq == 0:
         return 0.0
-    freq, modes = variant_modes(variant)
+    freq, modes = modes_at(model, Flexures(model) if variant.has_flexures else None, None, actuator_stiffness=False)
     data = mujoco.MjData(model)
     worst = 0.0
     for k in np.nonzero(freq > rigid_floor(freq))[0][:count]:

@@ -53,6 +53,11 @@ def constrained_error(lam, rows, target, n_rigid, floor):
     return float(np.max(np.abs(f - target) / target, initial=0.0))
 
 
+def modal_rows(dirs, modes, pairs) -> np.ndarray:
+    """``(len(pairs), n)``: the principal velocity of each ``(element, direction)`` of ``pairs`` in the modes."""
+    return np.array([dirs[e].J[i] @ modes for e, i in pairs]).reshape(len(pairs), modes.shape[1])
+
+
 def held_prefix(n, cand, reducible, forced, max_joints, allowed=None):
     """Rigid directions (n_el, 6), reducible elements and the indices into ``cand`` held rigid, for the prefix ``n``.
 
@@ -94,12 +99,12 @@ def choose_rigid(dirs, shares, freq, modes, mask, reducible, allowed, forced, fr
     n_rigid = int(np.sum(freq <= floor))
     score = shares.max(axis=2, initial=0.0)
     reducible = np.array(reducible, dtype=bool)
-    fixed = np.array([dirs[e].J[i] @ modes for e, i in zip(*np.nonzero(forced), strict=True)]).reshape(-1, len(lam))
+    fixed = modal_rows(dirs, modes, list(zip(*np.nonzero(forced), strict=True)))
     needed = np.zeros_like(forced) if needed is None else needed
     cand = [(e, i) for e in np.nonzero(reducible)[0] for i in range(6)
             if not forced[e, i] and not needed[e, i] and np.isfinite(score[e, i])]  # fmt: skip
     cand.sort(key=lambda c: score[c])
-    rows = np.array([dirs[e].J[i] @ modes for e, i in cand]).reshape(len(cand), len(lam))
+    rows = modal_rows(dirs, modes, cand)
 
     def error(held):
         return constrained_error(lam, np.vstack([fixed, rows[held]]), target, n_rigid, floor)
@@ -260,19 +265,14 @@ def choose_for_step(dirs, freq, modes, candidate, omega_band, band_mask, freq_to
     lam = (2.0 * np.pi * freq) ** 2
     floor = rigid_floor(freq)
     n_rigid = int(np.sum(freq <= floor))
-
-    def rows_of(pairs):
-        return np.array([dirs[e].J[i] @ modes for e, i in pairs]).reshape(len(pairs), len(lam))
-
     every = [(e, i) for e in range(len(dirs)) for i in range(6)]
-    all_rows = rows_of(every)
-    target2 = max(omega_band**2, top_omega2(lam, all_rows)[0] * (1.0 + 1e-9))
-    fixed = rows_of([(int(e), int(i)) for e, i in zip(*np.nonzero(forced), strict=True)])
+    target2 = max(omega_band**2, top_omega2(lam, modal_rows(dirs, modes, every))[0] * (1.0 + 1e-9))
+    fixed = modal_rows(dirs, modes, list(zip(*np.nonzero(forced), strict=True)))
     above = freq**2 * (2.0 * np.pi) ** 2 > target2
     share = energy_shares(dirs, freq, modes, above).max(axis=2, initial=0.0)  # in the modes the step cannot take
     cand = [(e, i) for e, i in every if candidate[e, i]]
     cand.sort(key=lambda c: (-share[c], -dirs[c[0]].local_hz[c[1]]))
-    rows = rows_of(cand)
+    rows = modal_rows(dirs, modes, cand)
 
     def top(n):
         return top_omega2(lam, np.vstack([fixed, rows[:n]]))

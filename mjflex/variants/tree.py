@@ -55,6 +55,18 @@ class Link:
         return self.body_b if body == self.body_a else self.body_a
 
 
+def joints_of(d, soft, damping=True):
+    """Joints in the principal directions ``soft`` of an element (``d``: its
+    :class:`~mjflex.analysis.directions.Directions`), with their stiffness and (``damping``) their damping."""
+    return [Joint(d.kind(i), d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]),
+                  float(d.b[i]) if damping else 0.0) for i in soft]  # fmt: skip
+
+
+def link_of(d, names, joints):
+    """The :class:`Link` of an element (``d``: its principal directions; ``names``: the body names by id)."""
+    return Link(d.element, *(names[b] if b else WORLD for b in (d.body_a, d.body_b)), d.sites, joints=joints)
+
+
 def numbers(v):
     """A number or an array as MJCF text, every digit kept."""
     return " ".join(f"{float(x):.17g}" for x in np.atleast_1d(v))

@@ -25,6 +25,7 @@ from ..mjcf import convert, elements
 from ..mjcf.schema import PLUGIN, RECORD
 from ..mjcf.spec import compile_spec
 from ..native import library
+from ..runtime.flexures import Flexures
 
 
 class VariantNotApplicableError(Exception):
@@ -127,6 +128,17 @@ def source_spec(source) -> mujoco.MjSpec:
                 ) from None
             return mujoco.MjSpec.from_file(path)
     raise TypeError(f"source must be a model file path, an MjSpec or an MjModel; got {type(source).__name__}")
+
+
+def source_elements(source, verb) -> tuple:
+    """``(spec, model, flex)`` of ``source`` (:func:`source_spec`, compiled, its :class:`mjflex.Flexures`); ValueError
+    when it has no element (nothing to ``verb``)."""
+    spec = source_spec(source)
+    model = compile_spec(spec, why=None)
+    flex = Flexures(model)
+    if not len(flex):
+        raise ValueError(f"the model has no mjflex elements: there is nothing to {verb}")
+    return spec, model, flex
 
 
 def keeps_element_kinds(builder):
