@@ -105,7 +105,7 @@ def _plate_frame(angle):
     R = np.column_stack([e_r, np.cross(e_t, e_r), e_t])
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, R.ravel())
-    return (lambda r, z: r * e_r + z * e_z), q, e_r, e_z
+    return (lambda r, z: r * e_r + z * e_z), q
 
 
 def _box(body, name, center, half, quat, density, rgba):
@@ -113,14 +113,16 @@ def _box(body, name, center, half, quat, density, rgba):
                   rgba=rgba, contype=0, conaffinity=0)  # fmt: skip
 
 
-def _radial_link(spec, name, p, at, quat, r0, r1, z, rgba=(0.72, 0.74, 0.78, 1.0)):
-    """A free body: box between radii r0..r1 at height z of the plate (section link_width x plate_thickness)."""
-    center = at(0.5 * (r0 + r1), z)
-    body = spec.worldbody.add_body(name=name, pos=center, quat=quat)
+def _link(spec, name, p, pos, quat, half_r, half_z, rgba=(0.72, 0.74, 0.78, 1.0)):
+    """A free body at ``pos``: a box of half sizes ``half_r`` (radial), ``half_z`` (axial) in the plate."""
+    body = spec.worldbody.add_body(name=name, pos=pos, quat=quat)
     body.add_freejoint()
-    _box(body, name + "_geom", [0, 0, 0], [0.5 * (r1 - r0), 0.5 * p.link_width, 0.5 * p.plate_thickness], [1, 0, 0, 0],
-         p.link_density, rgba)  # fmt: skip
-    return body
+    _box(body, name + "_geom", [0, 0, 0], [half_r, half_z, 0.5 * p.plate_thickness], [1, 0, 0, 0], p.link_density, rgba)
+
+
+def _radial_link(spec, name, p, at, quat, r0, r1, z):
+    """A free body: box between radii r0..r1 at height z of the plate (section link_width x plate_thickness)."""
+    _link(spec, name, p, at(0.5 * (r0 + r1), z), quat, 0.5 * (r1 - r0), 0.5 * p.link_width)
 
 
 def _scenery(spec):
@@ -143,7 +145,7 @@ def _base(spec, p):
     half_z = max(p.leg_z) + 0.015
     color = (0.25, 0.27, 0.32, 1.0)
     for k, deg in enumerate(p.plate_angles_deg):
-        at, quat, _, _ = _plate_frame(np.radians(deg))
+        at, quat = _plate_frame(np.radians(deg))
         _box(body, f"base_post_p{k}", at(p.r_base + 0.005, 0.0), [0.005, half_z, 0.006], quat, 0, color)
     # the two quasi-triangular end plates, as flat triangular meshes
     tri = [np.radians(d) for d in p.plate_angles_deg]
@@ -167,7 +169,7 @@ def _cylinder(spec, p):
     lug_r0 = p.cylinder_radius
     lug_r1 = p.r_rod_inner - p.notch_radius
     for k, deg in enumerate(p.plate_angles_deg):
-        at, quat, _, _ = _plate_frame(np.radians(deg))
+        at, quat = _plate_frame(np.radians(deg))
         for side, z in (("top", p.rod_z), ("bottom", -p.rod_z)):
             _box(body, f"cylinder_lug_p{k}_{side}", at(0.5 * (lug_r0 + lug_r1), z),
                  [0.5 * (lug_r1 - lug_r0), 0.5 * p.link_width, 0.5 * p.plate_thickness], quat, p.link_density,
@@ -175,45 +177,28 @@ def _cylinder(spec, p):
     return body
 
 
-def _hub(spec, p, k, at, quat):
-    z_max = max(p.leg_z) + 0.5 * p.link_width
-    body = spec.worldbody.add_body(name=f"hub_p{k}", pos=at(p.r_hub, 0.0), quat=quat)
-    body.add_freejoint()
-    _box(body, f"hub_p{k}_geom", [0, 0, 0], [0.5 * p.link_width, z_max, 0.5 * p.plate_thickness], [1, 0, 0, 0],
-         p.link_density, (0.85, 0.6, 0.3, 1.0))  # fmt: skip
-    return body
-
-
-@dataclass
-class _Element:
-    name: str
-    body_a: str
-    body_b: str
-    r: float
-    z: float
-    kind: str  # "notch" | "leaf"
-
-
 def _plate(spec, p, k):
-    """Bodies of plate k; returns its flexure elements (body names, plate coordinates)."""
-    at, quat, _, _ = _plate_frame(np.radians(p.plate_angles_deg[k]))
-    _hub(spec, p, k, at, quat)
+    """Bodies of plate k; returns its flexure elements: (name, body a, body b, position, quaternion, kind)."""
+    at, quat = _plate_frame(np.radians(p.plate_angles_deg[k]))
+    hub = f"hub_p{k}"
+    _link(spec, hub, p, at(p.r_hub, 0.0), quat, 0.5 * p.link_width, max(p.leg_z) + 0.5 * p.link_width,
+          (0.85, 0.6, 0.3, 1.0))  # fmt: skip
     R = p.notch_radius
     elements = []
     for tag, z in (("R1", p.rod_z), ("R2", -p.rod_z)):
         rod = f"rod_p{k}_{tag}"
         _radial_link(spec, rod, p, at, quat, p.r_rod_inner + R, p.r_rod_outer - R, z)
-        elements += [_Element(f"notch_p{k}_{tag}_cyl", "cylinder", rod, p.r_rod_inner, z, "notch"),
-                     _Element(f"notch_p{k}_{tag}_hub", rod, f"hub_p{k}", p.r_rod_outer, z, "notch")]  # fmt: skip
+        elements += [(f"notch_p{k}_{tag}_cyl", "cylinder", rod, at(p.r_rod_inner, z), quat, "notch"),
+                     (f"notch_p{k}_{tag}_hub", rod, hub, at(p.r_rod_outer, z), quat, "notch")]  # fmt: skip
     leg_levels = (("L1", p.leg_z[0]), ("L2", p.leg_z[1]), ("L3", -p.leg_z[1]), ("L4", -p.leg_z[0]))
     for tag, z in leg_levels:
         inner, outer = f"leg_p{k}_{tag}_in", f"leg_p{k}_{tag}_out"
         _radial_link(spec, inner, p, at, quat, p.r_leg_inner + R, p.r_leg_middle - R, z)
         _radial_link(spec, outer, p, at, quat, p.r_leg_middle + R, p.r_leaf - 0.5 * p.leaf_length, z)
         elements += [
-            _Element(f"notch_p{k}_{tag}_hub", f"hub_p{k}", inner, p.r_leg_inner, z, "notch"),
-            _Element(f"notch_p{k}_{tag}_mid", inner, outer, p.r_leg_middle, z, "notch"),
-            _Element(f"leaf_p{k}_{tag}_base", outer, "base", p.r_leaf, z, "leaf"),
+            (f"notch_p{k}_{tag}_hub", hub, inner, at(p.r_leg_inner, z), quat, "notch"),
+            (f"notch_p{k}_{tag}_mid", inner, outer, at(p.r_leg_middle, z), quat, "notch"),
+            (f"leaf_p{k}_{tag}_base", outer, "base", at(p.r_leaf, z), quat, "leaf"),
         ]
     return elements
 
@@ -268,14 +253,12 @@ def build_arcade_spec(params: ArcadeParams | None = None, *, method="twist", rig
     renames = _weld_end_groups(spec, p) if rigid_end_groups else {}
     kinds = _flexure_kinds(p)
     poses = reference_body_poses(spec)
-    for e in elements:
-        at, quat, _, _ = _plate_frame(np.radians(p.plate_angles_deg[int(e.name.split("_p")[1][0])]))
-        K, strain, source = kinds[e.kind]
-        h = add_flexure(spec, e.name, renames.get(e.body_a, e.body_a), renames.get(e.body_b, e.body_b),
-                        pos=at(e.r, e.z), quat=quat, K=K, B=p.damping_beta * K, method=method, poses=poses,
-                        strain_per_radian=strain, source=source, kind=kind,
-                        strain_scale=STRAIN_SCALE)  # fmt: skip
-        _style_sites(h, p, e.kind)
+    for name, a, b, pos, quat, flexure in elements:
+        K, strain, source = kinds[flexure]
+        h = add_flexure(spec, name, renames.get(a, a), renames.get(b, b), pos=pos, quat=quat, K=K,
+                        B=p.damping_beta * K, method=method, poses=poses, strain_per_radian=strain, source=source,
+                        kind=kind, strain_scale=STRAIN_SCALE)  # fmt: skip
+        _style_sites(h, p, flexure)
     _paper_keyframe(spec)
     return spec
 

@@ -20,38 +20,29 @@ from .timing import process_start
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".avi", ".webm", ".gif")
 
 
-def positive_float(text):
-    """argparse type: a positive, finite number (rejects 0, negatives, nan and inf)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive, finite number; got {text!r}")
-    return value
+def _positive(convert, noun, rule):
+    """argparse type: a positive number of ``convert`` (float: finite; 0 and negatives rejected)."""
+
+    def parse(text):
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {noun}, got {text!r}") from None
+        if not (value > 0 and math.isfinite(value)):
+            raise argparse.ArgumentTypeError(f"must be {rule}; got {text!r}")
+        return value
+
+    return parse
 
 
-def positive_int(text):
-    """argparse type: a positive integer (rejects 0, negatives and non-integers)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive whole number; got {text!r}")
-    return value
+positive_float = _positive(float, "a number", "a positive, finite number")
+positive_int = _positive(int, "a whole number", "a positive whole number")
 
 
-def check_output(path, option, suffixes=None):
-    """Raise SystemExit unless file ``path`` can be written (its folder exists); checked before a run."""
-    problem = None if path is None else file_problem(path, option, suffixes)
-    if problem:
-        raise SystemExit(f"error: {problem}")
-
-
-def check_output_folder(path, option="--out"):
-    """Raise SystemExit unless ``path`` is, or can be created as, a writable folder; checked before a run."""
-    problem = folder_problem(path, option)
+def check_output(path, option, suffixes=None, *, folder=False):
+    """Raise SystemExit unless ``path`` can be written: a file in an existing folder, or a ``folder`` that is one or
+    can be created; checked before a run."""
+    problem = folder_problem(path, option) if folder else path is not None and file_problem(path, option, suffixes)
     if problem:
         raise SystemExit(f"error: {problem}")
 
@@ -85,7 +76,7 @@ def _demo_command(args):
     from .demo import command_clock, run_demo, video_size  # matplotlib and the figures load only for this command
 
     clock = command_clock(args.process_started)
-    check_output_folder(args.out)
+    check_output(args.out, "--out", folder=True)
     with clock.phase("rendering set-up"):  # the GL's kind sets the default size; its limit is checked before the run
         try:
             width, height = video_size(args.width, args.height, render.gl_info())
@@ -115,11 +106,10 @@ class HelpFormatter(argparse.HelpFormatter):
         stated = "(default" in text or "; default" in text
         if stated or not action.option_strings or action.default in (None, False, argparse.SUPPRESS):
             return text
-        value = action.default
-        shown = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) if isinstance(
-            value, list | tuple) else (f"{value:g}" if isinstance(value, float) else str(value))  # fmt: skip
-        if action.type is _floats:
-            shown = shown.replace(" ", ",")
+        values = action.default if isinstance(action.default, list | tuple) else [action.default]
+        shown = ("," if action.type is _floats else " ").join(
+            f"{v:g}" if isinstance(v, float) else str(v) for v in values
+        )
         return f"{text} (default {shown.replace('%', '%%')})"
 
 
@@ -142,10 +132,6 @@ def _sweep_parser(sub):
     sw.add_argument("--out", default="out", help="folder for sweep_arcade.nc, .png and .json, created if missing")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     return sw
-
-
-def _cli_spelling(name):
-    return "--" + name.replace("_", "-")
 
 
 def _study_options(args, study):
@@ -173,7 +159,7 @@ def _study_command(args):
 
     options = _study_options(args, study)
     try:  # every option, before anything is loaded, run or written
-        check_options(options, args.out, spell=_cli_spelling)
+        check_options(options, args.out, spell=lambda name: "--" + name.replace("_", "-"))
     except StudyError as exc:
         raise SystemExit(f"error: {exc}") from None
     model = arcade_source()[0] if args.model == "arcade" else args.model
@@ -332,18 +318,16 @@ def main(argv=None):
         raise SystemExit(build_docs(args.out, strict=not args.no_strict, tutorials=not args.no_tutorials))
     if args.command == "study":
         _study_command(args)
-        return
-    if args.command == "convert":
+    elif args.command == "convert":
         _convert_command(args)
-        return
-    if args.command == "sweep":
+    elif args.command == "sweep":
         if args.threads is not None and args.threads < 0:
             ap.error("--threads must be >= 0 (0: all CPUs)")
         if args.device is not None and args.executor != "warp":
             ap.error("--device is for --executor warp")
         if not (args.duration >= 0 and math.isfinite(args.duration)):
             ap.error(f"--duration must be a finite number of seconds >= 0; got {args.duration:g}")
-        check_output_folder(args.out)
+        check_output(args.out, "--out", folder=True)
         from .sweep.arcade import run_arcade_sweep  # late: xarray and the sweep machinery, for `sweep` only
 
         try:

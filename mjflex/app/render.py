@@ -17,6 +17,7 @@ time, by the ffmpeg binary shipped in the ``imageio-ffmpeg`` package (no system 
 with x264's fastest preset at a fixed quantizer (:data:`ENCODER`). Figures: :mod:`.figures`.
 """
 
+import contextlib
 import functools
 import importlib
 import os
@@ -126,16 +127,12 @@ def _gl_query(backend):
         context.make_current()
         from OpenGL import GL  # after the backend's import, which chose PyOpenGL's platform
 
-        try:
+        with contextlib.suppress(Exception):  # a context PyOpenGL cannot query: the strings stay unknown
             strings = tuple(GL.glGetString(name).decode(errors="replace") for name in
                             (GL.GL_RENDERER, GL.GL_VENDOR, GL.GL_VERSION))  # fmt: skip
-        except Exception:  # a context PyOpenGL cannot query: the strings stay unknown
-            pass
-        try:
+        with contextlib.suppress(Exception):
             dims = GL.glGetIntegerv(GL.GL_MAX_VIEWPORT_DIMS)
             size = int(min(int(GL.glGetIntegerv(GL.GL_MAX_RENDERBUFFER_SIZE)), *(int(d) for d in np.ravel(dims))))
-        except Exception:
-            pass
         return strings, size
     finally:
         context.free()
@@ -181,9 +178,7 @@ def choose_look(quality, info: GLInfo) -> Look:
     """``quality``: ``"full"``, ``"fast"`` or ``"auto"`` (fast on a software GL, full otherwise or if unknown)."""
     if quality not in QUALITIES:
         raise ValueError(f"quality must be one of {QUALITIES}; got {quality!r}")
-    if quality == "auto":
-        return FAST if info.software else FULL
-    return FAST if quality == "fast" else FULL
+    return FAST if quality == "fast" or (quality == "auto" and info.software) else FULL
 
 
 def make_renderer(model, width, height, *, antialias=True):
@@ -262,15 +257,6 @@ def colour_scale(flex, run, vmax=None) -> ColourScale:
     return ColourScale(values, vmax or max(top, 1e-12), label, short, unit, factor)
 
 
-def _font(size):
-    from PIL import ImageFont  # late: Pillow, only for captions
-
-    try:
-        return ImageFont.load_default(size=size)
-    except TypeError:  # Pillow < 10.1: fixed-size bitmap font
-        return ImageFont.load_default()
-
-
 #: Smallest video (width, height) [pixels]: the frames carry the time and a colour bar (:class:`_Overlay`).
 MIN_VIDEO_SIZE = (64, 36)
 
@@ -282,10 +268,13 @@ class _Overlay:
     """
 
     def __init__(self, width, height, scale: ColourScale | None):
-        from PIL import Image, ImageDraw  # late: Pillow, only for captions and legends
+        from PIL import Image, ImageDraw, ImageFont  # late: Pillow, only for captions and legends
 
         self.size = max(10, height // 28)
-        self.font = _font(self.size)
+        try:
+            self.font = ImageFont.load_default(size=self.size)
+        except TypeError:  # Pillow < 10.1: fixed-size bitmap font
+            self.font = ImageFont.load_default()
         self.box = (min(width, 12 * self.size), min(height, int(1.6 * self.size)))  # time: w, h
         self.legend = None
         if scale is None:
@@ -296,13 +285,12 @@ class _Overlay:
         bar = strain_colors(np.linspace(0.0, 1.0, w - s)[None, :].repeat(int(0.6 * s), 0), 1.0)[..., :3]
         img.paste(Image.fromarray((255 * bar).astype(np.uint8)), (s // 2, int(1.3 * s)))
         draw = ImageDraw.Draw(img)
-        draw.text((s // 2, s // 6), f"{scale.short} [{scale.unit}]", fill=(235, 235, 235),
-                  font=self.font)  # fmt: skip
+        text = functools.partial(draw.text, fill=(235, 235, 235), font=self.font)
+        text((s // 2, s // 6), f"{scale.short} [{scale.unit}]")
         ticks = int(2.0 * s)
-        draw.text((s // 2, ticks), "0", fill=(235, 235, 235), font=self.font)
+        text((s // 2, ticks), "0")
         top = scale.ticks_text(scale.vmax)
-        draw.text((w - s // 2 - draw.textlength(top, font=self.font), ticks), top, fill=(235, 235, 235),
-                  font=self.font)  # fmt: skip
+        text((w - s // 2 - draw.textlength(top, font=self.font), ticks), top)
         self.legend = np.asarray(img)
 
     def draw(self, image, text):
@@ -398,8 +386,7 @@ def write_video(path, frames, fps, *, queue_frames=2) -> VideoStats:
             feeder.join()
         if failed:
             raise failed[0]
-        t0 = clock()
-    waited += clock() - t0  # ffmpeg finishing the last frames
+    waited += clock() - t0  # the writer and ffmpeg finishing the last frames
     height, width = first.shape[:2]
     own = time.process_time() - own
     return VideoStats(str(path), count, width, height, fps, made, waited, own, _children_cpu() - cpu)
@@ -420,18 +407,6 @@ def read_video(path):
     width, height = meta["size"]
     frames = [np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader]
     return np.stack(frames) if frames else np.zeros((0, height, width, 3), np.uint8)
-
-
-def hide_plugin_drawing(scene) -> int:
-    """Blank the geoms the engine plugin ``mjflex.flexure`` drew in ``scene`` (its viewer colours, on a fixed
-    scale); returns how many. A :class:`RunRenderer` colours the sites on the run's own scale instead."""
-    hidden = 0
-    for i in range(scene.ngeom):
-        geom = scene.geoms[i]
-        if geom.objtype == mujoco.mjtObj.mjOBJ_PLUGIN and geom.category == mujoco.mjtCatBit.mjCAT_DECOR:
-            geom.type = mujoco.mjtGeom.mjGEOM_NONE
-            hidden += 1
-    return hidden
 
 
 class RunRenderer:
@@ -470,8 +445,11 @@ class RunRenderer:
         mujoco.mj_forward(self.model, self.data)
         self.model.site_rgba[self.sites] = strain_colors(self.scale.values[k], self.scale.vmax)
         self.renderer.update_scene(self.data, camera=self.camera, scene_option=self.option)
-        hide_plugin_drawing(self.renderer.scene)
-        (look or self.look).apply(self.renderer.scene)
+        scene = self.renderer.scene
+        for geom in scene.geoms[: scene.ngeom]:  # the engine plugin's drawing (viewer colours, on a fixed scale)
+            if geom.objtype == mujoco.mjtObj.mjOBJ_PLUGIN and geom.category == mujoco.mjtCatBit.mjCAT_DECOR:
+                geom.type = mujoco.mjtGeom.mjGEOM_NONE  # blanked: the sites show the run's own scale
+        (look or self.look).apply(scene)
         image = self.renderer.render()
         return self.overlay.draw(image, f"t = {self.run.time[k] * 1e3:.3f} ms") if label else image
 

@@ -53,14 +53,11 @@ def load_model(path, method=None, damping=True):
         if method is None and damping:
             return mujoco.MjModel.from_xml_path(path)
         spec = mujoco.MjSpec.from_file(path)
-    except ValueError as exc:
-        raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
-    try:
-        edit_elements(spec, method=method, viscous=None if damping else False)
-    except ValueError as exc:
-        option = "--method" if method is not None else "--no-damping"
-        raise SystemExit(f"error: {os.path.basename(path)}: {option}: {exc}") from None
-    try:
+        try:
+            edit_elements(spec, method=method, viscous=None if damping else False)
+        except ValueError as exc:
+            option = "--method" if method is not None else "--no-damping"
+            raise SystemExit(f"error: {os.path.basename(path)}: {option}: {exc}") from None
         return spec.compile()
     except ValueError as exc:
         raise SystemExit(f"error: MuJoCo cannot load {path!r}: {exc}") from None
@@ -141,12 +138,11 @@ def run_model(model, name, *, duration, method=None, integrator=None, timestep=N
     if progress:
         start = f"keyframe {key!r}" if key else "qpos0 at rest"
         print(f"simulating {name} for {duration * 1e3:g} ms from {start}", file=sys.stderr)
-    started, cpu = time.perf_counter(), time.process_time()
-    run, wall, steps = simulate(
-        model, data, flex, duration, sample_dt=sample_dt, progress=progress, keep_qpos=bool(video) or every_step
-    )
-    summary = summarize(name, model, flex, run, wall, steps)
-    clock.add("run", time.perf_counter() - started, time.process_time() - cpu)
+    with clock.phase("run"):
+        run, wall, steps = simulate(
+            model, data, flex, duration, sample_dt=sample_dt, progress=progress, keep_qpos=bool(video) or every_step
+        )
+        summary = summarize(name, model, flex, run, wall, steps)
     if video:
         with render.RunRenderer(model, flex, run, width=width, height=height, look=quality) as renderer:
             picks, slowdown = frame_picks(run, fps, slowdown)

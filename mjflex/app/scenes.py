@@ -35,6 +35,17 @@ def _box_body(parent, name, pos, half, density, quat=(1, 0, 0, 0), free=True):
     return body
 
 
+def _add_key(spec, name, body, velocity):
+    """Keyframe ``name``: the reference pose, with the first ``len(velocity)`` dofs of ``body``'s free joint
+    (linear velocity in world axes [m/s], then angular velocity [rad/s]) set to ``velocity``; returns ``spec``."""
+    model = spec.compile()
+    qvel = np.zeros(model.nv)
+    adr = model.jnt_dofadr[model.body(body).jntadr[0]]
+    qvel[adr : adr + len(velocity)] = velocity
+    spec.add_key(name=name, qpos=model.qpos0, qvel=qvel)
+    return spec
+
+
 # ------------------------------------------------------------------------------------------ bushing
 
 #: A rubber-like bushing with coupled rotation/translation stiffness (element frame at the body
@@ -59,11 +70,7 @@ def bushing_spec(*, K=BUSHING_K, beta=2e-4, timestep=2e-5, spin=(90.0, -60.0, 13
     spec = _spec("bushing", timestep)
     _box_body(spec.worldbody, "block", [0, 0, 0], [0.06, 0.04, 0.025], 2500.0)
     add_flexure(spec, "bushing", "world", "block", pos=[0, 0, 0], K=K, B=beta * np.asarray(K), method="twist")
-    model = spec.compile()
-    qvel = np.zeros(model.nv)
-    qvel[:3], qvel[3:] = velocity, np.asarray(spin)  # free joint: linear (world), angular (body = world here)
-    spec.add_key(name="launch", qpos=model.qpos0, qvel=qvel)
-    return spec
+    return _add_key(spec, "launch", "block", [*velocity, *spin])  # angular: body axes = world axes here
 
 
 # ------------------------------------------------------------------------------------------ cantilever
@@ -129,11 +136,7 @@ def cantilever_spec(beam=None, n=10, *, tip_speed=0.0, timestep=2e-6, beta=0.0):
     for k in range(n):
         add_flexure(spec, f"seg{k}", "world" if k == 0 else f"link{k}", f"link{k + 1}", pos=[edges[k], 0, 0], K=K,
                     B=beta * K, poses=poses)  # fmt: skip
-    model = spec.compile()
-    qvel = np.zeros(model.nv)
-    qvel[model.jnt_dofadr[model.body(f"link{n}").jntadr[0]] + 1] = tip_speed
-    spec.add_key(name="kick", qpos=model.qpos0, qvel=qvel)
-    return spec
+    return _add_key(spec, "kick", f"link{n}", [0.0, tip_speed])
 
 
 def cantilever_flexcomp_spec(beam=None, n=10, *, timestep=2e-6):
@@ -190,11 +193,7 @@ def parallelogram_spec(*, speed=0.05, timestep=1e-5):
         add_flexure(spec, f"notch{i + 1}_ground", "world", rod, pos=[x, 0, 0], quat=quat, K=K, B=2e-6 * K, poses=poses)
         add_flexure(spec, f"notch{i + 1}_top", rod, "platform", pos=[x, h, 0], quat=quat, K=K, B=2e-6 * K,
                     poses=poses)  # fmt: skip
-    model = spec.compile()
-    qvel = np.zeros(model.nv)
-    qvel[model.jnt_dofadr[model.body("platform").jntadr[0]]] = speed
-    spec.add_key(name="push", qpos=model.qpos0, qvel=qvel)
-    return spec
+    return _add_key(spec, "push", "platform", [speed])
 
 
 __all__ = ["BUSHING_K", "Beam", "bushing_spec", "cantilever_flexcomp_spec", "cantilever_spec", "parallelogram_spec"]

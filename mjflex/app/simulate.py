@@ -222,12 +222,8 @@ class Progress:
 
 @contextmanager
 def _divergence_stops_the_run(model):
-    """Disable MuJoCo's auto-reset for the run (restored after), so that a divergence stops it.
-
-    With auto-reset on, MuJoCo would reset a diverged state to the initial one and the run
-    would go on from there; without it, a diverging flexure raises ``mujoco.FatalError``
-    naming the element, and MuJoCo's own bad qpos/qvel/qacc checks count a warning.
-    """
+    """MuJoCo's auto-reset off for the run (restored after): a diverging flexure raises ``mujoco.FatalError``
+    naming the element, and MuJoCo's bad qpos/qvel/qacc checks count a warning, instead of a reset."""
     flags = model.opt.disableflags
     model.opt.disableflags = flags | mujoco.mjtDisableBit.mjDSBL_AUTORESET
     try:
@@ -240,7 +236,7 @@ def _warning_counts(data):
     return {int(w): int(data.warning[w].number) for w in (*DIVERGENCE_WARNINGS, *OTHER_WARNINGS)}
 
 
-def _divergence(model, data, before):
+def _divergence(data, before):
     """What MuJoCo's warnings say diverged since the counts ``before``, or None."""
     for w, what in DIVERGENCE_WARNINGS.items():
         if data.warning[w].number > before[int(w)]:
@@ -317,13 +313,13 @@ def simulate(
     with _divergence_stops_the_run(model), flex:  # installed before the progress clock starts
         bar = Progress(steps, None if progress is True else progress) if progress else None
         for i in range(1, steps + 1):
+            t = t_start + (i - 1) * h  # the start of this step
             try:
                 t0 = time.perf_counter()
                 mujoco.mj_step(model, data)
                 wall += time.perf_counter() - t0  # stepping only; the bookkeeping below is not counted
-                problem = _divergence(model, data, before)
+                problem = _divergence(data, before)
                 if problem is not None:  # mjflex may name the element that made the state bad
-                    t = t_start + (i - 1) * h
                     found = [v for v in flex.divergences(data).values() if abs(v.time - t) <= 1e-9 * max(h, t)]
                     problem = found[0].message if found else problem
                 if problem is None:
@@ -332,7 +328,6 @@ def simulate(
             except mujoco.FatalError as exc:  # a flexure diverged (auto-reset is off), named in the message
                 problem = str(exc)
             if problem is not None:
-                t = t_start + (i - 1) * h
                 raise DivergenceError(
                     f"the run diverged in {step_phrase(t, h)} of its {steps} steps: {problem.rstrip('.')}. "
                     "Nothing from this step on is a result.",
@@ -351,19 +346,14 @@ def simulate(
     return run, wall, steps
 
 
-def summarize(model_name, model, flex, run, wall, steps, *, strain_per_radian=None) -> Summary:
-    """Energy balance, extreme rotations and strains of a run.
-
-    ``strain_per_radian`` (n,) converts each element's bending rotation to a peak strain;
-    by default it is taken from the elements' records when they carry ``strain_per_radian``.
-    """
+def summarize(model_name, model, flex, run, wall, steps) -> Summary:
+    """Energy balance, extreme rotations and strains of a run (strains where the elements' records state
+    ``strain_per_radian``)."""
     E = run.array("kinetic") + run.array("mujoco_potential") + run.array("flexure_potential")
     exchanged = max(float(np.ptp(run.array("flexure_potential"))), float(np.ptp(run.array("kinetic"))), 1e-300)
     balance = float(E[-1] + run.dissipated[-1] - E[0])
     e_rot = int(np.argmax(run.peak_rotation))
-    if strain_per_radian is None:
-        strain_per_radian = element_strain_per_radian(flex)
-    strain = run.peak_bending * strain_per_radian
+    strain = run.peak_bending * element_strain_per_radian(flex)
     has_strain = bool(np.isfinite(strain).any())
     e_str = int(np.nanargmax(strain)) if has_strain else None
     duration = run.time[-1] - run.time[0]
