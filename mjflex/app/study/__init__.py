@@ -125,18 +125,7 @@ A block on a leaf spring, pushed into a rocking motion: two integrators at two s
 model variants, one timing round and no bisection (seconds; the defaults take longer). Costs are measured, so
 they vary from run to run; the errors do not:
 
->>> import mujoco
->>> import mjflex
->>> spec = mujoco.MjSpec.from_string(
-...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-... )
->>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
->>> result = mjflex.study(
-...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
-...     repeat=1, bisect=0, progress=False,
-... )
+<study example: _rows.EXAMPLE>
 >>> result.reference.converged, [(row.integrator, row.timestep) for row in result.rows]
 (True, [('rk4', 0.0002), ('rk4', 0.0001), ('euler', 0.0002), ('euler', 0.0001)])
 >>> print(", ".join(f"{row.integrator} {row.timestep:g} s: {row.pose_error:.0e}" for row in result.rows))
@@ -148,12 +137,13 @@ the report.
 
 from ._options import check_options
 from ._result import StudyResult
-from ._rows import Limit, Reference, Row
+from ._rows import Limit, Reference, Row, with_study_example
 from ._scene import StudyError
 from ._sweep import INTEGRATORS, METHODS, study
 from .variants import DEFAULT_VARIANTS
 
 study.__doc__ = __doc__  # the function's reference (help(mjflex.study), the API pages) is this docstring
+__doc__ = with_study_example(study).__doc__
 
 __all__ = [
     "DEFAULT_VARIANTS",

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..output import replace_together
 from ._options import who
-from ._rows import Limit, Reference, Row
+from ._rows import Limit, Reference, Row, with_study_example
 from ._run import Divergence
 from ._stability import PERTURBATION
 
@@ -43,6 +43,7 @@ _ATTRIBUTES = {"frequencies_hz": "frequencies", "highest_frequency_hz": "highest
                "fastest_rate_per_s": "fastest_rate"}  # fmt: skip
 
 
+@with_study_example
 @dataclass
 class StudyResult:
     """Everything a study measured, what it recommends, and its reports: what :func:`mjflex.study` returns.
@@ -96,18 +97,7 @@ class StudyResult:
 
     Examples
     --------
-    >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> result = mjflex.study(
-    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
-    ...     repeat=1, bisect=0, progress=False,
-    ... )
+    <study example: _rows.EXAMPLE>
     >>> [(row.integrator, row.timestep, row.status) for row in result.rows]
     [('rk4', 0.0002, 'ok'), ('rk4', 0.0001, 'ok'), ('euler', 0.0002, 'ok'), ('euler', 0.0001, 'ok')]
     >>> [(limit.integrator, limit.recommended) for limit in result.limits]  # the step to use, per integrator

@@ -2,11 +2,39 @@
 run (:class:`Reference`), each with its text and dict forms (:mod:`._result` gathers them)."""
 
 import math
+import textwrap
 from dataclasses import asdict, dataclass, field
 
 from ._options import who
 from ._run import Divergence
 from ._stability import PERTURBATION
+
+#: The opening of the study's examples (:func:`mjflex.study`, :class:`Row`, :class:`Limit`, :class:`Reference`,
+#: :class:`StudyResult`): a block on a leaf spring, pushed into a rocking motion, studied with one element method and
+#: two integrators at two steps. Their docstrings hold the line ``<study example: _rows.EXAMPLE>`` in its place.
+EXAMPLE = """\
+>>> import mujoco
+>>> import mjflex
+>>> spec = mujoco.MjSpec.from_string(
+...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
+...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
+...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
+... )
+>>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
+>>> result = mjflex.study(
+...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
+...     repeat=1, bisect=0, progress=False,
+... )
+"""
+
+
+def with_study_example(obj):
+    """``obj`` with :data:`EXAMPLE` in place of its docstring's line ``<study example: _rows.EXAMPLE>``."""
+    head, mark, tail = obj.__doc__.partition("<study example: _rows.EXAMPLE>\n")
+    assert mark, f"{obj!r}: no study example to fill in"
+    indent = head[len(head.rstrip(" ")) :]
+    obj.__doc__ = head + textwrap.indent(EXAMPLE, indent)[len(indent) :] + tail
+    return obj
 
 
 def _bracket(lo, hi):
@@ -18,6 +46,7 @@ def _bracket(lo, hi):
     return a, b
 
 
+@with_study_example
 @dataclass
 class Row:
     """One candidate of a study: a model variant, an element method, an integrator and a time step.
@@ -73,18 +102,7 @@ class Row:
 
     Examples
     --------
-    >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> result = mjflex.study(
-    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
-    ...     repeat=1, bisect=0, progress=False,
-    ... )
+    <study example: _rows.EXAMPLE>
     >>> row = result.rows[0]
     >>> row.label, row.status, f"{row.pose_error:.0e}"
     ('rk4, twist, h = 0.0002 s', 'ok', '2e-05')
@@ -122,6 +140,7 @@ class Row:
         return asdict(self)  # the divergence, a dataclass too, becomes a dict
 
 
+@with_study_example
 @dataclass
 class Limit:
     """Largest stable step of one (variant, method, integrator): measured on the scene, advised, recommended.
@@ -167,18 +186,7 @@ class Limit:
 
     Examples
     --------
-    >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> result = mjflex.study(
-    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
-    ...     repeat=1, bisect=0, progress=False,
-    ... )
+    <study example: _rows.EXAMPLE>
     >>> limit = result.limits[0]
     >>> limit.integrator, limit.largest_stable, limit.smallest_unstable, limit.recommended
     ('rk4', 0.0002, None, 0.0002)
@@ -260,6 +268,7 @@ class Limit:
         return asdict(self)
 
 
+@with_study_example
 @dataclass
 class Reference:
     """The study's reference run: RK4 refined until two successive halvings of the step agree.
@@ -289,18 +298,7 @@ class Reference:
 
     Examples
     --------
-    >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> result = mjflex.study(
-    ...     spec.compile(), methods=("twist",), integrators=("rk4", "euler"), steps=(2e-4, 1e-4), variants=[],
-    ...     repeat=1, bisect=0, progress=False,
-    ... )
+    <study example: _rows.EXAMPLE>
     >>> ref = result.reference
     >>> ref.converged, ref.timestep, round(ref.observed_order)
     (True, 2.5e-05, 4)
