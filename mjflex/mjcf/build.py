@@ -10,6 +10,7 @@ from ..core import stiffness_in_frame, validation
 from ..core.identification import potential_in_frame
 from ..core.polynomial import PolynomialTerms
 from . import naming, schema
+from .coordinates import DOFS
 from .elements import add_plugin_element, detach_instance, find_element, require_native_library
 from .notices import warn_likely_mistake
 from .schema import PLUGIN
@@ -313,10 +314,6 @@ def joints_checked(on: bool):
         _JOINTS_CHECKED["on"] = before
 
 
-_DOFS = {int(mujoco.mjtJoint.mjJNT_HINGE): 1, int(mujoco.mjtJoint.mjJNT_SLIDE): 1, int(mujoco.mjtJoint.mjJNT_BALL): 3,
-         int(mujoco.mjtJoint.mjJNT_FREE): 6}  # fmt: skip
-
-
 def _warn_joined(spec, name, bodies):
     """A :class:`LikelyMistakeWarning` when one body is the other's parent and the child's joints leave it fewer
     than six degrees of freedom: the element then acts in parallel with the joints (or never deflects)."""
@@ -330,7 +327,7 @@ def _warn_joined(spec, name, bodies):
         return
     parent, kid = child
     joints = list(kid.joints)
-    dofs = sum(_DOFS[int(j.type)] for j in joints)
+    dofs = sum(DOFS[int(j.type)] for j in joints)
     if dofs >= 6:
         return
     if not joints:

@@ -256,15 +256,9 @@ def convert_model(spec, to=PLUGIN) -> list[str]:
             f"{schema.PLUGIN_NAME} instances); there is nothing to convert"
         )
     if all(e.kind == to for e in elements):
-        raise ValueError(f"every element of the spec ({len(elements)}) is already {_form(to)}; nothing to convert")
+        form = f"an {schema.PLUGIN_NAME} plugin instance" if to == PLUGIN else "a text record"
+        raise ValueError(f"every element of the spec ({len(elements)}) is already {form}; nothing to convert")
     return records_to_plugins(spec) if to == PLUGIN else plugins_to_records(spec)
-
-
-def _form(kind):
-    return f"an {schema.PLUGIN_NAME} plugin instance" if kind == PLUGIN else "a text record"
-
-
-# ----------------------------------------------------------------------------- sleeping
 
 
 __all__ = ["attach", "convert_model", "copy_spec", "plugins_to_records", "record_text_name", "records_to_plugins"]

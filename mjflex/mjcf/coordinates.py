@@ -34,9 +34,10 @@ from . import naming
 from .notices import warn_likely_mistake
 
 _T = mujoco.mjtJoint
-_HINGE, _SLIDE, _BALL, _FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
-KIND = {_HINGE: "hinge", _SLIDE: "slide", _BALL: "ball", _FREE: "free"}
-DOFS = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}
+HINGE, SLIDE, BALL, FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
+KIND = {HINGE: "hinge", SLIDE: "slide", BALL: "ball", FREE: "free"}
+DOFS = {HINGE: 1, SLIDE: 1, BALL: 3, FREE: 6}
+QPOS = {HINGE: 1, SLIDE: 1, BALL: 4, FREE: 7}  # numbers in qpos
 DIRECTIONS = ("rx", "ry", "rz", "x", "y", "z")
 #: An axis this close to an element axis (1 - |cos|) counts as along it.
 ALIGNED = 1e-9
@@ -96,9 +97,9 @@ def too_many_dofs(rigid, body_name, added) -> str | None:
     spans, owners, redundant = {"r": [], "t": []}, {"r": [], "t": []}, []
     for name, j in joints:
         kind = int(rigid.jnt_type[j])
-        parts = {_HINGE: [("r", rigid.jnt_axis[j])], _SLIDE: [("t", rigid.jnt_axis[j])],
-                 _BALL: [("r", a) for a in np.eye(3)],
-                 _FREE: [("t", a) for a in np.eye(3)] + [("r", a) for a in np.eye(3)]}[kind]  # fmt: skip
+        parts = {HINGE: [("r", rigid.jnt_axis[j])], SLIDE: [("t", rigid.jnt_axis[j])],
+                 BALL: [("r", a) for a in np.eye(3)],
+                 FREE: [("t", a) for a in np.eye(3)] + [("r", a) for a in np.eye(3)]}[kind]  # fmt: skip
         lost, shared = 0, []
         for k in ("r", "t"):
             axes = [a for kk, a in parts if kk == k]
@@ -122,15 +123,15 @@ def joint_frame(rigid, body_name, ids) -> tuple[np.ndarray, np.ndarray]:
     mujoco.mj_kinematics(rigid, data)
     ib = mujoco.mj_name2id(rigid, mujoco.mjtObj.mjOBJ_BODY, body_name)
     R_WB, p = data.xmat[ib].reshape(3, 3).copy(), data.xpos[ib].copy()
-    rotational = [j for j in ids if rigid.jnt_type[j] in (_HINGE, _BALL)]
+    rotational = [j for j in ids if rigid.jnt_type[j] in (HINGE, BALL)]
     if rotational:
         p = data.xanchor[rotational[0]].copy()
-    hinges = [j for j in ids if rigid.jnt_type[j] == _HINGE]
-    slides = [j for j in ids if rigid.jnt_type[j] == _SLIDE]
-    balls = [j for j in ids if rigid.jnt_type[j] in (_BALL, _FREE)]
+    hinges = [j for j in ids if rigid.jnt_type[j] == HINGE]
+    slides = [j for j in ids if rigid.jnt_type[j] == SLIDE]
+    balls = [j for j in ids if rigid.jnt_type[j] in (BALL, FREE)]
     if not balls and (len(hinges) == 1 or (not hinges and len(slides) == 1)):
         return p, _z_along(data.xaxis[(hinges or slides)[0]], R_WB)
-    axes = [data.xaxis[j].copy() for j in ids if rigid.jnt_type[j] in (_HINGE, _SLIDE)]
+    axes = [data.xaxis[j].copy() for j in ids if rigid.jnt_type[j] in (HINGE, SLIDE)]
     if all(np.abs(R_WB.T @ a).max() > 1 - ALIGNED for a in axes):
         return p, R_WB
     distinct = [axes[0]]
@@ -164,10 +165,10 @@ def kept_directions(rigid, kept, R_BE) -> tuple[str, ...]:
     out = set()
     for name, j in kept:
         kind = int(rigid.jnt_type[j])
-        if kind == _FREE:
+        if kind == FREE:
             raise ValueError(f"joint {name!r} is a free joint: it moves the body in every direction, and an element "
                              "beside it would measure its motion; replace it too, or none")  # fmt: skip
-        if kind == _BALL:
+        if kind == BALL:
             out |= {"rx", "ry", "rz"}
             continue
         axis = R_BE.T @ rigid.jnt_axis[j]
@@ -178,7 +179,7 @@ def kept_directions(rigid, kept, R_BE) -> tuple[str, ...]:
                 "is not along an element axis: the element would measure part of its motion. Give an element frame "
                 "with an axis along it (site=, or pos=/quat= with frame=), or replace it too"
             )
-        out.add(("r" if kind == _HINGE else "") + "xyz"[k])
+        out.add(("r" if kind == HINGE else "") + "xyz"[k])
     return tuple(d for d in DIRECTIONS if d in out)
 
 
@@ -192,12 +193,12 @@ def missing_directions(rigid, body_name, R_BE, directions) -> tuple[str, ...]:
     spans = {"r": [], "t": []}
     for _, j in body_joints(rigid, body_name):
         kind = int(rigid.jnt_type[j])
-        if kind == _FREE:
+        if kind == FREE:
             return ()
-        if kind == _BALL:
+        if kind == BALL:
             spans["r"] += list(np.eye(3))
         else:
-            spans["r" if kind == _HINGE else "t"].append(R_BE.T @ rigid.jnt_axis[j])
+            spans["r" if kind == HINGE else "t"].append(R_BE.T @ rigid.jnt_axis[j])
     added = []
     for d in directions:
         span = spans["r" if d.startswith("r") else "t"]
@@ -224,14 +225,14 @@ def stops_from_ranges(rigid, joints, R_BE) -> tuple[np.ndarray, np.ndarray, list
         if not rigid.jnt_limited[j]:
             continue
         lo, hi = (float(v) for v in rigid.jnt_range[j])
-        if kind == _BALL:
+        if kind == BALL:
             hi = min(hi, math.pi)  # a rotation-vector component never leaves [-pi, pi]
             lower[:3], upper[:3] = np.maximum(lower[:3], -hi), np.minimum(upper[:3], hi)
             notes.append(f"ball joint {label}'s cone range {math.degrees(hi):.4g} deg became stops of +-"
                          f"{math.degrees(hi):.4g} deg on rx, ry, rz (the circumscribed box: exact along each element "
                          "axis, up to sqrt(3) times the angle along a diagonal)")  # fmt: skip
             continue
-        if kind not in (_HINGE, _SLIDE):
+        if kind not in (HINGE, SLIDE):
             continue
         axis = R_BE.T @ rigid.jnt_axis[j]
         k = int(np.argmax(np.abs(axis)))
@@ -242,11 +243,11 @@ def stops_from_ranges(rigid, joints, R_BE) -> tuple[np.ndarray, np.ndarray, list
             continue
         ref = float(rigid.qpos0[rigid.jnt_qposadr[j]])
         bounds = sorted(np.sign(axis[k]) * (v - ref) for v in (lo, hi))
-        if kind == _HINGE and max(abs(b) for b in bounds) > math.pi:
+        if kind == HINGE and max(abs(b) for b in bounds) > math.pi:
             notes.append(f"hinge {label}: the side of its range beyond pi from its rest ({np.round(bounds, 4)} rad) "
                          "was not carried: a rotation-vector component never leaves [-pi, pi]")  # fmt: skip
             bounds = [b if abs(b) <= math.pi else math.copysign(math.inf, b) for b in bounds]
-        c = k if kind == _HINGE else 3 + k
+        c = k if kind == HINGE else 3 + k
         lower[c], upper[c] = max(lower[c], bounds[0]), min(upper[c], bounds[1])
     return lower, upper, notes
 
@@ -260,12 +261,12 @@ def axis_mismatch(rigid, element, replaced, R_BE, K, directions, stacklevel=2) -
     mapped onto a notch hinge's torsion axis is 3.7 times too stiff). Returns the message, or None.
     """
     kinds = [int(rigid.jnt_type[j]) for _, j in replaced]
-    one = kinds.count(_HINGE) == 1 or (_HINGE not in kinds and kinds.count(_SLIDE) == 1)
-    if _BALL in kinds or _FREE in kinds or not one:
+    one = kinds.count(HINGE) == 1 or (HINGE not in kinds and kinds.count(SLIDE) == 1)
+    if BALL in kinds or FREE in kinds or not one:
         return None
-    kind = _HINGE if _HINGE in kinds else _SLIDE
+    kind = HINGE if HINGE in kinds else SLIDE
     name, j = replaced[kinds.index(kind)]
-    block = [i for i in ((0, 1, 2) if kind == _HINGE else (3, 4, 5)) if DIRECTIONS[i] in directions]
+    block = [i for i in ((0, 1, 2) if kind == HINGE else (3, 4, 5)) if DIRECTIONS[i] in directions]
     axis = (R_BE.T @ rigid.jnt_axis[j])[[i % 3 for i in block]]
     Kb = 0.5 * (K[np.ix_(block, block)] + K[np.ix_(block, block)].T)
     if len(block) < 2 or abs(np.linalg.norm(axis) - 1) > 1e-6:
@@ -275,7 +276,7 @@ def axis_mismatch(rigid, element, replaced, R_BE, K, directions, stacklevel=2) -
     if not values[0] > 0 or about <= SOFTEST_RATIO * values[0]:
         return None
     soft = vectors[:, 0] * np.sign(vectors[np.argmax(np.abs(vectors[:, 0])), 0])
-    unit, what, how = ("N m/rad", "rotation", "about") if kind == _HINGE else ("N/m", "translation", "along")
+    unit, what, how = ("N m/rad", "rotation", "about") if kind == HINGE else ("N/m", "translation", "along")
     labels = [DIRECTIONS[i] for i in block]
     message = (
         f"flexure {element!r} replaces {KIND[kind]} {name!r}, whose axis is the element's "
@@ -283,7 +284,7 @@ def axis_mismatch(rigid, element, replaced, R_BE, K, directions, stacklevel=2) -
         f"{what} ({values[0]:.4g} {unit}, {how} {_axis_label(soft, labels)}): the joint's motion meets a stiffer "
         "element than its compliant direction. The element frame's z axis is a replaced hinge's (or lone slide's) "
         "axis, as mjflex.geometry's hinges turn about z: give the compliant stiffness on "
-        f"{'rz' if kind == _HINGE else 'z'} (or the frame you mean with site= or pos=/quat=), or silence "
+        f"{'rz' if kind == HINGE else 'z'} (or the frame you mean with site= or pos=/quat=), or silence "
         "mjflex.LikelyMistakeWarning to keep it"
     )
     warn_likely_mistake(message, stacklevel=stacklevel + 1)
@@ -309,8 +310,7 @@ def rest_from_springs(rigid, body_name, replaced, R_BE, p_BE) -> tuple[np.ndarra
     qpos = rigid.qpos0.copy()
     moved = False
     for _, j in replaced:
-        n = {_HINGE: 1, _SLIDE: 1, _BALL: 4, _FREE: 7}[int(rigid.jnt_type[j])]
-        adr = slice(rigid.jnt_qposadr[j], rigid.jnt_qposadr[j] + n)
+        adr = slice(rigid.jnt_qposadr[j], rigid.jnt_qposadr[j] + QPOS[int(rigid.jnt_type[j])])
         if rigid.jnt_stiffness[j] > 0 and not np.array_equal(rigid.qpos_spring[adr], rigid.qpos0[adr]):
             qpos[adr], moved = rigid.qpos_spring[adr], True
     if not moved:

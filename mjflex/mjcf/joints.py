@@ -63,9 +63,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-_T = mujoco.mjtJoint
-_HINGE, _SLIDE, _BALL, _FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
-_KIND = {_HINGE: "hinge", _SLIDE: "slide", _BALL: "ball", _FREE: "free"}
+from .coordinates import DOFS, HINGE, KIND, SLIDE
+
 _S = mujoco.mjtSensor
 #: Sensors that read a joint's limit: none is left once the range becomes the element's stops (``stops="element"``).
 LIMIT_SENSORS = {int(_S.mjSENS_JOINTLIMITPOS), int(_S.mjSENS_JOINTLIMITVEL), int(_S.mjSENS_JOINTLIMITFRC)}
@@ -185,13 +184,6 @@ def _restore_attributes(obj, saved):
             pass
 
 
-def _recreate(spec, adder, saved):
-    default = spec.find_default(saved["_class"]) if saved.get("_class") not in (None, "main") else None
-    obj = adder(default) if default is not None else adder()
-    _restore_attributes(obj, saved)
-    return obj
-
-
 def _rebuild_tail(spec, kind, wanted):
     """Make ``spec``'s ``kind`` elements (``"equalities"``, ``"sensors"``) the snapshots ``wanted``, in order.
 
@@ -206,21 +198,17 @@ def _rebuild_tail(spec, kind, wanted):
         spec.delete(obj)
     adder = {"equalities": lambda d=None: spec.add_equality(d) if d is not None else spec.add_equality(),
              "sensors": lambda d=None: spec.add_sensor()}[kind]  # fmt: skip
-    for saved in wanted[keep:]:
-        _recreate(spec, adder, saved)
+    for saved in wanted[keep:]:  # re-created with its default class
+        default = spec.find_default(saved["_class"]) if saved.get("_class") not in (None, "main") else None
+        _restore_attributes(adder(default), saved)
 
 
 def _same(a, b) -> bool:
-    if a.keys() != b.keys():
-        return False
-    for k in a:
-        x, y = a[k], b[k]
-        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
-            if not np.array_equal(np.asarray(x), np.asarray(y)):
-                return False
-        elif x != y:
-            return False
-    return True
+    def equal(x, y):
+        arrays = isinstance(x, np.ndarray) or isinstance(y, np.ndarray)
+        return np.array_equal(np.asarray(x), np.asarray(y)) if arrays else x == y
+
+    return a.keys() == b.keys() and all(equal(a[k], b[k]) for k in a)
 
 
 # ------------------------------------------------------------------ the plan: checks before any change
@@ -291,12 +279,13 @@ def dropped_properties(rigid, joints, springs_carried=False) -> list[str]:
     """Notes on joint properties the element does not carry (give them in K and B); the armature stays."""
     notes = []
     for name, j in joints:
-        label, dofs = name or f"joint #{j}", _dofs(rigid, j)
+        label, kind = name or f"joint #{j}", int(rigid.jnt_type[j])
+        dofs = slice(rigid.jnt_dofadr[j], rigid.jnt_dofadr[j] + DOFS[kind])
         found = []
         if rigid.jnt_stiffness[j]:
             found.append(f"stiffness {rigid.jnt_stiffness[j]:.6g} (give it in K)")
         q = rigid.jnt_qposadr[j]
-        if rigid.jnt_stiffness[j] and rigid.jnt_type[j] in (_HINGE, _SLIDE) and rigid.qpos_spring[q] != rigid.qpos0[q]:
+        if rigid.jnt_stiffness[j] and kind in (HINGE, SLIDE) and rigid.qpos_spring[q] != rigid.qpos0[q]:
             found.append(
                 f"spring reference {rigid.qpos_spring[q]:.6g} != ref {rigid.qpos0[q]:.6g} ("
                 + ("carried over: the element rests there)" if springs_carried else "the element is unstressed at ref)")
@@ -306,13 +295,8 @@ def dropped_properties(rigid, joints, springs_carried=False) -> list[str]:
             if np.any(values[dofs]):
                 found.append(f"{what} {values[dofs].max():.6g} ({hint})")
         if found:
-            notes.append(f"{_KIND[int(rigid.jnt_type[j])]} {label}: " + ", ".join(found))
+            notes.append(f"{KIND[kind]} {label}: " + ", ".join(found))
     return notes
-
-
-def _dofs(model, j):
-    n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[int(model.jnt_type[j])]
-    return slice(model.jnt_dofadr[j], model.jnt_dofadr[j] + n)
 
 
 # ------------------------------------------------------------------ apply and undo

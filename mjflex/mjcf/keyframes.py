@@ -11,8 +11,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-_T = mujoco.mjtJoint
-_HINGE, _SLIDE, _BALL, _FREE = int(_T.mjJNT_HINGE), int(_T.mjJNT_SLIDE), int(_T.mjJNT_BALL), int(_T.mjJNT_FREE)
+from .coordinates import DOFS, QPOS
 
 
 @dataclass
@@ -78,5 +77,5 @@ def insert(old, addresses, values, size):
 
 def joint_span(model, joint, which):
     j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
-    n = {_SLIDE: (1, 1), _HINGE: (1, 1), _BALL: (4, 3)}[int(model.jnt_type[j])]
-    return (model.jnt_qposadr[j], n[0]) if which == "q" else (model.jnt_dofadr[j], n[1])
+    kind = int(model.jnt_type[j])
+    return (model.jnt_qposadr[j], QPOS[kind]) if which == "q" else (model.jnt_dofadr[j], DOFS[kind])

@@ -96,7 +96,10 @@ def compile_spec(spec, why: str | None = "place flexures in world coordinates") 
         if why is None:
             raise
         text = str(exc)
-        hint = "; add the bodies' geoms or inertias before the flexures" if _about_inertia(text) else ""
+        # the only case where adding geoms or inertias first helps: MuJoCo's "mass and inertia of moving bodies
+        # must be larger than mjMINVAL", a zero inertia, ...
+        about_inertia = "inertia" in text.lower() or "mass" in text.lower()
+        hint = "; add the bodies' geoms or inertias before the flexures" if about_inertia else ""
         if "lengthrange computation did not converge" in text.lower():
             hint = (
                 "; elements exert no force in the compiler's length-range simulation: give the actuator its "
@@ -104,13 +107,6 @@ def compile_spec(spec, why: str | None = "place flexures in world coordinates") 
                 "then writes the rigid model's ranges)"
             )
         raise ValueError(f"the spec must compile to {why} ({text.strip()}){hint}") from None
-
-
-def _about_inertia(message) -> bool:
-    """Whether a compile error is about a body's mass or inertia (MuJoCo's "mass and inertia of moving bodies must
-    be larger than mjMINVAL", a zero inertia, ...), the only case where adding geoms or inertias first helps."""
-    text = message.lower()
-    return "inertia" in text or "mass" in text
 
 
 def reference_body_poses(spec) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -191,22 +187,14 @@ _NEVER = mujoco.mjtSleepPolicy.mjSLEEP_NEVER
 _CHOSEN = (mujoco.mjtSleepPolicy.mjSLEEP_ALLOWED, mujoco.mjtSleepPolicy.mjSLEEP_INIT)
 
 
-def _moves(body):
-    return len(body.joints) > 0
-
-
 def _tree_root(spec, body):
     """The root body of the kinematic tree that moves ``body`` (the topmost body with joints above it), or None."""
     root = None
     while body is not None and body is not spec.worldbody and body.name != "world":
-        if _moves(body):
+        if len(body.joints) > 0:
             root = body
         body = body.parent
     return root
-
-
-def _mocap(body):
-    return bool(getattr(body, "mocap", False))
 
 
 def keep_joined_trees_awake(spec, elements) -> list[str]:
@@ -224,7 +212,7 @@ def keep_joined_trees_awake(spec, elements) -> list[str]:
         roots = [_tree_root(spec, b) for b in bodies]
         if roots[0] is roots[1] and roots[0] is not None:
             continue  # one tree: the force is internal to it
-        mocap = any(_mocap(b) for b in bodies)
+        mocap = any(getattr(b, "mocap", False) for b in bodies)
         if all(r is None for r in roots) or (None in roots and not mocap):
             continue  # grounded to a static body: the tree may sleep in balance
         for root in roots:

@@ -103,6 +103,7 @@ _SIGNATURES = {
     "mjfx_dispatch": (_I, [_P, _P, _I, _P]),
     "mjfx_report_text": (_I, [_P, _P, ctypes.c_char_p, ctypes.c_char_p, _I]),
     "mjfx_errors_caught_here": (_I, []),
+    "mjfx_report_raises": (_I, [_P]),
     "mjfx_plugin_watch": (_P, [_P, _P]),
     "mjfx_watch_size_of": (_I, [_P]),
     "mjfx_watch_first": (_I, [_P, _I, _P]),

@@ -65,6 +65,7 @@ and the command line all use it.
 
 import atexit
 import ctypes
+import functools
 import os
 import re
 import threading
@@ -165,17 +166,18 @@ class _LogMessage(ctypes.Structure):  # mjLogMessage of mjtype.h (MuJoCo 4.0)
 
 
 _HANDLER = ctypes.CFUNCTYPE(None, ctypes.POINTER(_LogMessage))
-_LOG = {"lib": None, "ours": None, "previous": None, "lock": threading.Lock()}
+_LOG = {"ours": None, "previous": None, "lock": threading.Lock()}
 
 
-def _library():
-    if _LOG["lib"] is None:
-        folder = os.path.dirname(mujoco.__file__)
-        names = sorted(f for f in os.listdir(folder) if f.startswith(("libmujoco.so", "libmujoco.", "mujoco.dll")))
-        lib = ctypes.CDLL(os.path.join(folder, names[0]))
-        lib.mju_setLogHandler.argtypes, lib.mju_setLogHandler.restype = [ctypes.c_void_p], ctypes.c_void_p
-        _LOG["lib"] = lib
-    return _LOG["lib"]
+@functools.cache
+def mujoco_library():
+    """MuJoCo's own library (ctypes), for ``mju_setLogHandler`` and ``mju_warning``."""
+    folder = os.path.dirname(mujoco.__file__)
+    names = sorted(f for f in os.listdir(folder) if f.startswith(("libmujoco.so", "libmujoco.", "mujoco.dll")))
+    lib = ctypes.CDLL(os.path.join(folder, names[0]))
+    lib.mju_setLogHandler.argtypes, lib.mju_setLogHandler.restype = [ctypes.c_void_p], ctypes.c_void_p
+    lib.mju_warning.argtypes, lib.mju_warning.restype = [ctypes.c_char_p, ctypes.c_char_p], None
+    return lib
 
 
 def _on_log(message):
@@ -220,14 +222,14 @@ def divergence_warnings(enabled: bool = True) -> bool:
     with _LOG["lock"]:
         was = _LOG["ours"] is not None
         if enabled and not was:
-            lib = _library()
+            lib = mujoco_library()
             ours = _HANDLER(_on_log)
             previous = lib.mju_setLogHandler(ctypes.cast(ours, ctypes.c_void_p))
             _LOG["previous"] = _HANDLER(previous) if previous else None
             _LOG["ours"] = ours
         elif not enabled and was:
             previous = _LOG["previous"]
-            _library().mju_setLogHandler(ctypes.cast(previous, ctypes.c_void_p) if previous is not None else None)
+            mujoco_library().mju_setLogHandler(ctypes.cast(previous, ctypes.c_void_p) if previous is not None else None)
             _LOG["ours"] = None
         return was
 

@@ -32,8 +32,6 @@ calls the same C code (``mjfx_dispatch``) and follows the same reporting rules.
 """
 
 import ctypes
-import functools
-import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -42,6 +40,7 @@ import mujoco
 import numpy as np
 
 from ..native import library
+from .divergence import mujoco_library
 
 #: Most models (a provider's model and its served copies, over all providers) that one process
 #: can serve at once; ``install`` raises beyond it (the native registry's ``MJFX_CAPACITY``).
@@ -66,42 +65,16 @@ class Served:
     watches_for: Callable
 
 
-def _checked_lib():
-    """The native library, its registry's capacity checked against :data:`CAPACITY`."""
-    native = library.lib()
-    if native.mjfx_registry_capacity() != CAPACITY:
-        raise RuntimeError("mjflex: the native registry's capacity differs from registry.CAPACITY; rebuild mjflex")
-    return native
-
-
 # --------------------------------------------------------------------------- reporting
 
 
-def errors_caught_here() -> bool:
-    """Whether ``mju_error`` in the calling thread would be caught (not end the process)."""
-    return bool(library.lib().mjfx_errors_caught_here())
-
-
-def report_raises(model) -> bool:
-    """Whether a divergence report raises here: auto-reset off and an error handler in this thread."""
-    return bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET) and errors_caught_here()
-
-
-@functools.cache
-def _mju_warning():
-    folder = os.path.dirname(mujoco.__file__)
-    names = sorted(f for f in os.listdir(folder) if f.startswith(("libmujoco.so", "libmujoco.", "mujoco.dll")))
-    function = ctypes.CDLL(os.path.join(folder, names[0])).mju_warning
-    function.argtypes, function.restype = [ctypes.c_char_p, ctypes.c_char_p], None
-    return function
-
-
 def report_in_python(model, text: str, first: bool) -> None:
-    """The Python dispatcher's report, by the native rules: raise, warn (a first divergence), or count only."""
-    if report_raises(model):
+    """The Python dispatcher's report, by the native rules: raise (auto-reset off and an error handler in this
+    thread: ``mjfx_report_raises``), warn (a first divergence), or count only."""
+    if library.lib().mjfx_report_raises(model._address):
         raise mujoco.FatalError(text)
-    if first:
-        _mju_warning()(b"%s", text.encode())  # MuJoCo's warning handler, as for its own bad-state warnings
+    if first:  # MuJoCo's warning handler, as for its own bad-state warnings
+        mujoco_library().mju_warning(b"%s", text.encode())
 
 
 def _python_dispatcher(m, d):
@@ -129,35 +102,24 @@ def _is_ours(callback) -> bool:
     return callback is not None and callback is _STATE["callback"]
 
 
-def _native_pointer():
-    if _STATE["native_pointer"] is None:
-        address = ctypes.cast(library.lib().mjfx_passive, ctypes.c_void_p).value
-        _STATE["native_pointer"] = _PROTO(address)
-    return _STATE["native_pointer"]
-
-
 def _install_dispatcher():
     current = mujoco.get_mjcb_passive()
     if _is_ours(current):
         return
     _STATE["previous"] = current
-    native = _checked_lib()
+    native = library.lib()
+    if native.mjfx_registry_capacity() != CAPACITY:
+        raise RuntimeError("mjflex: the native registry's capacity differs from registry.CAPACITY; rebuild mjflex")
     if current is None or isinstance(current, ctypes._CFuncPtr):
         native.mjfx_set_previous(None if current is None else ctypes.cast(current, ctypes.c_void_p).value)
-        callback = _native_pointer()
+        if _STATE["native_pointer"] is None:
+            _STATE["native_pointer"] = _PROTO(ctypes.cast(native.mjfx_passive, ctypes.c_void_p).value)
+        callback = _STATE["native_pointer"]
     else:
         native.mjfx_set_previous(None)
         callback = _python_dispatcher
     mujoco.set_mjcb_passive(callback)
     _STATE["callback"] = callback
-
-
-def _restore_dispatcher():
-    if _is_ours(mujoco.get_mjcb_passive()):
-        mujoco.set_mjcb_passive(_STATE["previous"])
-    # else: the user replaced our callback meanwhile; theirs stays
-    _STATE["callback"] = _STATE["previous"] = None
-    library.lib().mjfx_set_previous(None)
 
 
 def _publish(model, provider, served):
@@ -235,8 +197,11 @@ def unregister(provider, models) -> None:
     """
     with LOCK:
         _remove(provider, models)
-        if not _IN_SLOT and _STATE["callback"] is not None:
-            _restore_dispatcher()
+        if not _IN_SLOT and _STATE["callback"] is not None:  # the callback that was there before comes back
+            if _is_ours(mujoco.get_mjcb_passive()):  # (unless the user replaced ours meanwhile: theirs stays)
+                mujoco.set_mjcb_passive(_STATE["previous"])
+            _STATE["callback"] = _STATE["previous"] = None
+            library.lib().mjfx_set_previous(None)
 
 
 def serving(model):

@@ -38,10 +38,6 @@ class ModelError(ValueError):
     """A flexure element of a model is malformed; the message names the element and the fix."""
 
 
-def model_error(element, problem, fix):
-    return ModelError(f"flexure '{element}': {problem}. {fix}")
-
-
 @dataclass
 class Tables:
     """The elements of one model: text-record elements first, then plugin instances.
@@ -130,10 +126,8 @@ def _site_id(model, element, name, role, all_sites, others):
     if sid < 0:
         close = naming.close_names(name, [s for s in all_sites if s not in others])
         hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-        raise model_error(
-            element, f"site '{name}' not found",
-            f"Add <site name=\"{name}\"/> at the element frame ({role}) or rename the existing site.{hint}",
-        )  # fmt: skip
+        raise ModelError(f"flexure '{element}': site '{name}' not found. Add <site name=\"{name}\"/> at the element "
+                         f"frame ({role}) or rename the existing site.{hint}")  # fmt: skip
     return sid
 
 
