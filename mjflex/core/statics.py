@@ -56,29 +56,16 @@ class Deflection:
     residual: float
 
 
-def _rotation_vector(R):
-    return twist_from_transform(R, np.zeros(3), check=False)[:3]
-
-
 def _result(xi, residual):
     R, p = transform_from_twist(xi, check=False)
-    return Deflection(R, p, np.concatenate([_rotation_vector(R), p]), np.asarray(xi, dtype=float).copy(), residual)
+    r = twist_from_transform(R, np.zeros(3), check=False)[:3]  # the rotation vector
+    return Deflection(R, p, np.concatenate([r, p]), np.asarray(xi, dtype=float).copy(), residual)
 
 
 def _balance(xi, K, w, method, terms, follower):
     R, p = transform_from_twist(xi, check=False)
     load = np.concatenate([R @ w[:3], R @ w[3:]]) if follower else w
     return wrench_on_b(np.eye(3), np.zeros(3), R, p, K, method=method, terms=terms, check=False) + load
-
-
-def _jacobian(xi, K, w, method, terms, follower, h):
-    J = np.empty((6, 6))
-    for i in range(6):
-        d = np.zeros(6)
-        d[i] = h
-        plus, minus = _balance(xi + d, K, w, method, terms, follower), _balance(xi - d, K, w, method, terms, follower)
-        J[:, i] = (plus - minus) / (2 * h)
-    return J
 
 
 def static_deflection(K, wrench, *, method="twist", terms=None, exact=True, follower=False, tol=1e-12,
@@ -151,12 +138,15 @@ def static_deflection(K, wrench, *, method="twist", terms=None, exact=True, foll
 
 
 def _newton(xi, K, w, method, terms, follower, tol, iterations, h=1e-7):
+    def balance(x):
+        return _balance(x, K, w, method, terms, follower)
+
     for _ in range(iterations):
-        r = _balance(xi, K, w, method, terms, follower)
+        r = balance(xi)
         if np.abs(r).max() <= tol:
             return xi, True
-        step = np.linalg.lstsq(_jacobian(xi, K, w, method, terms, follower, h), -r, rcond=None)[0]
-        xi = xi + step
+        J = np.stack([(balance(xi + d) - balance(xi - d)) / (2 * h) for d in h * np.eye(6)], axis=1)
+        xi = xi + np.linalg.lstsq(J, -r, rcond=None)[0]
         if not np.isfinite(xi).all():
             return xi, False
-    return xi, bool(np.abs(_balance(xi, K, w, method, terms, follower)).max() <= tol)
+    return xi, bool(np.abs(balance(xi)).max() <= tol)

@@ -172,6 +172,7 @@ def _damping(damping, n):
 
 
 def _spatial(R_WA, p_WA, R_WB, p_WB, check, rest=None):
+    """``(R_WA, p_WA, R_Wb*, p_Wb*, z)``: float arrays, frame b* of the rest pose (b without one), stop coordinates."""
     if check:
         R_WA, R_WB = check_rotation(R_WA, "R_WA"), check_rotation(R_WB, "R_WB")
         p_WA, p_WB = as_array(p_WA, "p_WA", (3,)), as_array(p_WB, "p_WB", (3,))
@@ -181,7 +182,7 @@ def _spatial(R_WA, p_WA, R_WB, p_WB, check, rest=None):
     R_ab = np.swapaxes(R_WA, -1, -2) @ R_WB
     p_ab = np.einsum("...ji,...j->...i", R_WA, p_WB - p_WA)
     r = twist_from_transform(R_ab, np.zeros(R_ab.shape[:-1]), check=False)[..., :3]
-    return R_WA, R_WB, np.concatenate(np.broadcast_arrays(r, p_ab), axis=-1)
+    return R_WA, p_WA, R_WB, p_WB, np.concatenate(np.broadcast_arrays(r, p_ab), axis=-1)
 
 
 def _p_map(r, x, sign):
@@ -201,19 +202,6 @@ def _rates(R_WA, p_WA, R_Wb, p_Wb, z, velocities):
     dp = v_WB - v_WA - np.cross(w_WA, p_Wb - p_WA)
     return np.concatenate(np.broadcast_arrays(_p_map(z[..., :3], w_b, 1.0), np.einsum("...ji,...j->...i", R_WA, dp)),
                           axis=-1)  # fmt: skip
-
-
-def _at_b_star(p_WB, R_WB, rest, w_WB, v_WB):
-    """``(p_WB, p_Wb*, v_Wb*)``: frame b's origin, frame b*'s, and the velocity of the point of B at frame b*'s."""
-    p_WB = np.asarray(p_WB, dtype=float)
-    if rest is None:
-        return p_WB, p_WB, v_WB
-    _, p_b = frame_at_rest(R_WB, p_WB, rest)
-    if v_WB is not None and w_WB is not None:
-        v_WB = np.asarray(v_WB, dtype=float) + np.cross(np.asarray(w_WB, dtype=float), p_b - p_WB)
-    elif w_WB is not None:
-        v_WB = np.cross(np.asarray(w_WB, dtype=float), p_b - p_WB)
-    return p_WB, p_b, v_WB
 
 
 def stop_coordinates(R_WA, p_WA, R_WB, p_WB, *, rest=None, check=True) -> np.ndarray:
@@ -243,7 +231,7 @@ def stop_coordinates(R_WA, p_WA, R_WB, p_WB, *, rest=None, check=True) -> np.nda
     >>> print(mjflex.stop_coordinates(np.eye(3), np.zeros(3), R_WB, [0.01, 0.0, 0.0]))
     [0.   0.   0.2  0.01 0.   0.  ]
     """
-    return _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)[2]
+    return _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)[-1]
 
 
 def stop_potential(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, rest=None, check=True) -> np.ndarray:
@@ -280,7 +268,7 @@ def stop_potential(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, *, rest=None
     >>> print(f"{mjflex.stop_potential(np.eye(3), np.zeros(3), R_WB, np.zeros(3), None, upper, [100.0] * 6):.4f} J")
     0.1250 J
     """
-    _, _, z = _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)
+    z = _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)[-1]
     return _gradient(z, *_limits(lower, upper, stiffness, 6))[0][()]
 
 
@@ -384,8 +372,11 @@ def stop_dissipation_power(
 def _stop_wrench_and_power(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, damping, velocities, rest, check):
     """(wrench on B about p_WB (..., 6), dissipated power (...)) of the stops (module docstring)."""
     w_WA, v_WA, w_WB, v_WB = velocities
-    R_WA, R_Wb, z = _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)
-    p_B, p_b, v_b = _at_b_star(p_WB, R_WB, rest, w_WB, v_WB)
+    p_B = np.asarray(p_WB, dtype=float)
+    R_WA, p_WA, R_Wb, p_b, z = _spatial(R_WA, p_WA, R_WB, p_WB, check, rest)
+    if rest is not None and w_WB is not None:  # the velocity of the point of B at frame b*'s origin
+        u = np.cross(np.asarray(w_WB, dtype=float), p_b - p_B)
+        v_WB = u if v_WB is None else np.asarray(v_WB, dtype=float) + u
     limits = _limits(lower, upper, stiffness, 6)
     if damping is None:
         if any(v is not None for v in velocities):
@@ -393,7 +384,7 @@ def _stop_wrench_and_power(R_WA, p_WA, R_WB, p_WB, lower, upper, stiffness, damp
         _, G = _gradient(z, *limits)
         power = np.zeros(G.shape[:-1])
     else:
-        zdot = _rates(R_WA, np.asarray(p_WA, dtype=float), R_Wb, p_b, z, (w_WA, v_WA, w_WB, v_b))
+        zdot = _rates(R_WA, p_WA, R_Wb, p_b, z, (w_WA, v_WA, w_WB, v_WB))
         G, power = _damped(z, zdot, *limits, _damping(damping, 6))
     m = -np.einsum("...ij,...j->...i", R_Wb, _p_map(z[..., :3], G[..., :3], -1.0))
     f = -np.einsum("...ij,...j->...i", R_WA, G[..., 3:])
