@@ -61,10 +61,8 @@ class FlexureHandle:
     --------
     >>> import mujoco
     >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
-    ... )
-    >>> handle = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
+    >>> spec = mujoco.MjSpec.from_string(mjflex.mjcf.elements.EXAMPLE_MODEL)  # bodies A and B
+    >>> handle = mjflex.add_flexure(spec, "mount", "A", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
     >>> handle.name, handle.site_a.name, handle.site_b.name
     ('mount', 'mount/a', 'mount/b')
     """
@@ -368,11 +366,8 @@ def remove_flexure(spec, name) -> None:
     --------
     >>> import mujoco
     >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
-    >>> mjflex.remove_flexure(spec, "mount")
+    >>> spec = mujoco.MjSpec.from_string(mjflex.mjcf.elements.EXAMPLE_MODEL)  # one element, "hinge"
+    >>> mjflex.remove_flexure(spec, "hinge")
     >>> spec.compile().nsite
     0
     """

@@ -147,11 +147,9 @@ def spec_xml(spec) -> str:
     Examples
     --------
     >>> import mujoco, mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
-    >>> mjflex.remove_flexure(spec, "mount")
+    >>> spec = mujoco.MjSpec.from_string(mjflex.mjcf.elements.EXAMPLE_MODEL)
+    >>> _ = mjflex.convert_model(spec, to="plugin")  # its element "hinge" as a plugin instance
+    >>> mjflex.remove_flexure(spec, "hinge")
     >>> "mjflex.flexure" in spec.to_xml(), "mjflex.flexure" in mjflex.spec_xml(spec)
     (True, False)
     """

@@ -267,19 +267,13 @@ def edit_flexure(spec: mujoco.MjSpec, element: str, *, K=None, B=None) -> None:
     Examples
     --------
     >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> from mjflex.mjcf.elements import edit_flexure, flexure_matrices
-    >>> K, _ = flexure_matrices(spec, "leaf")
-    >>> edit_flexure(spec, "leaf", K=2 * K, B=1e-4 * K)  # twice as stiff, Rayleigh damping
-    >>> K2, B2 = flexure_matrices(spec, "leaf")
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL, edit_flexure, flexure_matrices
+    >>> spec = mujoco.MjSpec.from_string(EXAMPLE_MODEL)  # one element, "hinge"
+    >>> K, _ = flexure_matrices(spec, "hinge")
+    >>> edit_flexure(spec, "hinge", K=2 * K, B=1e-4 * K)  # twice as stiff, Rayleigh damping
+    >>> K2, B2 = flexure_matrices(spec, "hinge")
     >>> print(K2[2, 2], B2[2, 2])
-    2.0 0.0001
+    0.5 2.5e-05
     """
     record = element_record(spec, element)  # KeyError naming close matches
     if K is not None:
@@ -311,17 +305,10 @@ def flexure_matrices(spec: mujoco.MjSpec, element: str) -> tuple[np.ndarray, np.
     Examples
     --------
     >>> import mujoco
-    >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><option timestep="1e-4"/><worldbody><body name="block" pos="0 0 -0.1"><freejoint/>'
-    ...     '<geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody>'
-    ...     '<keyframe><key name="push" qvel="0 0 0 1 0 0"/></keyframe></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4])
-    >>> from mjflex.mjcf.elements import flexure_matrices
-    >>> K, B = flexure_matrices(spec, "leaf")
+    >>> from mjflex.mjcf.elements import EXAMPLE_MODEL, flexure_matrices
+    >>> K, B = flexure_matrices(mujoco.MjSpec.from_string(EXAMPLE_MODEL), "hinge")
     >>> print(K.diagonal(), B)
-    [2.e+00 2.e+00 1.e+00 1.e+04 1.e+04 1.e+04] None
+    [3.0e-01 4.0e+01 2.5e-01 5.0e+06 3.0e+05 1.5e+06] None
     """
     record = element_record(spec, element)  # KeyError naming close matches
     return record.K, record.B

@@ -19,13 +19,10 @@ class LikelyMistakeWarning(UserWarning):
     >>> import warnings
     >>> import mujoco
     >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4])
+    >>> model = mujoco.MjModel.from_xml_string(mjflex.mjcf.elements.EXAMPLE_MODEL)  # one element, "hinge"
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     B = mjflex.damping_from_ratios(spec.compile(), "mount", 10)
+    ...     B = mjflex.damping_from_ratios(model, "hinge", 10)
     >>> print(caught[0].category.__name__, str(caught[0].message)[:70])
     LikelyMistakeWarning damping_ratio = [10.0, 10.0, 10.0, 10.0, 10.0, 10.0]: a ratio above 1
     """

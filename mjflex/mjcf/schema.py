@@ -329,13 +329,10 @@ class FlexureRecord:
     --------
     >>> import mujoco
     >>> import mjflex
-    >>> spec = mujoco.MjSpec.from_string(
-    ...     '<mujoco><worldbody><body name="B"><freejoint/><geom size="0.01" mass="0.1"/></body></worldbody></mujoco>'
-    ... )
-    >>> _ = mjflex.add_flexure(spec, "mount", "world", "B", pos=[0, 0, 0], K=[1, 1, 1, 1e4, 1e4, 1e4], B=[1e-3] * 6)
-    >>> record = mjflex.Flexures(spec.compile()).records[0]
+    >>> model = mujoco.MjModel.from_xml_string(mjflex.mjcf.elements.EXAMPLE_MODEL)  # one element, "hinge"
+    >>> record = mjflex.Flexures(model).records[0]
     >>> print(record.name, record.method, record.K.shape, f"{record.K[3, 3]:g} N/m", record.planar)
-    mount twist (6, 6) 10000 N/m False
+    hinge twist (6, 6) 5e+06 N/m False
     """
 
     def __init__(self, name, *args, **kwargs):
