@@ -269,7 +269,11 @@ def _element_frame(spec, name, bodies, pos, quat, site, poses, frame="world"):
         if pos is None:
             raise ValueError(f"flexure {name!r}: give the element frame, pos=... (and quat=...) or site=...")
         q = (1.0, 0.0, 0.0, 0.0) if quat is None else quat
-        R_WF, p_WF = _frame_pose(spec, name, frame, poses)
+        R_WF, p_WF = np.eye(3), np.zeros(3)  # the frame pos and quat are given in, at qpos0
+        if not (isinstance(frame, str) and frame == "world"):
+            body, (xpos, xmat, names) = find_body(spec, frame, f"flexure {name!r}: frame"), poses
+            i = 0 if body is spec.worldbody or body.name == "world" else names.index(body.name)
+            R_WF, p_WF = xmat[i], xpos[i]
         p, R = validation.as_array(pos, "pos", (3,)), rotation_from_quaternion(unit_quaternion(q, "quat"))
         return p_WF + R_WF @ p, R_WF @ R, None
     if pos is not None or quat is not None:
@@ -284,16 +288,6 @@ def _element_frame(spec, name, bodies, pos, quat, site, poses, frame="world"):
         )
     p_WE, R_WE = site_pose(spec, found)
     return p_WE, R_WE, found.name
-
-
-def _frame_pose(spec, name, frame, poses):
-    """``(R_WF, p_WF)`` at ``qpos0`` of ``frame``: ``"world"`` or a body (name or ``MjsBody``)."""
-    if isinstance(frame, str) and frame == "world":
-        return np.eye(3), np.zeros(3)
-    body = find_body(spec, frame, f"flexure {name!r}: frame")
-    xpos, xmat, names = poses
-    i = 0 if body is spec.worldbody or body.name == "world" else names.index(body.name)
-    return xmat[i], xpos[i]
 
 
 #: Whether add_flexure warns about bodies that joints already join (make_compliant adds its element as it replaces

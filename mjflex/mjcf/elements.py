@@ -123,20 +123,16 @@ def write_record(spec, name, record: schema.FlexureRecord) -> None:
     """
     element = find_element(spec, name)
     record = schema.FlexureRecord(**{**record.__dict__, "name": element.name})
-    config = config_from_record(record, *_config_sites(element))
+    # the site names as the element's configuration writes them (an instance's: unprefixed under attach)
+    sites = element.site_a, element.site_b
+    if element.kind == PLUGIN:
+        sites = tuple(dict(element.holder.config).get(k, s) for k, s in zip(("site_a", "site_b"), sites, strict=True))
+    config = config_from_record(record, *sites)
     schema.read_config(element.name, config, element.kind)
     if element.kind == RECORD:
         element.holder.data = record.to_text()
     else:
         element.holder.config = config
-
-
-def _config_sites(element):
-    """The site names as the element's configuration writes them (an instance's: unprefixed under attach)."""
-    if element.kind == RECORD:
-        return element.site_a, element.site_b
-    config = dict(element.holder.config)
-    return config.get("site_a", element.site_a), config.get("site_b", element.site_b)
 
 
 def edit_elements(spec, names=None, *, method=None, enabled=None, viscous=None) -> list[str]:

@@ -70,7 +70,8 @@ def exposed_pairs(rigid, compliant):
     return [(int(i), int(j)) for i, j in zip(b1[keep], b2[keep], strict=True) if frozenset((i, j)) not in excluded]
 
 
-def _ancestors(model, body):
+def ancestors(model, body) -> list[int]:
+    """``body`` and the bodies above it, up to the world (0)."""
     out = [body]
     while body > 0:
         body = int(model.body_parentid[body])
@@ -90,9 +91,9 @@ def rigid_weld(model, body_a, body_b) -> np.ndarray | None:
     a, b = int(body_a), int(body_b)
     if weld[a] == weld[b]:
         return None
-    if a in _ancestors(model, b):
+    if a in ancestors(model, b):
         top, bottom = a, b
-    elif b in _ancestors(model, a):
+    elif b in ancestors(model, a):
         top, bottom = b, a
     else:
         return None

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core.stops import PLANAR_INDEX
 from ..mjcf.schema import embed_planar
+from .contacts import ancestors
 
 _LINEAR = 6  # dofs a body needs of its own joints for the element to hold it alone
 
@@ -44,19 +45,11 @@ def _size(model, body) -> float:
     return float(np.sqrt(2.5 * model.body_inertia[body].max() / mass)) if mass > 0 else 0.0
 
 
-def _in_subtree(model, body, root) -> bool:
-    while body > 0:
-        if body == root:
-            return True
-        body = model.body_parentid[body]
-    return root == 0
-
-
 def _held(model, a, b):
     """``(body held, sign)``: the side the element holds against gravity (+1: body B, -1: body A), or None."""
-    if a == 0 or _in_subtree(model, b, a):
+    if a == 0 or a in ancestors(model, b):
         held, sign = b, 1.0
-    elif b == 0 or _in_subtree(model, a, b):
+    elif b == 0 or b in ancestors(model, a):
         held, sign = a, -1.0
     else:
         held, sign = (b, 1.0) if model.body_subtreemass[b] <= model.body_subtreemass[a] else (a, -1.0)
