@@ -203,16 +203,15 @@ class StudyResult:
 
     NEEDS_COLUMNS = ("need", "choice", "s per simulated s", "pose error", "energy error", "vs the model's setting")
 
-    def _need(self, need, row, choice=None):
+    def _need(self, need, row):
+        if row is None:
+            return (need, "none of the candidates", "-", "-", "-", "-")
         own = self.model_setting_row()
         speed = "-"
-        if row is not None and own is not None and own.status == "ok" and row.cost:
+        if own is not None and own.status == "ok" and row.cost:
             speed = "the setting itself" if row is own else f"{own.cost / row.cost:.3g}x faster"
-        if row is None:
-            return (need, choice or "none of the candidates", "-", "-", "-", "-")
         cost = _fmt(row.cost, ".3g") if row.status == "ok" else row.status
-        return (need, choice or row.label, cost, _percent(row.pose_error, self.floor), _percent(row.energy_error),
-                speed)  # fmt: skip
+        return (need, row.label, cost, _percent(row.pose_error, self.floor), _percent(row.energy_error), speed)
 
     def needs(self) -> list[tuple]:
         """Rows of the "which choice for which need" table (columns: ``NEEDS_COLUMNS``)."""
@@ -334,10 +333,9 @@ class StudyResult:
                     "Measured: the bisection of this scene's runs, its last stable and first diverged step. Advised "
                     "limit: mjflex.step_advice's, MuJoCo's step linearized at the initial pose, for any motion, "
                     "bracketed by a bisection between its last stable and first unstable step; the mode named is the "
-                    "one that diverges first "
-                    "above it. Used: the smaller of the two stable steps, checked by a run of the scene with a random "
-                    f"velocity perturbation of relative size {PERTURBATION:g}; candidates above it ran through only "
-                    "because the scene leaves a mode unexcited and are never recommended.",
+                    "one that diverges first above it. Used: the smaller of the two stable steps, checked by a run of "
+                    f"the scene with a random velocity perturbation of relative size {PERTURBATION:g}; candidates "
+                    "above it ran through only because the scene leaves a mode unexcited and are never recommended.",
                     "",
                 ]
             out += [f"- {lim.text()}" for lim in self.limits]

@@ -269,22 +269,3 @@ def run_sampled(sim, integrator, method, h, *, samples, every, energy_limit=None
                 break
     traj = Trajectory(np.array(times), *map(np.array, zip(*rows, strict=True)))  # p, R, energy, kinetic, elastic
     return Outcome(traj, steps, wall, cpu, divergence, skipped)
-
-
-def time_steps(sim, integrator, method, h, steps):
-    """``(wall, cpu)`` seconds per ``mj_step`` over ``steps`` steps from the initial state.
-
-    ``cpu`` is this thread's CPU time, which other processes on a shared machine do not inflate.
-    None if the run failed.
-    """
-    sim.configure(integrator, method, h)
-    m, d = sim.model, sim.reset()
-    with sim.flex:
-        t0, c0 = time.perf_counter(), time.thread_time()
-        try:
-            for _ in range(steps):
-                mujoco.mj_step(m, d)
-        except mujoco.FatalError:
-            return None
-        wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
-    return None if _bad_state(m, d) else (wall / steps, cpu / steps)

@@ -94,7 +94,7 @@ def initial_state(model, flex, name, *, keyframe=None, qpos=None, qvel=None):
     """The state every run starts from, and a description of it.
 
     ``keyframe`` (name or index; default: the model's first keyframe, if any), then ``qpos`` /
-    ``qvel`` override. Returns ``(state, description)`` with ``state`` a dict of arrays.
+    ``qvel`` override. Returns ``(state, description, data)`` with ``state`` a dict of arrays.
     """
     data = mujoco.MjData(model)
     keys = _names(model, mujoco.mjtObj.mjOBJ_KEY, model.nkey)
@@ -131,8 +131,7 @@ def initial_state(model, flex, name, *, keyframe=None, qpos=None, qvel=None):
             '<keyframe><key name="run" qvel="..."/></keyframe> with the motion to study (ARCADE has "paper_run"), '
             "pick one with --keyframe, or pass qpos/qvel to mjflex.study."
         )
-    state = {"qpos": data.qpos.copy(), "qvel": data.qvel.copy(), "act": data.act.copy(), "ctrl": data.ctrl.copy(),
-             "mocap_pos": data.mocap_pos.copy(), "mocap_quat": data.mocap_quat.copy()}  # fmt: skip
+    state = {k: getattr(data, k).copy() for k in ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat")}
     return state, what, data
 
 

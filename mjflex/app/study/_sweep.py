@@ -1,6 +1,7 @@
 """The study itself: plan the steps, build the reference, sweep the candidates, bisect the limits."""
 
 import datetime
+import functools
 import math
 import os
 import time
@@ -16,7 +17,7 @@ from ._metrics import Errors, Scales, frequency_error, linearized_frequencies
 from ._options import METHODS, check_options
 from ._result import StudyResult
 from ._rows import Limit, Reference, Row
-from ._run import Sim, quiet_mujoco_warnings, run_sampled, time_steps
+from ._run import Sim, quiet_mujoco_warnings, run_sampled
 from ._scene import (
     StudyError,
     build_variant,
@@ -182,9 +183,9 @@ class _Study:
         for _ in range(self.repeat):
             self.bar.set_description("timing (interleaved)")
             for (_, sim, integrator, method, h, _), steps, times in zip(self._timed, slices, samples, strict=True):
-                t = time_steps(sim, integrator, method, h, steps)
-                if t is not None:
-                    times.append(t)
+                out = run_sampled(sim, integrator, method, h, samples=1, every=steps)  # timed: only mj_step
+                if out.ok:
+                    times.append((out.wall / steps, out.cpu / steps))
             self.bar.update()
         for (row, *_, h, _), times in zip(self._timed, samples, strict=True):
             if times:
@@ -323,7 +324,7 @@ class _Study:
                 limit.largest_stable = h
 
 
-def _variant_sims(entries, source, src, data0, items, frame, result, methods):
+def _variant_sims(source, src, data0, items, frame, result, methods, entries):
     sims = []
     for entry in entries:
         try:
@@ -395,22 +396,10 @@ def study(model, *, keyframe=None, qpos=None, qvel=None, duration=None, track=No
     return result
 
 
-@dataclass
-class _Scene:
-    """What the study runs, checked before any run: the model, its state, what is tracked, the plan."""
-
-    full: Sim
-    source: object  # what variant builders get (see _scene.load)
-    src: object  # the compiled model
-    data0: object
-    items: list
-    frame: str | None
-    plan: Plan
-
-
 def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps, step_count, max_step, min_step,
            samples, frequencies, methods, **_):  # fmt: skip
-    """Load and check the model, its initial state and tracked items, and plan the steps (nothing runs)."""
+    """Load and check the model, its initial state and tracked items, and plan the steps (nothing runs): the full
+    model's :class:`Sim`, the :class:`Plan` and ``variant_sims(entries)``, run after the reference (:func:`_run`)."""
     src, result.model, source = load(model)
     flex = flexures_of(src, result.model)
     state, result.initial_state, data0 = initial_state(src, flex, result.model, keyframe=keyframe, qpos=qpos,
@@ -431,19 +420,17 @@ def _scene(result, model, *, keyframe, qpos, qvel, duration, track, frame, steps
     result.duration, result.sample_interval = plan.duration, plan.interval
     if steps and any(abs(plan.h(round(plan.interval / h)) / h - 1) > 0.01 for h in steps):
         result.notes.append(f"steps were aligned to divisors of the sample interval: {[plan.h(n) for n in plan.grid]}")
-    return _Scene(full, source, src, data0, items, frame_body, plan)
+    return full, plan, functools.partial(_variant_sims, source, src, data0, items, frame_body, result, methods)
 
 
 def _run(result, scene, bar, *, methods, integrators, steps, variants, repeat, bisect, limit_rtol, reference_tol,
          max_refinements, reference_step, frequencies, max_run_wall, clock, **_):  # fmt: skip
     """The runs of :func:`study`, filling ``result`` as they go (so a failure leaves what was measured)."""
-    plan, full = scene.plan, scene.full
+    full, plan, variant_sims = scene
     ctx = _Study(result, plan, full, repeat=max(1, repeat), max_run_wall=max_run_wall, frequencies=frequencies,
                  clock=clock, bar=bar)  # fmt: skip
     ctx.reference(tol=reference_tol, max_refinements=max_refinements, start_step=reference_step)
-    entries = DEFAULT_VARIANTS if variants is None else variants
-    sims = [full] + _variant_sims(entries, scene.source, scene.src, scene.data0, scene.items, scene.frame, result,
-                                  methods)  # fmt: skip
+    sims = [full] + variant_sims(DEFAULT_VARIANTS if variants is None else variants)
     groups = sum(len(integrators) * (len(methods) if sim.has_flexures else 1) for sim in sims)
     bar.total = bar.n + groups * (len(plan.grid) + 5) + 1 + max(1, repeat)  # ~3 bisection, 2 perturbed runs a group
     bar.refresh()

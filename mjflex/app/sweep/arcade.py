@@ -10,7 +10,6 @@ duration 0 gives the guide's first (undamped) natural frequency for each leaf st
 
 import json
 import os
-import sys
 import time
 import warnings
 
@@ -183,7 +182,7 @@ def run_arcade_sweep(out, *, leaf_scale, beta, duration, samples, executor="batc
     print("first natural frequency [Hz] by leaf scale:", ", ".join(f"x{k}: {v:.2f}" for k, v in
                                                                info["first_frequency_hz"].items()))  # fmt: skip
     peak = peak_stroke(ds) * 1e3
-    print(f"peak stroke [mm] ({executor_name}, {ds.attrs['wall_time_s']:.2f} s wall):", file=sys.stdout)
+    print(f"peak stroke [mm] ({executor_name}, {ds.attrs['wall_time_s']:.2f} s wall):")
     print(peak.to_pandas().to_string(float_format=lambda x: f"{x:.3f}", na_rep="diverged"))
     for v in info["variants"]:
         if v["status"] != "ok":
