@@ -94,17 +94,6 @@ _OPTIONAL = frozenset(("B", *_VELOCITIES))
 _ZEROS = {core: np.zeros(core) for core, _ in list(_SPATIAL.values()) + list(_PLANAR.values())}
 
 
-def _convert(name, x, core, what):
-    """``x`` validated, as a C-contiguous float64 array."""
-    if what == "rotation":
-        x = check_rotation(x, name)
-    elif what is not None:
-        x = check_psd_matrix(x, name, core[0], what=what)
-    else:
-        x = as_array(x, name, core)
-    return np.asarray(x, dtype=np.float64, order="C")
-
-
 def _prepare(spec, values, check, optional=_OPTIONAL):
     """Validate (if ``check``) and flatten the arguments named in ``spec``.
 
@@ -132,12 +121,11 @@ def _prepare(spec, values, check, optional=_OPTIONAL):
     arrays, leading = [], []
     for name, x in values.items():
         core, what = spec[name]
-        if x is None:
-            a = _ZEROS[core]
-        elif check:
-            a = _convert(name, x, core, what)
-        else:
-            a = np.asarray(x, dtype=np.float64, order="C")
+        if check and x is not None and what == "rotation":
+            x = check_rotation(x, name)
+        elif check and x is not None:
+            x = as_array(x, name, core) if what is None else check_psd_matrix(x, name, core[0], what=what)
+        a = _ZEROS[core] if x is None else np.asarray(x, dtype=np.float64, order="C")
         arrays.append(a)
         leading.append(a.shape[: a.ndim - len(core)])
     shape, flat = flatten(arrays, leading, values.keys())
@@ -309,8 +297,7 @@ def wrench_on_b(
     >>> print(f"{W[2]:.4f} N m")  # elastic plus viscous, B spinning at 1 rad/s
     -0.2200 N m
     """
-    values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": K, "B": B,
-              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    values = dict(zip(_SPATIAL, (R_WA, p_WA, R_WB, p_WB, K, B, w_WA, v_WA, w_WB, v_WB), strict=True))
     return _run(_SPATIAL, _polyk.spatial_wrench_terms_batch, values, method, check, terms, rest=rest)[0]
 
 
@@ -361,8 +348,7 @@ def dissipation_power(
     """
     if B is None:
         raise ValueError("B is required: dissipation_power needs the damping matrix.")
-    values = {"R_WA": R_WA, "p_WA": p_WA, "R_WB": R_WB, "p_WB": p_WB, "K": None, "B": B,
-              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    values = dict(zip(_SPATIAL, (R_WA, p_WA, R_WB, p_WB, None, B, w_WA, v_WA, w_WB, v_WB), strict=True))
     return _run(_SPATIAL, _polyk.spatial_wrench_terms_batch, values, method, check, optional=_OPTIONAL | {"K"},
                         rest=rest)[1][()]  # fmt: skip
 
@@ -435,8 +421,7 @@ def planar_wrench_on_b(
     >>> print(np.round(mjflex.planar_wrench_on_b(0.0, [0.0, 0.0], 0.0, [0.001, 0.0], K), 12) + 0.0)  # [moment; fx; fy]
     [  0. -10.   0.]
     """
-    values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": K, "B": B,
-              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    values = dict(zip(_PLANAR, (theta_WA, p_WA, theta_WB, p_WB, K, B, w_WA, v_WA, w_WB, v_WB), strict=True))
     return _run(_PLANAR, _pk.planar_wrench_batch, values, method, check)[0]
 
 
@@ -478,6 +463,5 @@ def planar_dissipation_power(
     """
     if B is None:
         raise ValueError("B is required: planar_dissipation_power needs the damping matrix.")
-    values = {"theta_WA": theta_WA, "p_WA": p_WA, "theta_WB": theta_WB, "p_WB": p_WB, "K": None, "B": B,
-              "w_WA": w_WA, "v_WA": v_WA, "w_WB": w_WB, "v_WB": v_WB}  # fmt: skip
+    values = dict(zip(_PLANAR, (theta_WA, p_WA, theta_WB, p_WB, None, B, w_WA, v_WA, w_WB, v_WB), strict=True))
     return _run(_PLANAR, _pk.planar_wrench_batch, values, method, check, optional=_OPTIONAL | {"K"})[1][()]

@@ -263,11 +263,6 @@ def design_matrix(R_ab, p_ab, method, exponents, factors=None):
     return W, V
 
 
-def coordinates(R_ab, p_ab, method):
-    """The coordinates ``z`` of each pose: twist (n, 6) or dual quaternion (n, 8)."""
-    return twist_from_transform(R_ab, p_ab) if method == "twist" else dual_quaternion_from_transform(R_ab, p_ab)
-
-
 def _check_excitation(z, method, variables, n_params):
     """Raise for a single direction, warn for coordinates that the samples do not move."""
     disp = z if method == "twist" else z[:, list(DQ_DISPLACEMENT)]
@@ -432,7 +427,7 @@ def fit_potential(
             f"{-(-n_params // 6)} samples (several times that for a reliable fit), or lower the order or restrict "
             "variables."
         )
-    z = coordinates(R, p, method)
+    z = (twist_from_transform if method == "twist" else dual_quaternion_from_transform)(R, p)  # (n, 6) or (n, 8)
     _check_excitation(z, method, variables, n_params)
 
     A, _ = design_matrix(R, p, method, rows, np.concatenate([k_factors, np.ones(len(exponents))]))

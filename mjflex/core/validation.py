@@ -142,7 +142,7 @@ def numeric_array(x, name: str) -> np.ndarray:
             raise ValueError(f"{name} is nested too deeply to be an array of numbers") from None
         if found:
             path, what = found
-            where = f"{name}[{', '.join(str(int(i)) for i in path)}]" if path else name
+            where = _where(name, path)
             if what.startswith("is an integer of"):
                 raise ValueError(f"{where} {what}: beyond float64's range (about 1.8e308); check its units")
             fix = " (np.real(x) if the imaginary part is meant to be dropped)" if "complex" in what else ""
@@ -159,7 +159,7 @@ def as_array(x, name: str, core_shape: tuple[int, ...]) -> np.ndarray:
     a = numeric_array(x, name)
     n = len(core_shape)
     if a.ndim < n or a.shape[a.ndim - n :] != tuple(core_shape):
-        raise ValueError(f"{name} must have shape (..., {_fmt(core_shape)}); got shape {a.shape}")
+        raise ValueError(f"{name} must have shape (..., {', '.join(map(str, core_shape))}); got shape {a.shape}")
     bad = ~np.isfinite(a)
     if bad.any():
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
@@ -206,10 +206,6 @@ def check_flag(value, name: str) -> bool:
     if isinstance(value, bool | np.bool_):
         return bool(value)
     raise TypeError(f"{name} must be True or False; got {shorten(value)} ({type(value).__name__})")
-
-
-def _fmt(core_shape: tuple[int, ...]) -> str:
-    return ", ".join(str(s) for s in core_shape) if core_shape else ""
 
 
 def _first(mask: np.ndarray) -> tuple:
