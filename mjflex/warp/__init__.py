@@ -28,7 +28,6 @@ data from the MuJoCo model given to :func:`put_model`. The functions are the API
 
 import copy
 import logging
-import re
 
 import mujoco
 import mujoco_warp as mjw
@@ -61,7 +60,7 @@ __all__ = [
 #: Precisions of the element math: MuJoCo Warp's own float32, or float64 inside the kernels.
 PRECISIONS = ("float32", "float64")
 log = logging.getLogger("mjflex.warp")
-#: What the functions' docstrings share, filled in by _shared_doc for a line ``{name}``: the Parameters entries of
+#: What the functions' docstrings share, put in by _shared_doc for a line ``{name}``: the Parameters entries of
 #: ``m`` and ``d``, and the examples' set-up (the two-body model; its body B turned by 0.1 rad; two worlds so).
 _SHARED = {
     "m_and_d": """\
@@ -92,14 +91,12 @@ _SHARED = {
 }
 
 
-def _filled(text):
-    """``text``, each line ``{name}`` replaced by ``_SHARED[name]`` (itself filled)."""
-    return re.sub(r"    \{(\w+)\}\n", lambda found: _filled(_SHARED[found[1]]), text)
-
-
 def _shared_doc(f):
-    """``f`` with its docstring filled (:func:`_filled`): what it renders and what its doctest runs."""
-    f.__doc__ = _filled(f.__doc__ or "")  # None under python -OO
+    """``f``, each line ``{name}`` of its docstring replaced by ``_SHARED[name]``: what it renders and runs."""
+    doc = f.__doc__ or ""  # None under python -OO
+    for name, text in reversed(_SHARED.items()):  # a later entry holds earlier ones
+        doc = doc.replace(f"    {{{name}}}\n", text)
+    f.__doc__ = doc
     return f
 
 
@@ -158,8 +155,7 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
     if precision not in PRECISIONS:
         raise ValueError(f"precision must be one of {PRECISIONS}; got {precision!r}")
     model = copy.copy(mjmodel)
-    flex = _mjflex.flexures(model)
-    table = _mjflex.element_table(model, flex)
+    table = element_table(model)
     adaptations = _adapt.check_plugins(model, table) + _adapt.adapt_sleep(model, table) + _adapt.adapt_flags(model)
     try:
         with _adapt.plugin_arrays_sized(model):
@@ -204,7 +200,7 @@ def element_table(mjmodel: mujoco.MjModel, flex=None) -> ElementTable:
     >>> table.names, table.K.shape, float(table.K[0, 2, 2])
     (('hinge',), (1, 6, 6), 0.25)
     """
-    return _mjflex.element_table(mjmodel, flex if flex is not None else _mjflex.flexures(mjmodel))
+    return _mjflex.element_table(mjmodel, flex)
 
 
 def flexures(m) -> WarpFlexures:

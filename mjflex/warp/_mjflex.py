@@ -133,29 +133,6 @@ class ElementTable:
     joined_trees: dict
 
 
-def flexures(model: mujoco.MjModel) -> Flexures:
-    """mjflex's provider of ``model`` (reads and checks the elements; sets joined trees' automatic sleep to never)."""
-    return Flexures(model)
-
-
-def _quat_from_rot(R):
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).ravel())
-    return q if q[0] >= 0 else -q
-
-
-def _quat_mul(a, b):
-    out = np.empty(4)
-    mujoco.mju_mulQuat(out, np.asarray(a, float), np.asarray(b, float))
-    return out
-
-
-def _rot_from_quat(q):
-    R = np.empty(9)
-    mujoco.mju_quat2Mat(R, np.asarray(q, float))
-    return R.reshape(3, 3)
-
-
 def unsupported_features(record) -> list[str]:
     """Features of ``record`` (a FlexureRecord) that the Warp kernels do not implement, set to a non-default value."""
     found = []
@@ -178,8 +155,9 @@ def _equal(a, b):
         return a is b
 
 
-def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
-    """Lay out ``flex``'s elements (of ``model``) for the kernels; refuses features the kernels lack."""
+def element_table(model: mujoco.MjModel, flex: Flexures | None = None) -> ElementTable:
+    """Lay out the elements of ``model`` (read by ``flex``: made if None) for the kernels, refusing what they lack."""
+    flex = Flexures(model) if flex is None else flex  # reads and checks the elements (joined trees: sleep never)
     t = flex.element_table
     n = len(flex)
     for name, record in zip(t.names, t.records, strict=True):
@@ -204,12 +182,14 @@ def element_table(model: mujoco.MjModel, flex: Flexures) -> ElementTable:
         ints[e, kn.I_LO], ints[e, kn.I_HI] = row["terms_lo"], row["terms_hi"]
         ints[e, kn.I_REST] = row["rest"]  # the rest pose is in R0, p0 (the C reader composed it)
         # frame b* = frame b times the rest offset's inverse: q_ab is the identity at qpos0
-        R0, p0[e] = row["R0"].reshape(3, 3), row["p0"]
-        q0 = _quat_from_rot(R0)
+        q0, Rb, p0[e] = np.empty(4), np.empty(9), row["p0"]
+        mujoco.mju_mat2Quat(q0, np.ascontiguousarray(row["R0"], dtype=float).ravel())
+        q0 = q0 if q0[0] >= 0 else -q0
         qa[e] = model.site_quat[sa]
-        qb[e] = _quat_mul(model.site_quat[sb], q0 * [1, -1, -1, -1])
+        mujoco.mju_mulQuat(qb[e], np.asarray(model.site_quat[sb], float), q0 * [1, -1, -1, -1])
+        mujoco.mju_quat2Mat(Rb, qb[e])
         lever_a[e] = model.site_pos[sa]
-        lever_b[e] = model.site_pos[sb] - _rot_from_quat(qb[e]) @ p0[e]
+        lever_b[e] = model.site_pos[sb] - Rb.reshape(3, 3) @ p0[e]
         for side, sign in (("b", 1), ("a", -1)):
             free = int(row[f"free_{side}"])
             if free >= 0:
