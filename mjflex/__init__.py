@@ -82,17 +82,13 @@ sys.modules[f"{__name__}.units"] = units  # import mjflex.units: the same module
 _LAYERS = sorted([*mjcf.__all__, *runtime.__all__, *analysis.__all__, *variants.__all__])
 __all__ = ["geometry", *core.__all__, *_LAYERS]  # mjflex.units is a module of constants (reference: modules)
 
-_LAZY = {  # imported on first use (xarray, tqdm): name -> (module under mjflex.app, attribute)
-    "study": ("study", "study"),
-    "sweep": ("sweep", "sweep"),
-    "Recipe": ("sweep", "Recipe"),
-}
+#: Imported on first use: name -> its module under mjflex.app.
+_LAZY = {"study": "study", "sweep": "sweep", "Recipe": "sweep"}
 
 
 def __getattr__(name):
-    if name in _LAZY:
-        module, attribute = _LAZY[name]
-        return getattr(importlib.import_module(f".app.{module}", __name__), attribute)
+    if name in _LAZY:  # xarray, tqdm: loaded when the study or the sweeps are first used
+        return getattr(importlib.import_module(f".app.{_LAZY[name]}", __name__), name)
     if name == "mj":  # the old flat MuJoCo layer: a deprecated alias that warns (mjflex.mj's docstring)
         return importlib.import_module(".mj", __name__)
     raise AttributeError(f"module 'mjflex' has no attribute {name!r}")

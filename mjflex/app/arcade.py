@@ -296,13 +296,9 @@ def _paper_keyframe(spec):
 
 def _style_sites(handle, p, kind):
     """Draw the flexure as a thin box on site a; hide site b (site groups of :mod:`mjflex.mjcf.build`)."""
-    half = (
-        [p.notch_radius, 0.5 * p.notch_web, 0.5 * p.plate_thickness]
-        if kind == "notch"
-        else [0.5 * p.leaf_length, 0.5 * p.leaf_thickness, 0.5 * p.plate_thickness]
-    )
+    x, y = (p.notch_radius, 0.5 * p.notch_web) if kind == "notch" else (0.5 * p.leaf_length, 0.5 * p.leaf_thickness)
     handle.site_a.type = mujoco.mjtGeom.mjGEOM_BOX
-    handle.site_a.size = [half[0], max(half[1], 0.0006), half[2] * 1.02]
+    handle.site_a.size = [x, max(y, 0.0006), 0.5 * p.plate_thickness * 1.02]
     handle.site_a.group = SHAPE_SITE_GROUP
     handle.site_a.rgba = [0.2, 0.8, 0.3, 1.0]
     handle.site_b.group = HIDDEN_SITE_GROUP

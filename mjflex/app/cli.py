@@ -9,6 +9,7 @@ import os
 import shlex
 import sys
 import time
+from dataclasses import asdict
 
 from . import render
 from .arcade import arcade_source
@@ -69,7 +70,7 @@ def _simulate_command(args):
     print(f"wall time of the whole command {time.perf_counter() - started:.3g} s (loading, run, sampling, rendering)")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(summary.to_dict(), f, indent=2)
+            json.dump(asdict(summary), f, indent=2)
 
 
 def _demo_command(args):
@@ -131,7 +132,6 @@ def _sweep_parser(sub):
     sw.add_argument("--threads", type=int, help="Batch threads per process (default: all CPUs here, 1 per worker)")
     sw.add_argument("--out", default="out", help="folder for sweep_arcade.nc, .png and .json, created if missing")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
-    return sw
 
 
 def _study_options(args, study):
@@ -151,7 +151,6 @@ def _docs_parser(sub):
     p.add_argument("--out", default=os.path.join("out", "docs"), help="output folder (default out/docs)")
     p.add_argument("--no-strict", action="store_true", help="report warnings without failing")
     p.add_argument("--no-tutorials", action="store_true", help="do not execute the tutorials (a quick draft)")
-    return p
 
 
 def _study_command(args):
@@ -235,7 +234,6 @@ def _study_parser(sub):
     p.add_argument("--out", default="out", help="folder for study_<model>.md/.json/.png, created if missing; a "
                    "study that stops early writes study_<model>.partial.* there instead (default out)")  # fmt: skip
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    return p
 
 
 def _convert_parser(sub):
@@ -249,7 +247,6 @@ def _convert_parser(sub):
     p.add_argument("input", help="MJCF file with mjflex elements")
     p.add_argument("output", help="MJCF file to write (may be INPUT: converted in place)")
     p.add_argument("--to", choices=["plugin", "record"], default="plugin", help="the form to write")
-    return p
 
 
 def _convert_command(args):

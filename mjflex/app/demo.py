@@ -44,11 +44,8 @@ def video_size(width, height, gl: render.GLInfo):
     """(width, height): the user's where given (a missing one at 16:9), else :data:`SIZES` for the GL."""
     if width is None and height is None:
         return SIZES["software" if gl.software else "hardware"]
-    if width is None:
-        return _even(height * 16 / 9), height
-    if height is None:
-        return width, _even(width * 9 / 16)
-    return width, height
+    width = _even(height * 16 / 9) if width is None else width
+    return width, _even(width * 9 / 16) if height is None else height
 
 
 def command_clock(process_started=None) -> Stopwatch:
@@ -92,7 +89,7 @@ def run_demo(out, *, duration=0.08, width=None, height=None, fps=30, slowdown=10
         figures.energy_plot(os.path.join(out, FILES[2]), run, TITLE)
         figures.stroke_plot(os.path.join(out, FILES[3]), run, TITLE)
     scale = renderer.scale
-    report = summary.to_dict()
+    report = asdict(summary)
     report["colours"] = {"quantity": scale.label, "unit": scale.unit, "max": scale.vmax * scale.factor}
     report["video"] = {
         "file": FILES[0], "frames": video.frames, "width": video.width, "height": video.height, "fps": fps,

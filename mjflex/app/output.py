@@ -13,23 +13,15 @@ import os
 import secrets
 
 
-def _nearest_existing(path):
-    folder = os.path.abspath(path)
-    while not os.path.exists(folder):
-        parent = os.path.dirname(folder)
-        if parent == folder:
-            break
-        folder = parent
-    return folder
-
-
 def folder_problem(path, option) -> str | None:
     """Why ``path`` cannot be used as an output folder (created with its parents), or None."""
     if path is None or str(path) == "":
         return f"{option} needs a folder name"
     if os.path.exists(path) and not os.path.isdir(path):
         return f"{option} {os.fspath(path)!r} is a file, not a folder; give a folder (it is created if missing)"
-    existing = _nearest_existing(path)
+    existing = os.path.abspath(path)  # the nearest folder or file that exists
+    while not os.path.exists(existing) and os.path.dirname(existing) != existing:
+        existing = os.path.dirname(existing)
     if not os.path.isdir(existing):
         return f"{option} {os.fspath(path)!r}: {existing!r} is a file, so the folder cannot be created there"
     if not os.access(existing, os.W_OK | os.X_OK):

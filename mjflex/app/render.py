@@ -106,14 +106,9 @@ class GLInfo:
 
 @functools.lru_cache(maxsize=4)
 def _gl_query(backend):
-    """``(strings, max_size)`` from one 16x16 context of the backend, made once per backend.
-
-    ``strings``: ``GL_RENDERER``, ``GL_VENDOR``, ``GL_VERSION`` (None where PyOpenGL cannot
-    query the context); ``max_size``: the largest offscreen image side [pixels],
-    ``GL_MAX_RENDERBUFFER_SIZE`` (MuJoCo's offscreen buffer is a renderbuffer) or
-    ``GL_MAX_VIEWPORT_DIMS``, whichever is smaller (None where unreadable). RuntimeError (saying
-    how to get a context) when none can be made.
-    """
+    """``(strings, max_size)`` from one 16x16 context of the backend, made once per backend (each None where
+    unreadable): ``GL_RENDERER``, ``GL_VENDOR``, ``GL_VERSION``, and the largest offscreen image side [pixels],
+    the smaller of ``GL_MAX_RENDERBUFFER_SIZE`` (MuJoCo's offscreen buffer) and ``GL_MAX_VIEWPORT_DIMS``."""
     from mujoco.rendering.classic import gl_context  # late: imports OpenGL, after MUJOCO_GL is chosen
 
     if gl_context.GLContext is None:
@@ -483,22 +478,3 @@ def max_image_size() -> int:
     if size is None:
         raise no_gl_context(backend, "GL_MAX_RENDERBUFFER_SIZE could not be read from the context")
     return size
-
-
-def image_size_problem(width, height, what=("width", "height")) -> str | None:
-    """Why an offscreen image of ``width`` x ``height`` pixels cannot be rendered here, or None.
-
-    Checked before a run (the command line's ``--video`` and ``demo``): MuJoCo's offscreen buffer
-    (``model.vis.global_.offwidth`` / ``offheight``, which :func:`make_renderer` raises to the
-    size asked for) can be no larger than the GL's limit, :func:`max_image_size`.
-    """
-    if max(width, height) <= GUARANTEED_IMAGE_SIZE:
-        return None  # no GL context needed to know (creating one costs ~0.3 s)
-    limit = max_image_size()
-    for name, size in zip(what, (width, height), strict=True):
-        if size > limit:
-            return (
-                f"{name} {size} is larger than the {limit} pixels the OpenGL here renders offscreen "
-                f"(GL_MAX_RENDERBUFFER_SIZE with MUJOCO_GL={os.environ.get('MUJOCO_GL', 'unset')}); use at most {limit}"
-            )
-    return None

@@ -31,17 +31,28 @@ EXIT_DIVERGED = 3
 
 
 def check_video_size(width, height):
-    """Raise SystemExit (before the run) if a ``width`` x ``height`` video cannot be rendered here."""
+    """Raise SystemExit (before the run) if a ``width`` x ``height`` video cannot be rendered here.
+
+    MuJoCo's offscreen buffer (``model.vis.global_.offwidth`` / ``offheight``, which
+    :func:`mjflex.app.render.make_renderer` raises to the size asked for) can be no larger than the
+    GL's limit, :func:`mjflex.app.render.max_image_size`.
+    """
     small_w, small_h = render.MIN_VIDEO_SIZE
     if width < small_w or height < small_h:
         raise SystemExit(f"error: --width and --height must be at least {small_w} x {small_h} pixels for a video (its "
                          f"frames carry the time and a colour bar); got {width} x {height}")  # fmt: skip
+    if max(width, height) <= render.GUARANTEED_IMAGE_SIZE:
+        return  # no GL context needed to know (creating one costs ~0.3 s)
     try:
-        problem = render.image_size_problem(width, height, ("--width", "--height"))
+        limit = render.max_image_size()
     except RuntimeError as exc:
         raise SystemExit(f"error: no video can be rendered here: {exc}") from None
-    if problem:
-        raise SystemExit(f"error: {problem}")
+    for name, size in (("--width", width), ("--height", height)):
+        if size > limit:
+            raise SystemExit(
+                f"error: {name} {size} is larger than the {limit} pixels the OpenGL here renders offscreen "
+                f"(GL_MAX_RENDERBUFFER_SIZE with MUJOCO_GL={os.environ.get('MUJOCO_GL', 'unset')}); use at most {limit}"
+            )
 
 
 def load_model(path, method=None, damping=True):

@@ -4,7 +4,7 @@ import math
 import sys
 import time
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -87,9 +87,6 @@ class Summary:
     max_strain_element: str | None
     stroke_range: tuple | None
     mujoco_warnings: dict = field(default_factory=dict)
-
-    def to_dict(self):
-        return asdict(self)
 
     def text(self) -> str:
         lines = [

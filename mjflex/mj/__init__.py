@@ -14,7 +14,6 @@ import importlib
 import importlib.abc
 import importlib.util
 import sys
-import types
 import warnings
 
 #: Old module -> the modules its names are in now (the first: where the module itself went).
@@ -97,9 +96,6 @@ class _Moved(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def find_spec(self, fullname, path, target=None):
         return importlib.util.spec_from_loader(fullname, self) if fullname in MOVED else None
-
-    def create_module(self, spec):
-        return types.ModuleType(spec.name)
 
     def exec_module(self, module):
         homes = MOVED[module.__name__]
