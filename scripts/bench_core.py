@@ -17,6 +17,7 @@ Goal (issue "screw-theory core"): the 48-element batch costs at most 2x the bare
 """
 
 import argparse
+import math
 
 import mujoco
 import numpy as np
@@ -55,7 +56,7 @@ def reference_wrench(R_WA, p_WA, R_WB, p_WB, K, B, w_WA, v_WA, w_WB, v_WB, metho
         tau = Rotation.from_matrix(R).as_rotvec()
         a = np.linalg.norm(tau)
         c = (1 - a / 2 / np.tan(a / 2)) / a**2 if a > 1e-3 else 1 / 12 + a**2 / 720
-        g = _kernels.jl_inv_rate_coef(a)
+        g = _kernels.jl_inv_coefs(a, math.cos(a / 2), math.sin(a / 2))[1]
         P = np.eye(3) - 0.5 * hat(tau) + c * hat(tau) @ hat(tau)
         t = P @ p
         D = -0.5 * hat(t) + c * (hat(tau) @ hat(t) + hat(t) @ hat(tau)) + g * (tau @ t) * hat(tau) @ hat(tau)

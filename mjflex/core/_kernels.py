@@ -184,12 +184,6 @@ def jl_inv_coef(a):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
-def jl_inv_rate_coef(a):
-    """``g(a) = c'(a) / a``, for ``0 <= a < 2 pi``."""
-    return jl_inv_coefs(a, math.cos(0.5 * a), math.sin(0.5 * a))[1]
-
-
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
 def exp_coefs(a):
     """``(sin(a/2) / a, (1 - cos a) / a**2, (a - sin a) / a**3)`` without cancellation."""
     if a == 0.0:

@@ -412,18 +412,14 @@ def polynomial_basis(method: str, order: int, variables=None, symmetries=None) -
     first_xi = next((k for k in allowed if 1 <= k <= 3), None)
     signs = symmetry_signs(method, symmetries)
     rows = []
-    if code == 0 or order > 2:
-        low = 3 if code == 0 else 2
-        for degree in range(low, order + 1):
-            if code == 1 and degree % 2:
+    for degree in range(3, order + 1) if code == 0 else range(2, order + 1, 2) if order > 2 else ():
+        for combo in itertools.combinations_with_replacement(allowed, degree):
+            e = np.bincount(combo, minlength=nvar)
+            if code == 1 and not _dualquat_term(e, first_xi):
                 continue
-            for combo in itertools.combinations_with_replacement(allowed, degree):
-                e = np.bincount(combo, minlength=nvar)
-                if code == 1 and not _dualquat_term(e, first_xi):
-                    continue
-                if np.any(np.prod(signs**e, axis=1) < 0):
-                    continue  # changes sign under a symmetry of the flexure
-                rows.append(e)
+            if np.any(np.prod(signs**e, axis=1) < 0):
+                continue  # changes sign under a symmetry of the flexure
+            rows.append(e)
     return np.array(rows, dtype=np.int64).reshape(len(rows), nvar)
 
 
