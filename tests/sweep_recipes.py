@@ -1,7 +1,5 @@
 """Module-level recipe edits and observers for tests/test_sweep.py (worker processes import them)."""
 
-import numpy as np
-
 import mjflex
 from mjflex.mjcf import elements
 from mjflex.mjcf.elements import edit_flexure, flexure_matrices
@@ -21,10 +19,6 @@ def hinge_state(model, flex, data):
         "wrench": (("component",), flex.wrenches(data)[0]),
         "energy": flex.potential_energy(data),
     }
-
-
-def scaled_copy(spec, k_scale=1.0):
-    return scale_hinge(spec, k_scale=k_scale, b_scale=np.sqrt(k_scale))
 
 
 def stop_hinge(spec, limit=0.0, stiffness=0.0):

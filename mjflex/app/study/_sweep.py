@@ -447,14 +447,10 @@ def _run(result, scene, bar, *, methods, integrators, steps, variants, repeat, b
 
 def _mark_model_setting(ctx, full, plan):
     """Flag (running it if the sweep did not) the model file's own integrator, step and methods."""
-    integrator = ctx.result.model_setting["integrator"]
-    label = full.methods_label(None)
-    for row in ctx.result.rows:
-        if (row.variant, row.method, row.integrator) == ("full", label, integrator) and math.isclose(
-            row.timestep, plan.h(plan.unit), rel_tol=1e-9
-        ):
-            row.model_setting = True
-            return
-    row = ctx.candidate(full, None, integrator, plan.unit, source="model")
+    own = ("full", full.methods_label(None), ctx.result.model_setting["integrator"])
+    row = next((r for r in ctx.result.rows if (r.variant, r.method, r.integrator) == own
+                and math.isclose(r.timestep, plan.h(plan.unit), rel_tol=1e-9)), None)  # fmt: skip
+    if row is None:
+        row = ctx.candidate(full, None, own[2], plan.unit, source="model")
+        ctx.result.rows.append(row)
     row.model_setting = True
-    ctx.result.rows.append(row)

@@ -33,14 +33,8 @@ _NOT_COMPARED = ("text_", "plugin", "key_", "name_", "names", "paths", "buffer",
 
 
 def _arrays(model):
-    out = {}
-    for name in dir(model):
-        if name.startswith(_NOT_COMPARED) or name.startswith("_"):
-            continue
-        value = getattr(model, name, None)
-        if isinstance(value, np.ndarray):
-            out[name] = value
-    return out
+    names = [name for name in dir(model) if not name.startswith((*_NOT_COMPARED, "_"))]
+    return {name: value for name in names if isinstance(value := getattr(model, name, None), np.ndarray)}
 
 
 def _options(model):
