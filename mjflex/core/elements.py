@@ -163,9 +163,8 @@ def _with_rest(values, rest, check):
     R, p = values["R_WB"], values["p_WB"]
     if check:
         R, p = check_rotation(R, "R_WB"), as_array(p, "p_WB", (3,))
-    values["R_WB"], p_b = frame_at_rest(R, p, rest)
-    shift = p_b - np.asarray(p, dtype=float)
-    values["p_WB"] = p_b
+    values["R_WB"], values["p_WB"] = frame_at_rest(R, p, rest)
+    shift = values["p_WB"] - np.asarray(p, dtype=float)
     if values.get("w_WB") is not None:
         w = as_array(values["w_WB"], "w_WB", (3,)) if check else np.asarray(values["w_WB"], dtype=float)
         v = 0.0 if values.get("v_WB") is None else np.asarray(values["v_WB"], dtype=float)
