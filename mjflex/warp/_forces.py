@@ -170,13 +170,13 @@ class WarpFlexures:
         el = k["Elements"]()
         n1 = max(len(self), 1)  # arrays are never empty (a valid address)
 
-        def arr(a, dtype, shape=None):
+        def arr(a, dtype):
             a = np.asarray(a)
             if a.shape[0] == 0:
                 a = np.zeros((n1, *a.shape[1:]), a.dtype)
             return wp.array(a.astype(real) if a.dtype.kind == "f" else a, dtype=dtype, device=d)
 
-        el.ints = wp.array(table.ints if len(self) else np.zeros((1, kn.I_NCOL), np.int32), dtype=wp.int32, device=d)
+        el.ints = arr(table.ints, wp.int32)  # I_NCOL int32 columns
         el.qa, el.qb = arr(table.qa, k["Q4"]), arr(table.qb, k["Q4"])
         el.p0, el.lever_a, el.lever_b = arr(table.p0, k["V3"]), arr(table.lever_a, k["V3"]), arr(table.lever_b, k["V3"])
         el.inv_mass, el.inv_inertia = arr(table.inv_mass, k["real"]), arr(table.inv_inertia, k["real"])
@@ -255,7 +255,7 @@ class WarpFlexures:
         for name, a in fields.items():
             self._host[name] = a
             if len(self) == 0:
-                a = np.zeros({"K": (1, 1, 6, 6), "B": (1, 1, 6, 6)}.get(name, (1, 1, 6) if name in stops else (1, 1)))
+                a = np.zeros((1, 1, *a.shape[2:]))  # (worlds, 0, ...): one world, one element of zeros
             if name in ("K", "B"):
                 setattr(p, name, wp.array(a.astype(self._real), dtype=k["M66"], device=self.device))
             elif name in stops:
@@ -351,15 +351,6 @@ class WarpFlexures:
                     f"parameters for 1 or {d.nworld} worlds (mjflex.warp.set_parameters)"
                 )
 
-    def _launch_wrench(self, m, d, state):
-        flags = int(m.opt.disableflags)
-        wp.launch(
-            self._k["wrench"], dim=(d.nworld, len(self)), device=self.device,
-            inputs=[self._el, self._params, int(not flags & _SPRING), int(not flags & _DAMPER), d.xquat, d.site_xpos,
-                    d.cvel, d.subtree_com],
-            outputs=[state.out],
-        )  # fmt: skip
-
     def _launch_gather(self, m, d, state, qfrc, watched):
         wp.launch(
             self._k["gather"], dim=(d.nworld, m.nv), device=self.device,
@@ -372,8 +363,7 @@ class WarpFlexures:
         """The passive callback: add the elements' generalized forces to ``d.qfrc_passive`` and watch for divergence."""
         if not len(self):
             return
-        state = self._state(m, d)
-        self._launch_wrench(m, d, state)
+        state = self._evaluated(m, d)
         wp.launch(
             _watch.watch_kernel, dim=d.nworld, device=self.device,
             inputs=[d.time, m.opt.timestep, d.qpos, d.qvel, state.out.accel, state.out.finite], outputs=[state.watch],
@@ -383,9 +373,16 @@ class WarpFlexures:
     # ------------------------------------------------------------------ queries
 
     def _evaluated(self, m, d):
+        """The per-data state of ``d``, its ``out`` evaluated in ``d``'s state (the elements' wrenches and more)."""
         state = self._state(m, d)
         if len(self):
-            self._launch_wrench(m, d, state)
+            flags = int(m.opt.disableflags)
+            wp.launch(
+                self._k["wrench"], dim=(d.nworld, len(self)), device=self.device,
+                inputs=[self._el, self._params, int(not flags & _SPRING), int(not flags & _DAMPER), d.xquat,
+                        d.site_xpos, d.cvel, d.subtree_com],
+                outputs=[state.out],
+            )  # fmt: skip
         return state
 
     def _wrenches(self, m, d) -> np.ndarray:
