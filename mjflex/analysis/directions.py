@@ -81,9 +81,6 @@ class Directions:
     K_P: np.ndarray
     B_P: np.ndarray
 
-    def kind(self, i) -> str:
-        return "hinge" if i < 3 else "slide"
-
     def restricted(self, keep) -> tuple[np.ndarray, np.ndarray]:
         """``K`` and ``B`` (element frame) of only the principal directions ``keep``."""
         mask = np.zeros(6)

@@ -44,14 +44,6 @@ def _noise(model, data, moving, r):
     return float(np.abs(cold - r).max(initial=0.0))
 
 
-def _coordinate_scales(model, moving) -> np.ndarray:
-    """``s_j`` of each dof of ``moving``: the model's extent [m] for a translation, 1 rad for a rotation."""
-    kind = model.jnt_type[model.dof_jntid]
-    k = np.arange(model.nv) - model.jnt_dofadr[model.dof_jntid]
-    translation = (kind == mujoco.mjtJoint.mjJNT_SLIDE) | ((kind == mujoco.mjtJoint.mjJNT_FREE) & (k < 3))
-    return np.where(translation, max(float(model.stat.extent), 1e-300), 1.0)[moving]
-
-
 def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None, xfrc_applied=None,
                        qfrc_applied=None, dofs=None, tol=1e-10, max_iterations=60,
                        step=1e-7) -> np.ndarray:  # fmt: skip
@@ -122,7 +114,11 @@ def static_equilibrium(model, flex=None, *, keyframe=None, qpos=None, ctrl=None,
     with evaluating(model, flex):
         r = _residual(model, data, moving)
         scale = max(np.abs(r).max(initial=0.0), np.abs(data.qfrc_bias).max(initial=0.0), 1e-300)
-        noise, roundoff, scales = 0.0, np.zeros(len(moving)), _coordinate_scales(model, moving)  # no G yet
+        kind = model.jnt_type[model.dof_jntid]
+        k = np.arange(model.nv) - model.jnt_dofadr[model.dof_jntid]
+        translation = (kind == mujoco.mjtJoint.mjJNT_SLIDE) | ((kind == mujoco.mjtJoint.mjJNT_FREE) & (k < 3))
+        scales = np.where(translation, max(float(model.stat.extent), 1e-300), 1.0)[moving]  # s_j (module docstring)
+        noise, roundoff = 0.0, np.zeros(len(moving))  # no G yet
         for iteration in range(max_iterations + 1):
             noise = _noise(model, data, moving, r)
             bound = np.maximum(max(tol * scale, NOISE_FACTOR * noise), NOISE_FACTOR * roundoff)

@@ -199,12 +199,10 @@ def weld_variant(source, *, match="compliant", name=None) -> Variant:
     )
 
 
-def _links(model, dirs, choose):
-    names = body_names(model)
-    return [link_of(d, names, joints_of(d, choose(d))) for d in dirs]
-
-
-def _check_free(model, dirs):
+def _links(model, flex, choose):
+    """``(dirs, links)``: the elements' :class:`~mjflex.analysis.directions.Directions`, each between free bodies of
+    the world, and their links with joints in the directions ``choose(d)``."""
+    dirs = element_directions(model, flex)
     free = free_world_bodies(model)
     names = body_names(model)
     for d in dirs:
@@ -214,6 +212,7 @@ def _check_free(model, dirs):
                     f"element {d.element!r}: body {names[b]!r} is not a free body of the world; joint "
                     "variants re-joint free bodies only (mjflex's convention)"
                 )
+    return dirs, [link_of(d, names, joints_of(d, choose(d))) for d in dirs]
 
 
 class _TendonSprings:
@@ -290,9 +289,7 @@ def pseudo_rigid_body_variant(source, *, name=None) -> Variant:
     leaf: hinge rz, stiffness 1
     """
     spec, model, flex = source_elements(source, "replace")
-    dirs = element_directions(model, flex)
-    _check_free(model, dirs)
-    links = _links(model, dirs, lambda d: [int(np.argmin(np.where(d.k > 0, d.local_hz, np.inf)))])
+    dirs, links = _links(model, flex, lambda d: [int(np.argmin(np.where(d.k > 0, d.local_hz, np.inf)))])
     springs = _TendonSprings(0.1 * max(float(model.stat.extent), 1e-3))
     report = [f"{len(dirs)} elements replaced by one joint each, in their most compliant direction (all others rigid):"]
     report += [
@@ -346,16 +343,9 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
     ('bushing', 6, 6)
     """
     spec, model, flex = source_elements(source, "replace")
-    dirs = element_directions(model, flex)
-    _check_free(model, dirs)
     order = [3, 4, 5, 0, 1, 2]  # slides first, then hinges, all through the centre of stiffness
-    links = _links(model, dirs, lambda d: [i for i in order if d.k[i] > 0])
-    closers = []
-
-    def closer(tree, link):
-        closers.append(link.element)
-        return None
-
+    dirs, links = _links(model, flex, lambda d: [i for i in order if d.k[i] > 0])
+    closers = []  # closed by matched soft welds once compiled (_weld_loops)
     coupled = ", ".join(f"{d.element} {d.coupling:.2g}" for d in dirs if d.coupling > 1e-9) or "none"
     report = [
         f"{len(dirs)} elements replaced by up to six joints each (three slides, three hinges) with their principal "
@@ -364,7 +354,8 @@ def bushing_variant(source, *, loop_welds="compliant", name=None) -> Variant:
         *stops_lines(flex, _NO_STOPS),
     ]
     details = {"kind": "bushing", "constraints": "spring"}
-    variant = assemble(spec, model, links, closer=closer, name=name or "bushing", report=report, details=details)
+    variant = assemble(spec, model, links, closer=lambda tree, link: closers.append(link.element),
+                       name=name or "bushing", report=report, details=details)  # fmt: skip
     if closers:
         variant = _weld_loops(variant, flex, closers, loop_welds)
     return variant

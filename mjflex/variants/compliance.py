@@ -375,7 +375,11 @@ def make_compliant(spec, body, K, *, B=None, damping_ratio=None, site=None, pos=
                 excludes.append(spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1]))
         edits = keyframes.grow_keys(spec, saved, compliant, [j.name for j in joints], rigid.nq, rigid.nv)
         if ratios is not None:
-            B6 = _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints)
+            model = compile_spec(spec, "compute the damping from ratios")
+            with warnings.catch_warnings():  # contacts are reported once, by _warn_kept; the ratios were checked
+                warnings.simplefilter("ignore")
+                B6 = damping_from_ratios(model, name, ratios, flex=Flexures(model), keyframe=keyframe, others=others,
+                                         actuator_stiffness=actuator_stiffness, constraints=constraints)  # fmt: skip
             write_record(spec, name, dataclasses.replace(element_record(spec, name), B=B6))
         _warn_kept(spec, name)
         kept_eq = replacement.saved["kept_equalities"] if replacement is not None else list(range(rigid.neq))
@@ -506,15 +510,6 @@ def _rest_pose(rest, rigid, body, replaced, R_BE, p_BE, name):
     return tuple(float(v) for v in rest[0]), tuple(float(v) for v in rest[1])
 
 
-def _damping(spec, name, ratios, keyframe, others, actuator_stiffness, constraints):
-    model = compile_spec(spec, "compute the damping from ratios")
-    with warnings.catch_warnings():  # contacts are reported once, by _warn_kept; the ratios were checked
-        warnings.simplefilter("ignore")
-        flex = Flexures(model)
-        return damping_from_ratios(model, name, ratios, flex=flex, keyframe=keyframe, others=others,
-                                   actuator_stiffness=actuator_stiffness, constraints=constraints)  # fmt: skip
-
-
 def _warn_kept(spec, name):
     """Validate the new element as :class:`Flexures` reads it, and pass on its contact warnings once."""
     model = compile_spec(spec, "make a body compliant")
@@ -587,13 +582,9 @@ def make_rigid(spec, compliance: Compliance) -> None:
         joint_replacement.undo(spec, compliance.replaced)
     keyframes.restore_keys(spec, shrunk)
     remove_flexure(spec, compliance.element)
-    _delete_excludes(spec, compliance.excludes)
-    placement.unpin_length_ranges(spec, compliance.lengthranges)
-
-
-def _delete_excludes(spec, pairs):
-    added = {frozenset(p) for p in pairs}
+    added = {frozenset(p) for p in compliance.excludes}
     for e in list(spec.excludes):
         if frozenset((e.bodyname1, e.bodyname2)) in added:
             added.discard(frozenset((e.bodyname1, e.bodyname2)))
             spec.delete(e)
+    placement.unpin_length_ranges(spec, compliance.lengthranges)

@@ -546,10 +546,9 @@ def _warn(variant, plan):
         )
     step = variant.details.get("step") or {}
     if step.get("advised_step", np.inf) < step.get("timestep", 0.0) * (1.0 - 1e-9):
-        why = " (report)"
         warnings.warn(f"mjflex.reduce: the reduced model's step advice {step['advised_step']:.3g} s does not resolve "
                       f"the step {step['timestep']:g} s at {step['advice_state']} (its mode {step['limiting_hz']:.4g} "
-                      f"Hz, damping ratio {abs(step['damping_ratio']):.2g}){why}", ReductionWarning,
+                      f"Hz, damping ratio {abs(step['damping_ratio']):.2g}) (report)", ReductionWarning,
                       stacklevel=3)  # fmt: skip
 
 

@@ -140,7 +140,7 @@ def build(plan, loops, name):
         for e, rec in enumerate(plan.flex.records):
             if plan.normal is not None:  # every record left (kept, or closing a loop) becomes planar
                 try:
-                    current = schema.parse_text(rec.name, tree.element_text(rec.name))
+                    current = schema.parse_text(rec.name, tree.text(rec.name)[1].get("data"))
                 except KeyError:
                     continue
                 R_EF = plane_frame(data.site_xmat[plan.flex.site_ids[e, 0]].reshape(3, 3), plan.normal)

@@ -10,12 +10,9 @@ import mujoco
 import numpy as np
 import scipy.linalg
 
-from ..analysis.advice import SAFETY, mode_limit
+from ..analysis.advice import SAFETY, integrator_name, mode_limit
 from ..analysis.directions import energy_shares
 
-#: MuJoCo's integrators by the names the advice uses (the others: Euler's).
-INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_RK4): "RK4", int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
-                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}  # fmt: skip
 _CAPPED = " (lowered by the reduced model's step advice, which counts the damping, constraints and actuators)"
 
 
@@ -331,7 +328,7 @@ def step_choice(model, dirs, freq, modes, reducible, needs, needed, forced, time
     """The target-step selection of :func:`mjflex.reduce` (:func:`choose_for_step`): rigid directions, band mask,
     info (``"unreachable"``: why no reduction reaches the step, every candidate then held). ``cap_hz``: a lower
     target [Hz] than the undamped modes' (the step advice of an earlier round did not resolve the step)."""
-    integrator = INTEGRATORS.get(int(model.opt.integrator), "Euler")
+    integrator = integrator_name(None, model).replace("discrete", "Euler")  # the advice's name; discrete as Euler
     omega = step_omega(timestep, integrator)
     if cap_hz is not None:
         omega = min(omega, 2.0 * np.pi * cap_hz)

@@ -136,17 +136,16 @@ def verify_step(variant, plan, states, own):
     flex = Flexures(model) if variant.has_flexures else None
     step = variant.details["step"] = dict(plan.details["step"])
     per_state, notes = [], []
+    keys = ("advised_step", "advised_limit", "limiting_hz", "damping_ratio")
     for at in own:
         advice, note = _advice(model, flex, at)
         if note:
             notes.append(f"{at.label}: {note}")
         limit = (advice.recommended, advice.limit, advice.frequency, advice.damping_ratio) if advice else (
             float("inf"), float("inf"), 0.0, 0.0)  # fmt: skip
-        keys = ("advised_step", "advised_limit", "limiting_hz", "damping_ratio")
         per_state.append({"state": at.label, **dict(zip(keys, limit, strict=True)), "at_rest": at.qpos is not None})
     worst = min(per_state, key=lambda s: s["advised_step"])
-    step.update({k: worst[k] for k in ("advised_step", "advised_limit", "limiting_hz", "damping_ratio")},
-                advice_state=worst["state"], advice_states=per_state)  # fmt: skip
+    step.update({k: worst[k] for k in keys}, advice_state=worst["state"], advice_states=per_state)
     if notes:
         step["advice_note"] = " | ".join(notes)
     ok = step["advised_step"] >= step["timestep"] * (1.0 - 1e-9)

@@ -58,7 +58,7 @@ class Link:
 def joints_of(d, soft, damping=True):
     """Joints in the principal directions ``soft`` of an element (``d``: its
     :class:`~mjflex.analysis.directions.Directions`), with their stiffness and (``damping``) their damping."""
-    return [Joint(d.kind(i), d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]),
+    return [Joint("hinge" if i < 3 else "slide", d.labels[i], d.axes_world[i], d.centre_world, float(d.k[i]),
                   float(d.b[i]) if damping else 0.0) for i in soft]  # fmt: skip
 
 
@@ -256,11 +256,6 @@ class TreeXml:
         joints = [Joint(kind, f"plane_{label}", axis, p_WB, 0.0, 0.0) for label, kind, axis in axes]
         self.insert_joints(body, joints, body)
 
-    def element_text(self, element):
-        """The current data of an element's record."""
-        _, t = self.text(element)
-        return t.get("data")
-
     def rotate_sites(self, sites, R_EF):
         """Turn both sites of an element by ``R_EF`` (element coordinates), keeping their origins."""
         for name in sites:
@@ -275,17 +270,15 @@ class TreeXml:
                         site.attrib.pop(key, None)
                     site.set("quat", numbers(q))
 
-    def section(self, tag):
-        found = self.root.find(tag)
-        if found is None:
-            found = ET.SubElement(self.root, tag)
-        return found
-
     def add(self, tag, kind, **attrs):
         """Add ``<tag><kind .../></tag>``, e.g. an equality constraint or a tendon; returns the element."""
-        return ET.SubElement(self.section(tag), kind, {k: str(v) for k, v in attrs.items()})
+        section = self.root.find(tag)
+        if section is None:
+            section = ET.SubElement(self.root, tag)
+        return ET.SubElement(section, kind, {k: str(v) for k, v in attrs.items()})
 
     def text(self, element):
+        """``(custom section, text element)`` of an element's record (its current data: ``.get("data")``)."""
         for custom in self.root.findall("custom"):
             for t in custom.findall("text"):
                 if t.get("name") == "mjflex:" + element:
