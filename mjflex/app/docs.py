@@ -31,16 +31,6 @@ REQUIRED = {
 }
 
 
-def sphinx_command(out, *, strict=True, tutorials=True):
-    """The ``python -m sphinx`` command line that builds ``docs/`` into ``out/html``."""
-    command = [sys.executable, "-m", "sphinx", "-b", "html", "-d", os.path.join(out, "doctrees")]
-    if strict:
-        command += ["-W", "--keep-going", "-n"]
-    if not tutorials:
-        command += ["-D", "plot_gallery=0"]
-    return [*command, SOURCE, os.path.join(out, "html")]
-
-
 def build_docs(out="out/docs", *, strict=True, tutorials=True) -> int:
     """Build the site into ``out/html``; returns Sphinx's exit status (0: built without warnings).
 
@@ -56,8 +46,13 @@ def build_docs(out="out/docs", *, strict=True, tutorials=True) -> int:
         raise SystemExit(f'error: missing {", ".join(missing)}; install the docs extra: pip install -e ".[docs]"')
     out = os.path.abspath(out)
     os.makedirs(out, exist_ok=True)
+    command = [sys.executable, "-m", "sphinx", "-b", "html", "-d", os.path.join(out, "doctrees")]
+    if strict:
+        command += ["-W", "--keep-going", "-n"]
+    if not tutorials:
+        command += ["-D", "plot_gallery=0"]
     started = time.perf_counter()
-    status = subprocess.call(sphinx_command(out, strict=strict, tutorials=tutorials))
+    status = subprocess.call([*command, SOURCE, os.path.join(out, "html")])
     wall = time.perf_counter() - started
     index = os.path.join(out, "html", "index.html")
     if status == 0:

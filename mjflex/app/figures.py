@@ -61,10 +61,7 @@ def panel_figure(path, images, times, title, scale: ColourScale | None = None, c
 def _energy_unit(values):
     """(factor, name) that shows ``values`` [J] with a largest magnitude between 0.1 and 1000."""
     top = float(np.nanmax(np.abs(values))) if np.size(values) else 0.0
-    for factor, name in _ENERGY_UNITS:
-        if top * factor >= 0.1:
-            return factor, name
-    return _ENERGY_UNITS[-1]
+    return next((unit for unit in _ENERGY_UNITS if top * unit[0] >= 0.1), _ENERGY_UNITS[-1])
 
 
 def energy_plot(path, run, title):

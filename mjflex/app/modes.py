@@ -31,11 +31,10 @@ class ModeSummary:
 def _body_motion(model, data, qvel):
     data.qvel[:] = qvel
     mujoco.mj_fwdVelocity(model, data)
-    v, w = np.zeros((model.nbody, 3)), np.zeros((model.nbody, 3))
-    res = np.zeros(6)
+    velocity = np.zeros((model.nbody, 6))  # per body: angular, then linear (world axes)
     for b in range(model.nbody):
-        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, b, res, 0)
-        w[b], v[b] = res[:3], res[3:]
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, b, velocity[b], 0)
+    w, v = velocity[:, :3], velocity[:, 3:]
     R = data.ximat.reshape(-1, 3, 3)
     w_local = np.einsum("bji,bj->bi", R, w)
     ke = 0.5 * model.body_mass * (v**2).sum(1) + 0.5 * (model.body_inertia * w_local**2).sum(1)

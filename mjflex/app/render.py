@@ -416,7 +416,6 @@ class RunRenderer:
         self.gl = gl_info()
         self.look = choose_look(look, self.gl) if isinstance(look, str) else look
         self.renderer = make_renderer(model, width, height, antialias=self.look.antialias)
-        self.width, self.height = width, height
         self.data = mujoco.MjData(model)
         self.camera = camera or default_camera(model)
         self.option = mujoco.MjvOption()
