@@ -156,7 +156,7 @@ def put_model(mjmodel: mujoco.MjModel, *, precision: str = "float32", batch_size
         raise ValueError(f"precision must be one of {PRECISIONS}; got {precision!r}")
     model = copy.copy(mjmodel)
     table = element_table(model)
-    adaptations = _adapt.check_plugins(model, table) + _adapt.adapt_sleep(model, table) + _adapt.adapt_flags(model)
+    adaptations = _adapt.check_plugins(model) + _adapt.adapt_sleep(model, table) + _adapt.adapt_flags(model)
     try:
         with _adapt.plugin_arrays_sized(model):
             m = mjw.put_model(model, batch_sizes=batch_sizes)

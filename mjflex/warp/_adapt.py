@@ -57,7 +57,7 @@ def _name(model, objtype, i, fallback):
     return mujoco.mj_id2name(model, objtype, int(i)) or f"{fallback} #{int(i)}"
 
 
-def check_plugins(model, table) -> list[str]:
+def check_plugins(model) -> list[str]:
     ours = set(_mjflex.mjflex_instances(model))
     # geom plugins MuJoCo Warp runs; those of bodies, actuators and sensors it refuses itself, with its own message
     attached = {int(p) for a in (model.geom_plugin, model.body_plugin, model.actuator_plugin, model.sensor_plugin)
