@@ -398,8 +398,7 @@ def read_video(path):
     import imageio_ffmpeg  # late: the video stack, only when a video is written or read
 
     reader = imageio_ffmpeg.read_frames(path)
-    meta = next(reader)
-    width, height = meta["size"]
+    width, height = next(reader)["size"]  # the first item: the video's metadata
     frames = [np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader]
     return np.stack(frames) if frames else np.zeros((0, height, width, 3), np.uint8)
 
@@ -419,8 +418,7 @@ class RunRenderer:
         self.data = mujoco.MjData(model)
         self.camera = camera or default_camera(model)
         self.option = mujoco.MjvOption()
-        for g in SHOWN_SITE_GROUPS:
-            self.option.sitegroup[g] = 1
+        self.option.sitegroup[list(SHOWN_SITE_GROUPS)] = 1
         self.sites = flex.site_ids[:, 0]
         self.scale = colour_scale(flex, run, strain_scale)
         self.overlay = _Overlay(width, height, self.scale)
