@@ -66,30 +66,6 @@ def element_line(d, rigid_dirs, reason, shares_peak, dropped):
     return f"{d.element}: {len(soft)} {kind} ({local} local) ; rigid: {held or 'none'}{damp}"
 
 
-class Closer:
-    """Loop closures for :func:`reduce`."""
-
-    def __init__(self, loops, flex, dirs, drop, arm):
-        self.loops, self.flex, self.dirs, self.drop, self.arm = loops, flex, dirs, drop, arm
-
-    def __call__(self, tree, link):
-        e = self.flex.index(link.element)
-        rec, d = self.flex.records[e], self.dirs[e]
-        if self.loops == "constraint" and not link.joints:
-            rigid_closure(tree, link)
-            return f"{link.element}: closes a loop as a hard weld"
-        if self.loops == "constraint" and len(link.joints) == 1 and link.joints[0].kind == "hinge":
-            hinge_closure(tree, link, link.joints[0], self.arm)
-            i = d.labels.index(link.joints[0].label)
-            K, B = d.restricted([i])
-            tree.rewrite_element(link.element, record_text(rec, K, B, viscous=not self.drop[e]))
-            return f"{link.element}: closes a loop as a hinge (two connect constraints; spring {d.k[i]:.4g} kept as "\
-                   "a one-direction element)"  # fmt: skip
-        tree.rewrite_element(link.element, record_text(rec, viscous=False if self.drop[e] else None))
-        why = "loops='element'" if self.loops == "element" else "MuJoCo has no equality constraint for this joint"
-        return f"{link.element}: closes a loop, kept as a full element ({why})"
-
-
 @dataclass
 class Plan:
     """What :func:`reduce` decided, before the variant is built."""
@@ -151,8 +127,23 @@ def build(plan, loops, name):
             elif plan.reasons[e] is not None and plan.drop[e] and rec.B is not None and np.any(rec.B):
                 tree.rewrite_element(rec.name, record_text(rec, viscous=False))
 
-    arm = 0.1 * max(float(plan.model.stat.extent), 1e-3)
-    closer = Closer(loops, plan.flex, plan.dirs, plan.drop, arm)
+    def closer(tree, link):  # a loop that ``link`` closes: by a weld or a hinge's connects (``loops``), or its element
+        e = plan.flex.index(link.element)
+        rec, d = plan.flex.records[e], plan.dirs[e]
+        if loops == "constraint" and not link.joints:
+            rigid_closure(tree, link)
+            return f"{link.element}: closes a loop as a hard weld"
+        if loops == "constraint" and len(link.joints) == 1 and link.joints[0].kind == "hinge":
+            hinge_closure(tree, link, link.joints[0], 0.1 * max(float(plan.model.stat.extent), 1e-3))
+            i = d.labels.index(link.joints[0].label)
+            K, B = d.restricted([i])
+            tree.rewrite_element(link.element, record_text(rec, K, B, viscous=not plan.drop[e]))
+            return f"{link.element}: closes a loop as a hinge (two connect constraints; spring {d.k[i]:.4g} kept as "\
+                   "a one-direction element)"  # fmt: skip
+        tree.rewrite_element(link.element, record_text(rec, viscous=False if plan.drop[e] else None))
+        why = "loops='element'" if loops == "element" else "MuJoCo has no equality constraint for this joint"
+        return f"{link.element}: closes a loop, kept as a full element ({why})"
+
     details = dict(plan.details, loops=loops, constraints="project")
     attached = {n for n in names[1:] if n} - free_world_bodies(plan.model)
     return assemble(plan.spec, plan.model, links, closer=closer, pre=kept_records, name=name, report=plan.report,
