@@ -128,6 +128,24 @@ def test_the_advised_damping_ratio_is_the_measured_logarithmic_decrement():
     assert advice.damping_ratio == pytest.approx(zeta, rel=1e-6)  # and the closed form: c / (2 sqrt(k m))
 
 
+def test_an_undamped_mode_has_a_damping_ratio_of_zero_not_the_eigensolvers_round_off():
+    """Without damping, ``Re lambda`` of the limiting mode is the eigensolver's round-off (3.8e-18 of ``|lambda|`` on
+    one CPU, 0 on another): the advice says 0, so that its text reads the same on every machine; a small real damping
+    (3e-6 on the limiting rocking mode) is still seen."""
+    for c in (0.0, 2e-6 * math.sqrt(1e4 * 0.5)):
+        spec = mujoco.MjSpec.from_string(
+            '<mujoco><option integrator="RK4" gravity="0 0 0"/><worldbody><body name="block" pos="0 0 -0.1">'
+            '<freejoint/><geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body></worldbody></mujoco>'
+        )
+        mjflex.add_flexure(
+            spec, "leaf", "world", "block", pos=[0, 0, -0.05], K=[2, 2, 1, 1e4, 1e4, 1e4], B=[0, 0, 0, c, c, c]
+        )
+        model = spec.compile()
+        advice = mjflex.step_advice(model)
+        assert ("damping ratio 0)" in str(advice)) == (c == 0), str(advice)
+        assert (advice.damping_ratio == 0.0) if c == 0 else (1e-6 < advice.damping_ratio < 1e-5)
+
+
 GRIPPER = """<mujoco model="gripper">
   <option timestep="2e-3" solver="{solver}"/>
   <worldbody>

@@ -95,7 +95,8 @@ class StepAdvice:
         ``|lambda| / 2 pi`` [Hz] of the eigenvalue that sets the limit: the natural frequency of an
         underdamped mode (a damping-limited, real ``lambda``: its rate over ``2 pi``).
     damping_ratio : float
-        That eigenvalue's damping ratio ``-Re lambda / |lambda|`` (all damping, explicit and implicit).
+        That eigenvalue's damping ratio ``-Re lambda / |lambda|`` (all damping, explicit and implicit); 0 where
+        ``|Re lambda|`` is within the eigensolver's round-off, ``2 nv eps max|lambda|``.
     freq : ndarray, shape (n,)
         All natural frequencies at the state [Hz], ascending (undamped; constraints as counted).
     mode : ndarray, shape (nv,)
@@ -271,6 +272,8 @@ def advise(model, flex, base, integrator, options, *, safety=SAFETY, step=STEP, 
         return None, last, "unstable" if lo is None else "stable"
     eigenvalue, mode = _limiting(T, lam, vec, lin.M)
     size = abs(eigenvalue)
+    if abs(eigenvalue.real) <= lam.size * np.finfo(float).eps * fastest:  # the eigensolver's round-off: undamped
+        eigenvalue = complex(0.0, eigenvalue.imag)
     lo = lo * (1.0 - rtol) if margin else lo
     return StepAdvice(integrator, float(lo), float(safety * lo), float(safety), float(size / (2.0 * np.pi)),
                       float(-eigenvalue.real / size) if size > 0 else 0.0,
