@@ -200,3 +200,22 @@ def test_gl_backend_is_chosen_only_when_rendering():
     assert done.returncode == 0, done.stderr
     if platform.system() == "Linux":
         assert done.stdout.startswith("egl (48, 64, 3)") and int(done.stdout.split()[-1]) > 0
+
+
+def test_an_unnamed_keyframe_is_the_default_start_and_is_chosen_by_its_index(tmp_path, capsys):
+    """A model whose only keyframe has no name starts from it (it once failed with "no keyframe '0'"), by default or
+    by ``--keyframe 0``; an index past the last keyframe is a message."""
+    spec = mujoco.MjSpec.from_file(TWO_BODY)
+    for key in list(spec.keys):
+        spec.delete(key)
+    model = spec.compile()
+    spec.add_key(qpos=model.qpos0.copy(), qvel=np.r_[np.zeros(6), 0.5, np.zeros(5)])  # B spinning about x
+    path = tmp_path / "unnamed_key.xml"
+    path.write_text(spec.to_xml())
+    for extra in ([], ["--keyframe", "0"]):
+        out = tmp_path / "s.json"
+        cli.main(["simulate", str(path), "--duration", "0.001", "--quiet", "--json", str(out), *extra])
+        summary = json.loads(out.read_text())
+        assert summary["steps"] == 50 and summary["energy_start"] == pytest.approx(0.01215, rel=1e-9)  # its spin
+    err = _main_error(["simulate", str(path), "--keyframe", "1"], capsys)
+    assert "no keyframe '1'; the model has [None]" in err

@@ -276,7 +276,9 @@ def build_parser():
                      help="override the model's integrator (default: the model's)")  # fmt: skip
     sim.add_argument("--timestep", type=positive_float, help="override the model's time step [s] (default: the "
                      "model's)")  # fmt: skip
-    sim.add_argument("--keyframe", help="initial state (default: the first keyframe, else qpos0 at rest)")
+    sim.add_argument(
+        "--keyframe", help="initial state: a name, or an index (default: the first keyframe, else qpos0 at rest)"
+    )
     sim.add_argument("--no-damping", action="store_true", help="switch off every element's viscous part")
     sim.add_argument("--json", help="write the summary as JSON here (default: no JSON)")
     demo = sub.add_parser("demo", help="the paper's ARCADE run: video, Fig. 4-like panels, energy and stroke plots",

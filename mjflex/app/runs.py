@@ -75,14 +75,18 @@ def load_model(path, method=None, damping=True):
 
 
 def initial_state(model, keyframe):
+    """A data at ``keyframe`` (a name, or an index for an unnamed one; None: the first keyframe, else qpos0), after
+    ``mj_forward``, and the keyframe's label (None at qpos0)."""
     data = mujoco.MjData(model)
     if keyframe is None and model.nkey > 0:
         keyframe = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, 0) or "0"
     if keyframe is not None:
         key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+        if key < 0 and keyframe.isdigit() and int(keyframe) < model.nkey:  # an unnamed keyframe, by its index
+            key = int(keyframe)
         if key < 0:
             names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, i) for i in range(model.nkey)]
-            raise SystemExit(f"error: no keyframe {keyframe!r}; the model has {names}")
+            raise SystemExit(f"error: no keyframe {keyframe!r}; the model has {names} (an unnamed one: its index)")
         mujoco.mj_resetDataKeyframe(model, data, key)
     mujoco.mj_forward(model, data)
     return data, keyframe
