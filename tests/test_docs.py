@@ -593,6 +593,35 @@ def test_docstring_examples_run():
     assert runner.failures == 0, f"{runner.failures} docstring example(s) failed (see the output above)"
 
 
+def _modules():
+    import pkgutil
+
+    import mjflex
+
+    found = pkgutil.walk_packages(mjflex.__path__, "mjflex.")  # the Python modules, not the C library beside them
+    return sorted(m.name for m in found if m.name != "mjflex.__main__" and not m.name.startswith("mjflex.native.lib"))
+
+
+def test_shared_docstring_parts_are_filled_in_and_every_module_imports_without_docstrings():
+    """A docstring line ``{name}`` stands for a shared part (:mod:`mjflex.core.docstrings`): none is left unfilled in
+    any module, a part that does not exist is an error naming it, and every module imports under ``python -OO``
+    (docstrings stripped: filling in the study's shared example once failed there)."""
+    from mjflex.core.docstrings import filled_text
+
+    left = []
+    for name in _modules():
+        module = importlib.import_module(name)
+        for key, obj in [("", module), *vars(module).items()]:
+            if getattr(obj, "__module__", name) == name and re.search(r"^\s*\{\w+\}$", obj.__doc__ or "", re.M):
+                left.append(f"{name}.{key}")
+    assert not left, f"docstrings with a part not filled in: {left}"
+    with pytest.raises(ValueError, match=r"docstring line \{stiffnes\}: no shared part 'stiffnes'"):
+        filled_text("Parameters\n    {stiffnes}\n", {"stiffness": "K : ndarray\n"})
+    code = f"import importlib\nfor name in {_modules()!r}:\n    importlib.import_module(name)\nprint('imported')"
+    done = subprocess.run([sys.executable, "-OO", "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert done.returncode == 0 and "imported" in done.stdout, done.stderr[-3000:]
+
+
 # ----------------------------------------------------------------------------- code blocks
 
 

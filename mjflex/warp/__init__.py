@@ -33,6 +33,7 @@ import mujoco
 import mujoco_warp as mjw
 import numpy as np
 
+from ..core.docstrings import with_shared_docstring
 from . import _adapt, _mjflex
 from ._forces import WarpFlexures, WorldDivergence
 from ._mjflex import ElementTable, UnsupportedElementError
@@ -60,7 +61,7 @@ __all__ = [
 #: Precisions of the element math: MuJoCo Warp's own float32, or float64 inside the kernels.
 PRECISIONS = ("float32", "float64")
 log = logging.getLogger("mjflex.warp")
-#: What the functions' docstrings share, put in by _shared_doc for a line ``{name}``: the Parameters entries of
+#: What the functions' docstrings share, filled in by _shared_doc for a line ``{name}``: the Parameters entries of
 #: ``m`` and ``d``, and the examples' set-up (the two-body model; its body B turned by 0.1 rad; two worlds so).
 _SHARED = {
     "m_and_d": """\
@@ -91,13 +92,7 @@ _SHARED = {
 }
 
 
-def _shared_doc(f):
-    """``f``, each line ``{name}`` of its docstring replaced by ``_SHARED[name]``: what it renders and runs."""
-    doc = f.__doc__ or ""  # None under python -OO
-    for name, text in reversed(_SHARED.items()):  # a later entry holds earlier ones
-        doc = doc.replace(f"    {{{name}}}\n", text)
-    f.__doc__ = doc
-    return f
+_shared_doc = with_shared_docstring(_SHARED)
 
 
 @_shared_doc

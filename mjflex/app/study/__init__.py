@@ -125,7 +125,7 @@ A block on a leaf spring, pushed into a rocking motion: two integrators at two s
 model variants, one timing round and no bisection (seconds; the defaults take longer). Costs are measured, so
 they vary from run to run; the errors do not:
 
-<study example: _rows.EXAMPLE>
+{study_example}
 >>> result.reference.converged, [(row.integrator, row.timestep) for row in result.rows]
 (True, [('rk4', 0.0002), ('rk4', 0.0001), ('euler', 0.0002), ('euler', 0.0001)])
 >>> print(", ".join(f"{row.integrator} {row.timestep:g} s: {row.pose_error:.0e}" for row in result.rows))

@@ -97,7 +97,7 @@ class StudyResult:
 
     Examples
     --------
-    <study example: _rows.EXAMPLE>
+    {study_example}
     >>> [(row.integrator, row.timestep, row.status) for row in result.rows]
     [('rk4', 0.0002, 'ok'), ('rk4', 0.0001, 'ok'), ('euler', 0.0002, 'ok'), ('euler', 0.0001, 'ok')]
     >>> [(limit.integrator, limit.recommended) for limit in result.limits]  # the step to use, per integrator

@@ -2,16 +2,16 @@
 run (:class:`Reference`), each with its text and dict forms (:mod:`._result` gathers them)."""
 
 import math
-import textwrap
 from dataclasses import asdict, dataclass, field
 
+from ...core.docstrings import with_shared_docstring
 from ._options import who
 from ._run import Divergence
 from ._stability import PERTURBATION
 
 #: The opening of the study's examples (:func:`mjflex.study`, :class:`Row`, :class:`Limit`, :class:`Reference`,
 #: :class:`StudyResult`): a block on a leaf spring, pushed into a rocking motion, studied with one element method and
-#: two integrators at two steps. Their docstrings hold the line ``<study example: _rows.EXAMPLE>`` in its place.
+#: two integrators at two steps. Their docstrings hold the line ``{study_example}`` in its place.
 EXAMPLE = """\
 >>> import mujoco
 >>> import mjflex
@@ -28,13 +28,7 @@ EXAMPLE = """\
 """
 
 
-def with_study_example(obj):
-    """``obj`` with :data:`EXAMPLE` in place of its docstring's line ``<study example: _rows.EXAMPLE>``."""
-    head, mark, tail = obj.__doc__.partition("<study example: _rows.EXAMPLE>\n")
-    assert mark, f"{obj!r}: no study example to fill in"
-    indent = head[len(head.rstrip(" ")) :]
-    obj.__doc__ = head + textwrap.indent(EXAMPLE, indent)[len(indent) :] + tail
-    return obj
+with_study_example = with_shared_docstring({"study_example": EXAMPLE})
 
 
 def _bracket(lo, hi):
@@ -102,7 +96,7 @@ class Row:
 
     Examples
     --------
-    <study example: _rows.EXAMPLE>
+    {study_example}
     >>> row = result.rows[0]
     >>> row.label, row.status, f"{row.pose_error:.0e}"
     ('rk4, twist, h = 0.0002 s', 'ok', '2e-05')
@@ -186,7 +180,7 @@ class Limit:
 
     Examples
     --------
-    <study example: _rows.EXAMPLE>
+    {study_example}
     >>> limit = result.limits[0]
     >>> limit.integrator, limit.largest_stable, limit.smallest_unstable, limit.recommended
     ('rk4', 0.0002, None, 0.0002)
@@ -298,7 +292,7 @@ class Reference:
 
     Examples
     --------
-    <study example: _rows.EXAMPLE>
+    {study_example}
     >>> ref = result.reference
     >>> ref.converged, ref.timestep, round(ref.observed_order)
     (True, 2.5e-05, 4)
