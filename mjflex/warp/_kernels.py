@@ -175,7 +175,7 @@ def build(real, with_stops=True):
 
     @wp.func
     def pose(el: Elements, e: int, w: int, xquat: wp.array2d(dtype=wp.quat), site_xpos: wp.array2d(dtype=wp.vec3)):
-        """(q_ab with w >= 0, p_ab, R_Wb*, p_Wb*, orientation of frame a R_Wa as a quaternion)."""
+        """(q_ab with w >= 0, p_ab, R_Wb*, p_Wb*)."""
         wa = qmul(quat_in(xquat[w, el.ints[e, I_BODY_A]]), el.qa[e])
         wb = qmul(quat_in(xquat[w, el.ints[e, I_BODY_B]]), el.qb[e])
         q = qconj_mul(wa, wb)
