@@ -25,10 +25,7 @@ from _bench import add_timing_options, compare, measured_in_processes, print_tab
 from scipy.spatial.transform import Rotation
 
 import mjflex
-from mjflex.core import _kernels, _poly_kernels
-
-#: The terms arguments of the batch kernel for elements without terms (it then runs the quadratic kernels).
-NO_TERMS = (np.zeros((0, 8), np.int64), np.zeros(0), *_poly_kernels.work_arrays(np.zeros((0, 8), np.int64)))
+from mjflex.core import _kernels
 
 
 def free_bodies_model(n_bodies=35):
@@ -95,8 +92,7 @@ def method_cases(method, n, R_WA, p_WA, R_WB, p_WB, K, B, vel):
     """Timed cases for one method, and a check of the batch against the per-element loop."""
     names = ("w_WA", "v_WA", "w_WB", "v_WB")
     out, power = np.empty((n, 6)), np.empty(n)
-    kargs = (0 if method == "twist" else 1, R_WA, p_WA, R_WB, p_WB, K, B, True, *(vel[k] for k in names), *NO_TERMS,
-             out, power)  # fmt: skip
+    kargs = (0 if method == "twist" else 1, R_WA, p_WA, R_WB, p_WB, K, B, True, *(vel[k] for k in names), out, power)
 
     def batch(check):
         return lambda: mjflex.wrench_on_b(R_WA, p_WA, R_WB, p_WB, K, method=method, B=B, check=check, **vel)
@@ -110,7 +106,7 @@ def method_cases(method, n, R_WA, p_WA, R_WB, p_WB, K, B, vel):
     cases = {
         f"{method}: wrench_on_b x{n}, check=False": batch(False),
         f"{method}: wrench_on_b x{n}, check=True": batch(True),
-        f"{method}: compiled batch kernel alone x{n}": lambda: _poly_kernels.spatial_wrench_terms_batch(*kargs),
+        f"{method}: compiled batch kernel alone x{n}": lambda: _kernels.spatial_wrench_batch(*kargs),
     }
     ref, got = np.array(loop()), batch(True)()
     err = float(np.max(np.linalg.norm(got - ref, axis=-1) / np.linalg.norm(ref, axis=-1)))

@@ -16,10 +16,10 @@ import argparse
 
 import numpy as np
 from _bench import add_timing_options, compare, measured_in_processes, print_table, write_json
-from bench_core import NO_TERMS, random_batch
+from bench_core import random_batch
 
 import mjflex
-from mjflex.core import _poly_kernels
+from mjflex.core import _kernels, _poly_kernels
 
 
 def measure(args):
@@ -31,9 +31,8 @@ def measure(args):
     cases, sizes = {}, {}
     for method, code in (("twist", 0), ("dualquat", 1)):
         base = f"{method}: quadratic"
-        cases[base] = lambda code=code: _poly_kernels.spatial_wrench_terms_batch(  # without terms: the quadratic kernel
-            code, R_WA, p_WA, R_WB, p_WB, K, B, True, *v, *NO_TERMS, out, power
-        )
+        cases[base] = lambda code=code: _kernels.spatial_wrench_batch(code, R_WA, p_WA, R_WB, p_WB, K, B, True, *v,
+                                                                      out, power)  # fmt: skip
         for order in (4, 6):
             for label, variables in (("plane", (2, 3, 4)), ("all 6", None)):
                 e = mjflex.polynomial_basis(method, order, variables)

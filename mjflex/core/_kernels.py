@@ -469,6 +469,33 @@ def row_of(a, i):
     return i if a.shape[0] > 1 else 0
 
 
+# The quadratic loops are kept apart from the polynomial ones (_poly_kernels), which run the same kernels when there
+# are no terms but cost 25 % more per element (scripts/bench_core.py).
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_wrench_batch(method, R_WA, p_WA, R_WB, p_WB, K, B, viscous, w_WA, v_WA, w_WB, v_WB, out, power):
+    R_WA, R_WB, K, B = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K), flat_rows(B)
+    for i in range(out.shape[0]):
+        m, f, power[i] = spatial_wrench(
+            method, load9(R_WA, row_of(R_WA, i)), load3(p_WA, row_of(p_WA, i)), load9(R_WB, row_of(R_WB, i)),
+            load3(p_WB, row_of(p_WB, i)), load36(K, row_of(K, i)), load36(B, row_of(B, i)), viscous,
+            load3(w_WA, row_of(w_WA, i)), load3(v_WA, row_of(v_WA, i)), load3(w_WB, row_of(w_WB, i)),
+            load3(v_WB, row_of(v_WB, i)),
+        )  # fmt: skip
+        for j in range(3):
+            out[i, j] = m[j]
+            out[i, 3 + j] = f[j]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def spatial_potential_batch(method, R_WA, p_WA, R_WB, p_WB, K, out):
+    R_WA, R_WB, K = flat_rows(R_WA), flat_rows(R_WB), flat_rows(K)
+    for i in range(out.shape[0]):
+        out[i] = spatial_potential(
+            method, load9(R_WA, row_of(R_WA, i)), load3(p_WA, row_of(p_WA, i)), load9(R_WB, row_of(R_WB, i)),
+            load3(p_WB, row_of(p_WB, i)), load36(K, row_of(K, i)),
+        )  # fmt: skip
+
+
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _quat_of(R, i):
     """Unit quaternion of the rotation matrix in row ``i`` of an (n, 9) array."""
